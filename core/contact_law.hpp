@@ -1,0 +1,192 @@
+// Linear contact law with rolling resistance ("rrlinear" family), as specified in
+// shared/spec/reference-problem.md section 2 (after Jiang, Yu & Harris 2005; Ai et al. 2011,
+// Powder Technol. 206:269, "type A" elastic-plastic spring-dashpot rolling model; and the
+// PFC linear / rrlinear models). Units: SI.
+//
+//   k_n = A E / L, A = pi r^2, r = min(R1,R2), L = R1 + R2   (or k_n given directly)  [N/m]
+//   k_s = k_n / kappa                                                                 [N/m]
+//   f_n = k_n u_n  (+ optional normal dashpot), never tensile                          [N]
+//   f_s <- rot(f_s) - k_s du_s, |f_s| <= mu_s k_n u_n   (sliding when capped)          [N]
+//   1/Rbar = 1/R1 + 1/R2, k_r = k_s Rbar^2                                            [N m/rad]
+//   m_r <- rot(m_r) - k_r dtheta_r, |m_r| <= mu_r Rbar k_n u_n (rolling when capped)  [N m]
+//
+// rot() carries a stored spring vector with the contact plane: it is projected onto the new
+// plane with its length kept, then turned about the normal by the mean spin of the pair.
+// The Coulomb and rolling limits use the elastic normal force k_n u_n (PFC convention), so a
+// dashpot never changes the slip limit. Viscous dashpots: c = 2 beta sqrt(m_eff k) (critical
+// damping ratio beta) or c = eta m_eff (mass-proportional rate eta, LAMMPS/LIGGGHTS style);
+// the shear dashpot is switched off while the contact slides (PFC "slip" convention).
+//
+// The law is a stateless function of (parameters, geometry, history&). Rolling resistance and
+// viscous damping are template switches so that a kernel built without them contains none of it.
+#pragma once
+#include "core/types.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace fabrica {
+
+enum class NormalStiffnessMode { Deformability, Direct };
+
+struct ContactLawParams {
+  NormalStiffnessMode stiffness_mode = NormalStiffnessMode::Deformability;
+  real_t youngs_modulus = 100e6;   // E [Pa], deformability mode
+  real_t normal_stiffness = 0.0;   // k_n [N/m], direct mode
+  real_t stiffness_ratio = 1.0;    // kappa = k_n / k_s [-]
+  real_t friction = 0.3;           // mu_s [-]
+  real_t rolling_friction = 0.0;   // mu_r [-]
+  real_t damping_ratio_n = 0.0;    // beta_n [-], critical damping ratio of the normal dashpot
+  real_t damping_ratio_s = 0.0;    // beta_s [-]
+  real_t damping_rate_n = 0.0;     // eta_n [1/s], c_n = eta_n m_eff (alternative to beta_n)
+  real_t damping_rate_s = 0.0;     // eta_s [1/s]
+
+  bool rolling() const { return rolling_friction > 0.0; }
+  bool viscous() const {
+    return damping_ratio_n > 0 || damping_ratio_s > 0 || damping_rate_n > 0 || damping_rate_s > 0;
+  }
+};
+
+// Per-contact constants derived from the parameters and the two bodies.
+struct PairConstants {
+  real_t kn = 0, ks = 0, kr = 0;  // N/m, N/m, N m/rad
+  real_t cn = 0, cs = 0;          // N s/m
+  real_t rbar = 0;                // m
+};
+
+// Body 2 may be a wall: pass R2 = infinity and m2 = infinity.
+template <bool Rolling, bool Viscous>
+inline PairConstants pair_constants(const ContactLawParams& p, real_t R1, real_t R2, real_t m1,
+                                    real_t m2) {
+  PairConstants c;
+  const bool wall = std::isinf(R2);
+  if (p.stiffness_mode == NormalStiffnessMode::Direct) {
+    c.kn = p.normal_stiffness;
+  } else if (wall) {
+    c.kn = std::numbers::pi * R1 * p.youngs_modulus;  // r = L = R1 (PFC ball-facet convention)
+  } else {
+    const real_t r = std::min(R1, R2);
+    c.kn = std::numbers::pi * r * r * p.youngs_modulus / (R1 + R2);
+  }
+  c.ks = c.kn / p.stiffness_ratio;
+  if constexpr (Rolling) {
+    c.rbar = wall ? R1 : R1 * R2 / (R1 + R2);
+    c.kr = c.ks * c.rbar * c.rbar;
+  }
+  if constexpr (Viscous) {
+    const real_t meff = std::isinf(m2) ? m1 : m1 * m2 / (m1 + m2);
+    c.cn = p.damping_rate_n * meff + 2.0 * p.damping_ratio_n * std::sqrt(meff * c.kn);
+    c.cs = p.damping_rate_s * meff + 2.0 * p.damping_ratio_s * std::sqrt(meff * c.ks);
+  }
+  return c;
+}
+
+// Shear and rolling springs of one contact; oriented from the body with the lower id to the
+// other (the canonical order), so that every rank stores the same numbers.
+struct ContactHistory {
+  Vec3 fs = Vec3::Zero();  // shear spring force acting on body 2 [N]
+  Vec3 mr = Vec3::Zero();  // rolling spring moment acting on body 2 [N m]
+};
+
+struct ContactKinematics {
+  Vec3 n;        // unit normal from body 1 to body 2
+  real_t un;     // overlap [m], > 0
+  Vec3 vrel;     // velocity of body 2 relative to body 1 at the contact point [m/s]
+  Vec3 w1, w2;   // spins [rad/s]
+};
+
+struct ContactResult {
+  real_t fn;          // normal force (elastic + dashpot, >= 0) on body 2 along n [N]
+  Vec3 fs;            // total shear force on body 2 (spring + dashpot) [N]
+  Vec3 mr;            // rolling moment on body 2 [N m]
+  bool sliding;
+  bool rolling;
+  real_t e_friction;  // energy dissipated by slip this step [J]
+  real_t e_rolling;   // energy dissipated by rolling slip this step [J]
+  real_t e_viscous;   // energy dissipated by the dashpots this step [J]
+};
+
+// Keeps |a| after projecting onto the plane normal to n and turning it about n by angle phi.
+inline Vec3 carry_with_plane(const Vec3& a, const Vec3& n, real_t phi) {
+  const real_t old2 = a.squaredNorm();
+  if (old2 == 0.0) return a;
+  Vec3 b = a - a.dot(n) * n;
+  b += phi * n.cross(b);
+  const real_t new2 = b.squaredNorm();
+  return new2 > 0.0 ? Vec3(b * std::sqrt(old2 / new2)) : Vec3(Vec3::Zero());
+}
+
+template <bool Rolling, bool Viscous>
+inline ContactResult contact_law(const ContactLawParams& p, const PairConstants& c,
+                                 const ContactKinematics& k, ContactHistory& h, real_t dt) {
+  ContactResult r;
+  r.e_friction = r.e_rolling = r.e_viscous = 0.0;
+  const Vec3& n = k.n;
+  const real_t fn_el = c.kn * k.un;
+  const real_t vn = k.vrel.dot(n);  // > 0 when separating
+  const Vec3 vt = k.vrel - vn * n;
+  const real_t twist = 0.5 * (k.w1 + k.w2).dot(n) * dt;
+
+  // Normal force.
+  real_t fn = fn_el;
+  if constexpr (Viscous) {
+    fn = std::max(0.0, fn_el - c.cn * vn);
+    r.e_viscous += (fn - fn_el) * (-vn) * dt;
+  }
+  r.fn = fn;
+
+  // Shear spring with Coulomb cap.
+  const Vec3 fs_rot = carry_with_plane(h.fs, n, twist);
+  const Vec3 du = vt * dt;
+  Vec3 fs = fs_rot - c.ks * du;
+  const real_t cap = p.friction * fn_el;
+  const real_t fs2 = fs.squaredNorm();
+  r.sliding = fs2 > cap * cap;
+  if (r.sliding) {
+    fs *= cap / std::sqrt(fs2);
+    const Vec3 slip = du + (fs - fs_rot) / c.ks;
+    r.e_friction = -0.5 * (fs_rot + fs).dot(slip);
+  }
+  h.fs = fs;
+  r.fs = fs;
+  if constexpr (Viscous) {
+    if (!r.sliding) {
+      r.fs -= c.cs * vt;
+      r.e_viscous += c.cs * vt.squaredNorm() * dt;
+    }
+  }
+
+  // Rolling spring with its cap: the bending part of the relative rotation only.
+  if constexpr (Rolling) {
+    const Vec3 mr_rot = carry_with_plane(h.mr, n, twist);
+    Vec3 dth = (k.w2 - k.w1) * dt;
+    dth -= dth.dot(n) * n;
+    Vec3 mr = mr_rot - c.kr * dth;
+    const real_t rcap = p.rolling_friction * c.rbar * fn_el;
+    const real_t mr2 = mr.squaredNorm();
+    r.rolling = mr2 >= rcap * rcap;
+    if (mr2 > rcap * rcap) {
+      mr *= rcap / std::sqrt(mr2);
+      const Vec3 slip = dth + (mr - mr_rot) / c.kr;
+      r.e_rolling = -0.5 * (mr_rot + mr).dot(slip);
+    }
+    h.mr = mr;
+    r.mr = mr;
+  } else {
+    r.rolling = true;  // no resistance: every contact rolls freely (spec section 5)
+    r.mr = Vec3::Zero();
+  }
+  return r;
+}
+
+// Elastic energy stored in the three springs of one contact [J].
+inline real_t spring_energy_normal(const PairConstants& c, real_t un) { return 0.5 * c.kn * un * un; }
+inline real_t spring_energy_shear(const PairConstants& c, const ContactHistory& h) {
+  return 0.5 * h.fs.squaredNorm() / c.ks;
+}
+inline real_t spring_energy_rolling(const PairConstants& c, const ContactHistory& h) {
+  return c.kr > 0 ? 0.5 * h.mr.squaredNorm() / c.kr : 0.0;
+}
+
+}  // namespace fabrica

@@ -1,0 +1,49 @@
+// The Verlet list: every pair of spheres closer than R_i + R_j + skin, plus every sphere-wall
+// pair closer than R_i + skin, each with its contact history. Rebuilt only when particles have
+// moved far enough (see neighbor.hpp); between rebuilds only the springs change.
+#pragma once
+#include "core/contact_law.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace fabrica {
+
+// Periodic image offsets s in {-1,0,1}^3 are stored as one byte: code = (s0+1) + 3 (s1+1) + 9 (s2+1).
+inline int image_code(int s0, int s1, int s2) { return (s0 + 1) + 3 * (s1 + 1) + 9 * (s2 + 1); }
+inline Vec3 image_offset(int code, const Vec3& L) {
+  return Vec3((code % 3 - 1) * L[0], (code / 3 % 3 - 1) * L[1], (code / 9 - 1) * L[2]);
+}
+inline constexpr int kNoImage = 13;  // image_code(0, 0, 0)
+
+struct PairList {
+  // Pair p joins body i[p] (lower global id) to body j[p] shifted by image[p]:
+  // branch vector d = x[j] + image_offset(image[p], L) - x[i].
+  std::vector<Index> i, j;
+  std::vector<std::uint8_t> image;
+  std::vector<std::uint8_t> touching;  // 1 while the spheres overlap (history may be non-zero)
+  std::vector<Vec3> fs;                // shear springs (N)
+  std::vector<Vec3> mr;                // rolling springs (N m); empty when mu_r = 0
+
+  std::size_t size() const { return i.size(); }
+  void clear() {
+    i.clear(); j.clear(); image.clear(); touching.clear(); fs.clear(); mr.clear();
+  }
+};
+
+struct Wall {
+  Vec3 point = Vec3::Zero();        // a point of the plane (m)
+  Vec3 normal = Vec3::UnitZ();      // unit normal pointing into the granular domain
+};
+
+struct WallContactList {
+  std::vector<Index> i;              // particle
+  std::vector<std::int32_t> wall;    // wall index
+  std::vector<std::uint8_t> touching;
+  std::vector<Vec3> fs, mr;
+
+  std::size_t size() const { return i.size(); }
+  void clear() { i.clear(); wall.clear(); touching.clear(); fs.clear(); mr.clear(); }
+};
+
+}  // namespace fabrica

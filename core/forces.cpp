@@ -1,0 +1,188 @@
+#include "core/forces.hpp"
+
+#include "core/contact_law.hpp"
+
+#include <array>
+#include <limits>
+
+namespace fabrica {
+namespace {
+
+template <bool Rolling, bool Viscous, bool Measure>
+void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
+                 Dissipation& diss, ContactSums* sums) {
+  const Vec3& L = cell.lengths();
+  const Vec3& edot = cell.strain_rate();
+  std::array<Vec3, 27> shift;
+  for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, L);
+  const ContactLawParams& law = ctx.law;
+  const real_t dt = ctx.dt;
+
+  const Vec3* x = P.x.data();
+  const Vec3* v = P.v.data();
+  const Vec3* w = P.w.data();
+  const real_t* R = P.radius.data();
+  const real_t* m = P.mass.data();
+  Vec3* f = P.f.data();
+  Vec3* t = P.t.data();
+  const Index* pi = pl.i.data();
+  const Index* pj = pl.j.data();
+  const std::uint8_t* img = pl.image.data();
+  std::uint8_t* touching = pl.touching.data();
+  Vec3* fs = pl.fs.data();
+  Vec3* mr = Rolling ? pl.mr.data() : nullptr;
+
+  real_t e_fric = 0, e_roll = 0, e_visc = 0;
+  const std::size_t np = pl.size();
+  for (std::size_t q = 0; q < np; ++q) {
+    const Index i = pi[q], j = pj[q];
+    const Vec3 d = x[j] + shift[img[q]] - x[i];
+    const real_t sum_r = R[i] + R[j];
+    const real_t r2 = d.squaredNorm();
+    if (r2 >= sum_r * sum_r) {
+      if (touching[q]) {
+        touching[q] = 0;
+        fs[q].setZero();
+        if constexpr (Rolling) mr[q].setZero();
+      }
+      continue;
+    }
+    touching[q] = 1;
+    const real_t dist = std::sqrt(r2);
+    ContactKinematics k;
+    k.n = d / dist;
+    k.un = sum_r - dist;
+    const real_t a1 = R[i] - 0.5 * k.un, a2 = R[j] - 0.5 * k.un;
+    k.w1 = w[i];
+    k.w2 = w[j];
+    k.vrel = v[j] - v[i] + edot.cwiseProduct(d) - (a2 * w[j] + a1 * w[i]).cross(k.n);
+    const PairConstants c = pair_constants<Rolling, Viscous>(law, R[i], R[j], m[i], m[j]);
+    ContactHistory h;
+    h.fs = fs[q];
+    if constexpr (Rolling) h.mr = mr[q];
+    const ContactResult r = contact_law<Rolling, Viscous>(law, c, k, h, dt);
+    fs[q] = h.fs;
+    if constexpr (Rolling) mr[q] = h.mr;
+
+    const Vec3 F = r.fn * k.n + r.fs;  // on j
+    const Vec3 nxfs = k.n.cross(r.fs);
+    f[j] += F;
+    f[i] -= F;
+    if constexpr (Rolling) {
+      t[j] += r.mr - a2 * nxfs;
+      t[i] -= r.mr + a1 * nxfs;
+    } else {
+      t[j] -= a2 * nxfs;
+      t[i] -= a1 * nxfs;
+    }
+    e_fric += r.e_friction;
+    if constexpr (Rolling) e_roll += r.e_rolling;
+    if constexpr (Viscous) e_visc += r.e_viscous;
+    if constexpr (Measure) {
+      sums->fb.noalias() += F * d.transpose();
+      ++sums->contacts;
+      sums->sliding += r.sliding;
+      sums->rolling += r.rolling;
+      sums->e_normal += spring_energy_normal(c, k.un);
+      sums->e_shear += spring_energy_shear(c, h);
+      if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
+      sums->sum_contact_force += F.norm();
+      ++sums->contacts_per_particle[i];
+      ++sums->contacts_per_particle[j];
+    }
+  }
+  diss.friction += e_fric;
+  diss.rolling += e_roll;
+  diss.viscous += e_visc;
+}
+
+// Sphere (body 1) against a static plane (body 2).
+template <bool Rolling, bool Viscous, bool Measure>
+void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss,
+                 ContactSums* sums) {
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  for (std::size_t q = 0; q < wl.size(); ++q) {
+    const Index i = wl.i[q];
+    const Wall& W = ctx.walls[wl.wall[q]];
+    const real_t dist = (P.x[i] - W.point).dot(W.normal);
+    const real_t R = P.radius[i];
+    if (dist >= R) {
+      if (wl.touching[q]) {
+        wl.touching[q] = 0;
+        wl.fs[q].setZero();
+        if constexpr (Rolling) wl.mr[q].setZero();
+      }
+      continue;
+    }
+    wl.touching[q] = 1;
+    ContactKinematics k;
+    k.n = -W.normal;
+    k.un = R - dist;
+    const real_t a1 = R - 0.5 * k.un;
+    k.w1 = P.w[i];
+    k.w2 = Vec3::Zero();
+    k.vrel = -P.v[i] - a1 * P.w[i].cross(k.n);
+    const PairConstants c = pair_constants<Rolling, Viscous>(ctx.law, R, inf, P.mass[i], inf);
+    ContactHistory h;
+    h.fs = wl.fs[q];
+    if constexpr (Rolling) h.mr = wl.mr[q];
+    const ContactResult r = contact_law<Rolling, Viscous>(ctx.law, c, k, h, ctx.dt);
+    wl.fs[q] = h.fs;
+    if constexpr (Rolling) wl.mr[q] = h.mr;
+    const Vec3 F = r.fn * k.n + r.fs;  // on the wall
+    P.f[i] -= F;
+    P.t[i] -= r.mr + a1 * k.n.cross(r.fs);
+    diss.friction += r.e_friction;
+    diss.rolling += r.e_rolling;
+    diss.viscous += r.e_viscous;
+    if constexpr (Measure) {
+      ++sums->wall_contacts;
+      sums->e_normal += spring_energy_normal(c, k.un);
+      sums->e_shear += spring_energy_shear(c, h);
+      if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
+      ++sums->contacts_per_particle[i];
+    }
+  }
+}
+
+template <bool Rolling, bool Viscous, bool Measure>
+void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
+                WallContactList& wl, Dissipation& diss, ContactSums* sums) {
+  pair_forces<Rolling, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
+  if (wl.size() != 0) wall_forces<Rolling, Viscous, Measure>(p, ctx, wl, diss, sums);
+}
+
+using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&,
+                        WallContactList&, Dissipation&, ContactSums*);
+
+// Table indexed by rolling * 4 + viscous * 2 + measure.
+constexpr std::array<Kernel, 8> kKernels = {
+    all_forces<false, false, false>, all_forces<false, false, true>,
+    all_forces<false, true, false>,  all_forces<false, true, true>,
+    all_forces<true, false, false>,  all_forces<true, false, true>,
+    all_forces<true, true, false>,   all_forces<true, true, true>,
+};
+
+}  // namespace
+
+void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,
+                    PairList& pairs, WallContactList& wall_contacts, Dissipation& diss,
+                    ContactSums* sums) {
+  const std::size_t n = p.size();
+  if (ctx.gravity.isZero()) {
+    for (std::size_t a = 0; a < n; ++a) p.f[a].setZero();
+  } else {
+    for (std::size_t a = 0; a < n; ++a) p.f[a] = p.mass[a] * ctx.gravity;
+  }
+  for (std::size_t a = 0; a < n; ++a) p.t[a].setZero();
+  if (sums) {
+    *sums = ContactSums{};
+    sums->contacts_per_particle.assign(n, 0);
+  }
+  const int k = 4 * ctx.law.rolling() + 2 * ctx.law.viscous() + (sums != nullptr);
+  kKernels[k](p, cell, ctx, pairs, wall_contacts, diss, sums);
+  if (sums)
+    for (std::size_t a = 0; a < p.n_owned(); ++a) sums->sum_particle_force += p.f[a].norm();
+}
+
+}  // namespace fabrica

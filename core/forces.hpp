@@ -1,0 +1,48 @@
+// Contact forces over the Verlet list: each pair once, forces and torques added to both bodies
+// (Newton's third law). The kernel is chosen once per scene from a table of instantiations of
+// (rolling resistance) x (viscous dashpots) x (measure), so a scene that needs neither runs a
+// loop without a single instruction of them; walls cost nothing when there are none.
+#pragma once
+#include "core/cell.hpp"
+#include "core/contact_list.hpp"
+#include "core/particles.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace fabrica {
+
+// Local sums over this rank's contacts, filled on measuring steps only.
+struct ContactSums {
+  Mat3 fb = Mat3::Zero();       // sum of f (x) b over particle-particle contacts [N m]
+  std::int64_t contacts = 0;    // particle-particle contacts
+  std::int64_t sliding = 0;
+  std::int64_t rolling = 0;
+  std::int64_t wall_contacts = 0;
+  real_t e_normal = 0, e_shear = 0, e_rolling = 0;  // elastic energy in the springs [J]
+  real_t sum_contact_force = 0;  // sum of |f| over contacts [N]
+  real_t sum_particle_force = 0; // sum of |resultant force| over owned particles [N]
+  std::vector<std::int32_t> contacts_per_particle;  // for the mechanical coordination number
+};
+
+// Energy dissipated since the start of the run [J] (local to this rank).
+struct Dissipation {
+  real_t friction = 0;  // Coulomb slip
+  real_t rolling = 0;   // rolling slip
+  real_t viscous = 0;   // dashpots
+  real_t local = 0;     // local (non-viscous) damping
+};
+
+struct ForceContext {
+  const ContactLawParams& law;
+  const std::vector<Wall>& walls;
+  Vec3 gravity;  // m/s^2
+  real_t dt;
+};
+
+// Sets f = m g and t = 0, then adds every contact. 'sums' may be null (no measurement).
+void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,
+                    PairList& pairs, WallContactList& wall_contacts, Dissipation& diss,
+                    ContactSums* sums);
+
+}  // namespace fabrica

@@ -1,0 +1,31 @@
+// Macroscopic measures of the cell. Sign convention everywhere: compression positive.
+//   sigma_ij = (1/V) sum_c f_i^c b_j^c      (Love-Weber; f on the body the branch points to)
+//   p = sigma_kk / 3,  q = sqrt(3/2 s_ij s_ij),  s = sigma - p I
+//   Z = 2 C / N (all particles), Z_m = 2 C' / N' without rattlers (fewer than 2 contacts)
+#pragma once
+#include "core/forces.hpp"
+
+namespace fabrica {
+
+struct MacroState {
+  Mat3 stress = Mat3::Zero();  // Pa
+  real_t p = 0, q = 0;         // Pa
+  real_t coordination = 0;     // Z
+  real_t mech_coordination = 0;// Z_m
+  std::int64_t contacts = 0, sliding = 0, rolling = 0;
+  real_t kinetic = 0;          // J: translational (fluctuating) + rotational
+  real_t e_normal = 0, e_shear = 0, e_rolling = 0;  // J
+  Dissipation dissipated;      // J, cumulative
+  real_t unbalanced = 0;       // mean |F_particle| / mean |F_contact|
+  real_t volume = 0;           // m^3
+  real_t void_ratio = 0;
+};
+
+real_t kinetic_energy(const Particles& p);
+void deviatoric_invariants(const Mat3& sigma, real_t& p, real_t& q);
+
+// Single-rank assembly (the MPI version reduces the same sums first).
+MacroState macro_state(const Particles& p, const PeriodicCell& cell, const ContactSums& sums,
+                       const Dissipation& diss);
+
+}  // namespace fabrica

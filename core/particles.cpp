@@ -1,0 +1,70 @@
+#include "core/particles.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace fabrica {
+
+void Particles::reserve(std::size_t n) {
+  for (auto* a : {&x, &v, &w, &f, &t}) a->reserve(n);
+  for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) a->reserve(n);
+  id.reserve(n);
+}
+
+void Particles::resize(std::size_t n) {
+  for (auto* a : {&x, &v, &w, &f, &t}) a->resize(n, Vec3::Zero());
+  for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) a->resize(n, 0.0);
+  id.resize(n, -1);
+}
+
+void Particles::add(const SphereInit& s) {
+  if (n_ghost() != 0) throw std::logic_error("Particles::add called while ghosts are present");
+  const real_t m = s.density * 4.0 / 3.0 * std::numbers::pi * s.radius * s.radius * s.radius;
+  const real_t I = 0.4 * m * s.radius * s.radius;
+  x.push_back(s.x);
+  v.push_back(s.v);
+  w.push_back(s.w);
+  f.push_back(Vec3::Zero());
+  t.push_back(Vec3::Zero());
+  radius.push_back(s.radius);
+  mass.push_back(m);
+  inertia.push_back(I);
+  inv_mass.push_back(1.0 / m);
+  inv_inertia.push_back(1.0 / I);
+  id.push_back(s.id);
+  ++n_owned_;
+}
+
+template <class T>
+static void apply_order(std::vector<T>& a, std::span<const Index> order, std::vector<T>& tmp) {
+  tmp.resize(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) tmp[k] = a[order[k]];
+  a.swap(tmp);
+}
+
+void Particles::permute_owned(std::span<const Index> order) {
+  if (order.size() != n_owned_) throw std::logic_error("permute_owned: order has wrong size");
+  resize(n_owned_);
+  std::vector<Vec3> tv;
+  std::vector<real_t> tr;
+  std::vector<GlobalId> ti;
+  for (auto* a : {&x, &v, &w, &f, &t}) apply_order(*a, order, tv);
+  for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) apply_order(*a, order, tr);
+  apply_order(id, order, ti);
+}
+
+real_t Particles::max_radius() const {
+  return radius.empty() ? 0.0 : *std::max_element(radius.begin(), radius.end());
+}
+real_t Particles::min_radius() const {
+  return radius.empty() ? 0.0 : *std::min_element(radius.begin(), radius.end());
+}
+real_t Particles::solid_volume() const {
+  real_t s = 0;
+  for (std::size_t i = 0; i < n_owned_; ++i) s += radius[i] * radius[i] * radius[i];
+  return 4.0 / 3.0 * std::numbers::pi * s;
+}
+
+}  // namespace fabrica

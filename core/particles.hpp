@@ -1,0 +1,53 @@
+// Sphere storage, structure of arrays. Owned particles occupy [0, n_owned); ghost copies of
+// particles owned elsewhere (or periodic images) follow them in [n_owned, size()).
+#pragma once
+#include "core/types.hpp"
+
+#include <span>
+#include <vector>
+
+namespace fabrica {
+
+struct SphereInit {
+  GlobalId id;
+  real_t radius;   // m
+  real_t density;  // kg/m^3
+  Vec3 x;          // m
+  Vec3 v = Vec3::Zero();  // m/s (fluctuating velocity, see docs/design.md)
+  Vec3 w = Vec3::Zero();  // rad/s
+};
+
+class Particles {
+ public:
+  // Per-particle state. v is the velocity relative to the affine field of the deforming cell.
+  std::vector<Vec3> x, v, w;       // position (m), velocity (m/s), spin (rad/s)
+  std::vector<Vec3> f, t;          // force (N) and torque (N m) accumulators
+  std::vector<real_t> radius;      // m
+  std::vector<real_t> mass;        // kg
+  std::vector<real_t> inertia;     // kg m^2 (solid sphere: 2/5 m R^2)
+  std::vector<real_t> inv_mass;    // 1/kg
+  std::vector<real_t> inv_inertia; // 1/(kg m^2)
+  std::vector<GlobalId> id;
+
+  std::size_t size() const { return id.size(); }
+  std::size_t n_owned() const { return n_owned_; }
+  std::size_t n_ghost() const { return size() - n_owned_; }
+
+  // Appends an owned particle (only valid while there are no ghosts).
+  void add(const SphereInit& s);
+  // Drops every ghost.
+  void clear_ghosts() { resize(n_owned_); }
+  // Reorders the owned particles: new index k holds old index order[k]. Ghosts are dropped.
+  void permute_owned(std::span<const Index> order);
+  void reserve(std::size_t n);
+
+  real_t max_radius() const;
+  real_t min_radius() const;
+  real_t solid_volume() const;
+
+ private:
+  void resize(std::size_t n);
+  std::size_t n_owned_ = 0;
+};
+
+}  // namespace fabrica

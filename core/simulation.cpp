@@ -1,0 +1,109 @@
+#include "core/simulation.hpp"
+
+#include "core/integrator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fabrica {
+
+Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params)
+    : p_(std::move(particles)), cell_(cell), par_(std::move(params)) {
+  cutoff_max_ = 2 * p_.max_radius() + par_.skin;
+  check_cell_size(cell_, p_.max_radius(), par_.skin);
+  rebuild();
+  compute(true);
+}
+
+void Simulation::step(bool measure) {
+  const real_t dt = par_.dt;
+  half_kick(p_, dt);
+  drift_and_deform(p_, cell_, dt);
+  if (needs_rebuild()) rebuild();
+  compute(measure);
+  half_kick(p_, dt);
+  ++step_;
+  time_ += dt;
+}
+
+void Simulation::compute(bool measure) {
+  const ForceContext ctx{par_.law, par_.walls, par_.gravity, par_.dt};
+  compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr);
+  if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, par_.dt);
+}
+
+MacroState Simulation::macro() const { return macro_state(p_, cell_, sums_, diss_); }
+
+void Simulation::set_law(const ContactLawParams& law) {
+  const bool had_rolling = par_.law.rolling();
+  par_.law = law;
+  if (law.rolling() && !had_rolling) {
+    pairs_.mr.assign(pairs_.size(), Vec3::Zero());
+    walls_.mr.assign(walls_.size(), Vec3::Zero());
+  } else if (!law.rolling()) {
+    pairs_.mr.clear();
+    walls_.mr.clear();
+  }
+}
+
+bool Simulation::needs_rebuild() const {
+  const Vec3& L = cell_.lengths();
+  real_t max2 = 0;
+  for (std::size_t a = 0; a < p_.n_owned(); ++a)
+    max2 = std::max(max2, (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm());
+  const real_t strain = (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
+  return 2.0 * std::sqrt(max2) + strain * cutoff_max_ > par_.skin;
+}
+
+void Simulation::rebuild() {
+  const bool rolling = par_.law.rolling();
+  // 1. Keep the springs of touching contacts, keyed by global ids (local indices change).
+  carry_.reset(pairs_.size() + walls_.size());
+  for (std::size_t q = 0; q < pairs_.size(); ++q)
+    if (pairs_.touching[q])
+      carry_.insert(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
+                    {pairs_.fs[q], rolling ? pairs_.mr[q] : Vec3::Zero()});
+  for (std::size_t q = 0; q < walls_.size(); ++q)
+    if (walls_.touching[q])
+      carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
+                    {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+
+  // 2. Wrap into the cell and sort in space.
+  for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
+  if (par_.spatial_sort) p_.permute_owned(search_.spatial_order(p_, cell_));
+
+  // 3. New lists, with the kept springs attached.
+  search_.build(p_, cell_, par_.skin, pairs_);
+  const std::size_t np = pairs_.size();
+  pairs_.touching.assign(np, 0);
+  pairs_.fs.assign(np, Vec3::Zero());
+  if (rolling) pairs_.mr.assign(np, Vec3::Zero()); else pairs_.mr.clear();
+  if (carry_.size() != 0) {
+    for (std::size_t q = 0; q < np; ++q)
+      if (const ContactHistory* h = carry_.find(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]])) {
+        pairs_.touching[q] = 1;
+        pairs_.fs[q] = h->fs;
+        if (rolling) pairs_.mr[q] = h->mr;
+      }
+  }
+  NeighborSearch::build_walls(p_, par_.walls, par_.skin, walls_);
+  const std::size_t nw = walls_.size();
+  walls_.touching.assign(nw, 0);
+  walls_.fs.assign(nw, Vec3::Zero());
+  if (rolling) walls_.mr.assign(nw, Vec3::Zero()); else walls_.mr.clear();
+  for (std::size_t q = 0; q < nw; ++q)
+    if (const ContactHistory* h = carry_.find(p_.id[walls_.i[q]], -1 - walls_.wall[q])) {
+      walls_.touching[q] = 1;
+      walls_.fs[q] = h->fs;
+      if (rolling) walls_.mr[q] = h->mr;
+    }
+
+  // 4. Reference for the displacement criterion.
+  const Vec3& L = cell_.lengths();
+  s_ref_.resize(p_.n_owned());
+  for (std::size_t a = 0; a < p_.n_owned(); ++a) s_ref_[a] = p_.x[a].cwiseQuotient(L);
+  L_ref_ = L;
+  ++rebuilds_;
+}
+
+}  // namespace fabrica

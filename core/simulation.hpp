@@ -1,0 +1,77 @@
+// One DEM run on this rank: particles, periodic cell, contact lists and the time step.
+// The whole step is Simulation::step(); read it first.
+#pragma once
+#include "core/cell.hpp"
+#include "core/contact_list.hpp"
+#include "core/forces.hpp"
+#include "core/history_map.hpp"
+#include "core/measures.hpp"
+#include "core/neighbor.hpp"
+#include "core/particles.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace fabrica {
+
+struct SimulationParams {
+  ContactLawParams law;
+  real_t dt = 0;                    // s (see critical_time_step)
+  real_t skin = 0;                  // m, Verlet skin
+  Vec3 gravity = Vec3::Zero();      // m/s^2
+  real_t local_damping = 0;         // alpha [-], 0 <= alpha < 1
+  std::vector<Wall> walls;          // static planes (verification scenes)
+  bool spatial_sort = true;         // reorder particles in space at rebuilds (cache locality)
+};
+
+class Simulation {
+ public:
+  // Builds the contact lists and the initial forces. Throws std::invalid_argument if the cell
+  // is too small for the largest sphere and the skin.
+  Simulation(Particles particles, PeriodicCell cell, SimulationParams params);
+
+  // Advances one time step. With measure = true the contact sums of this step are kept and
+  // macro() returns the state at the end of the step.
+  void step(bool measure = false);
+
+  MacroState macro() const;  // valid after a measuring step (or construction)
+
+  Particles& particles() { return p_; }
+  const Particles& particles() const { return p_; }
+  PeriodicCell& cell() { return cell_; }
+  const PeriodicCell& cell() const { return cell_; }
+  const SimulationParams& params() const { return par_; }
+  void set_law(const ContactLawParams& law);  // e.g. switching mu_s / mu_r between stages
+  const PairList& pairs() const { return pairs_; }
+  const WallContactList& wall_contacts() const { return walls_; }
+  const Dissipation& dissipation() const { return diss_; }
+
+  std::int64_t step_count() const { return step_; }
+  real_t time() const { return time_; }
+  std::int64_t rebuild_count() const { return rebuilds_; }
+
+  // True once particles have moved (or the cell has strained) enough that a pair outside the
+  // list could be touching.
+  bool needs_rebuild() const;
+  void rebuild();
+
+ private:
+  void compute(bool measure);
+
+  Particles p_;
+  PeriodicCell cell_;
+  SimulationParams par_;
+  NeighborSearch search_;
+  PairList pairs_;
+  WallContactList walls_;
+  HistoryMap carry_;
+  Dissipation diss_;
+  ContactSums sums_;
+  std::vector<Vec3> s_ref_;  // reduced positions x / L at the last rebuild
+  Vec3 L_ref_;
+  real_t cutoff_max_ = 0;    // 2 Rmax + skin
+  std::int64_t step_ = 0, rebuilds_ = 0;
+  real_t time_ = 0;
+};
+
+}  // namespace fabrica

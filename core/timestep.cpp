@@ -1,0 +1,37 @@
+#include "core/timestep.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace fabrica {
+
+namespace {
+real_t damping_factor(real_t beta) { return std::sqrt(1.0 + beta * beta) - beta; }
+}  // namespace
+
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls) {
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  const real_t rmin = p.min_radius(), rmax = p.max_radius();
+  real_t best = inf;
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const real_t R = p.radius[a], m = p.mass[a], I = p.inertia[a];
+    const real_t partners[4] = {rmin, R, rmax, inf};
+    for (int q = 0; q < (walls ? 4 : 3); ++q) {
+      const real_t R2 = partners[q];
+      // Partner mass scales with its volume at the same density.
+      const real_t m2 = std::isinf(R2) ? inf : m * (R2 / R) * (R2 / R) * (R2 / R);
+      const PairConstants c = pair_constants<true, true>(law, R, R2, m, m2);
+      const real_t meff = std::isinf(m2) ? m : m * m2 / (m + m2);
+      const real_t beta_n = (c.cn > 0) ? c.cn / (2 * std::sqrt(meff * c.kn)) : 0.0;
+      const real_t beta_s = (c.cs > 0) ? c.cs / (2 * std::sqrt(meff * c.ks)) : 0.0;
+      const real_t kr = law.rolling() ? c.kr : 0.0;
+      best = std::min(best, std::sqrt(m / c.kn) * damping_factor(beta_n));
+      best = std::min(best, std::sqrt(m / c.ks) * damping_factor(beta_s));
+      best = std::min(best, std::sqrt(I / (c.ks * R * R + kr)) * damping_factor(beta_s));
+    }
+  }
+  return best;
+}
+
+}  // namespace fabrica

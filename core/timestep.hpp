@@ -1,0 +1,21 @@
+// Critical time-step estimate for the linear law with rolling resistance.
+//
+// For every sphere i and every partner it could meet (a sphere of the smallest, the same or
+// the largest radius of the scene, and a wall if there are walls), the single-contact limits
+//   translation: sqrt(m_i / k_n), sqrt(m_i / k_s)
+//   rotation:    sqrt(I_i / (k_s R_i^2 + k_r))   (the shear spring acting on the arm R_i plus
+//                                                 the rolling spring)
+// are taken, reduced by (sqrt(1 + beta^2) - beta) for a dashpot of damping ratio beta (the
+// central-difference limit of a damped oscillator), and the smallest over all is returned.
+// This is the PFC-style estimate sqrt(m/k); a dense packing with Z contacts per sphere is
+// stable only below roughly this estimate times 1/sqrt(Z/2), which is why the time step is a
+// user fraction of it (docs/verification.md derives both).
+#pragma once
+#include "core/contact_law.hpp"
+#include "core/particles.hpp"
+
+namespace fabrica {
+
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls);
+
+}  // namespace fabrica
