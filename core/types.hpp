@@ -1,6 +1,7 @@
 // Basic types shared by every part of Fabrica. SI units throughout (m, kg, s, N, Pa).
 #pragma once
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 
 namespace fabrica {

@@ -1,0 +1,273 @@
+#include "io/scene.hpp"
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "io/demo_scene.inc"  // kDemoScene: the text of examples/demo.toml (generated)
+
+namespace fabrica {
+namespace {
+
+std::string fmt_num(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
+// Reads one table, remembering which keys were used so that unknown keys can be refused.
+class Section {
+ public:
+  Section(const toml::table* t, std::string file, std::string name)
+      : t_(t), file_(std::move(file)), name_(std::move(name)) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& value,
+                         const std::string& why) const {
+    throw InputError(file_ + ": [" + name_ + "] " + key + " = " + value + ": " + why);
+  }
+
+  bool has(const std::string& key) const { return t_ && t_->contains(key); }
+
+  std::optional<real_t> number(const std::string& key) {
+    used_.insert(key);
+    if (!t_) return std::nullopt;
+    const toml::node* n = t_->get(key);
+    if (!n) return std::nullopt;
+    std::optional<double> v = n->value<double>();
+    if (!v || n->is_boolean()) fail(key, node_text(*n), "must be a number");
+    if (!std::isfinite(*v)) fail(key, fmt_num(*v), "must be a finite number");
+    return *v;
+  }
+  real_t number(const std::string& key, real_t def) { return number(key).value_or(def); }
+
+  std::optional<std::int64_t> integer(const std::string& key) {
+    used_.insert(key);
+    if (!t_) return std::nullopt;
+    const toml::node* n = t_->get(key);
+    if (!n) return std::nullopt;
+    if (!n->is_integer()) fail(key, node_text(*n), "must be an integer");
+    return n->value<std::int64_t>();
+  }
+
+  std::optional<bool> boolean(const std::string& key) {
+    used_.insert(key);
+    if (!t_) return std::nullopt;
+    const toml::node* n = t_->get(key);
+    if (!n) return std::nullopt;
+    if (!n->is_boolean()) fail(key, node_text(*n), "must be true or false");
+    return n->value<bool>();
+  }
+
+  std::optional<std::string> string(const std::string& key) {
+    used_.insert(key);
+    if (!t_) return std::nullopt;
+    const toml::node* n = t_->get(key);
+    if (!n) return std::nullopt;
+    if (!n->is_string()) fail(key, node_text(*n), "must be a string");
+    return n->value<std::string>();
+  }
+
+  std::optional<Vec3> vec3(const std::string& key) {
+    used_.insert(key);
+    if (!t_) return std::nullopt;
+    const toml::node* n = t_->get(key);
+    if (!n) return std::nullopt;
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 3) fail(key, node_text(*n), "must be an array of three numbers");
+    Vec3 v;
+    for (int k = 0; k < 3; ++k) {
+      std::optional<double> x = a->get(k)->value<double>();
+      if (!x || a->get(k)->is_boolean()) fail(key, node_text(*n), "must be an array of three numbers");
+      if (!std::isfinite(*x)) fail(key, node_text(*n), "must hold finite numbers");
+      v[k] = *x;
+    }
+    return v;
+  }
+
+  void reject_unknown() const {
+    if (!t_) return;
+    for (auto&& [k, v] : *t_) {
+      const std::string key(k.str());
+      if (!used_.count(key)) fail(key, node_text(v), "unknown key in this table (see docs/scene.md)");
+    }
+  }
+
+  static std::string node_text(const toml::node& n) {
+    std::ostringstream s;
+    n.visit([&](auto&& x) { s << x; });
+    return s.str();
+  }
+
+ private:
+  const toml::table* t_;
+  std::string file_, name_;
+  std::set<std::string> used_;
+};
+
+void require(Section& s, const std::string& key, real_t v, bool ok, const std::string& why) {
+  if (!ok) s.fail(key, fmt_num(v), why);
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& path) {
+  toml::table root;
+  try {
+    root = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream m;
+    m << path << ":" << e.source().begin.line << ":" << e.source().begin.column
+      << ": TOML syntax error: " << e.description();
+    throw InputError(m.str());
+  }
+  static const std::set<std::string> tables = {"particles", "cell", "contact", "compress", "run"};
+  for (auto&& [k, v] : root) {
+    const std::string key(k.str());
+    if (!tables.count(key) || !v.is_table())
+      throw InputError(path + ": " + key + " = " + Section::node_text(v) +
+                       ": unknown top-level entry (expected one of the tables [particles], "
+                       "[cell], [contact], [compress], [run])");
+  }
+  auto table = [&](const char* name) { return root[name].as_table(); };
+
+  Scene sc;
+  sc.path = path;
+  sc.text = text;
+
+  Section P(table("particles"), path, "particles");
+  const std::string source = P.string("source").value_or("generate");
+  if (source == "generate") {
+    sc.source = ParticleSource::Generate;
+  } else if (source == "file") {
+    sc.source = ParticleSource::File;
+  } else {
+    P.fail("source", "\"" + source + "\"", "must be \"generate\" or \"file\"");
+  }
+  if (auto f = P.string("file")) {
+    if (sc.source != ParticleSource::File) P.fail("file", *f, "is only used with source = \"file\"");
+    std::filesystem::path fp(*f);
+    if (fp.is_relative()) fp = std::filesystem::path(path).parent_path() / fp;
+    sc.data_file = fp.string();
+  } else if (sc.source == ParticleSource::File) {
+    P.fail("file", "(missing)", "source = \"file\" needs the path of a LAMMPS data file");
+  }
+  GenerateSpec& g = sc.generate;
+  if (auto n = P.integer("count")) g.count = *n;
+  if (g.count < 2) P.fail("count", std::to_string(g.count), "must be at least 2");
+  g.fractal_dimension = P.number("fractal_dimension", g.fractal_dimension);
+  require(P, "fractal_dimension", g.fractal_dimension,
+          g.fractal_dimension > 0 && g.fractal_dimension < 3, "must lie in (0, 3)");
+  g.d_min = P.number("d_min", g.d_min);
+  require(P, "d_min", g.d_min, g.d_min > 0, "must be positive");
+  g.d_max = P.number("d_max", g.d_max);
+  require(P, "d_max", g.d_max, g.d_max >= g.d_min, "must be >= d_min = " + fmt_num(g.d_min));
+  if (auto s = P.integer("seed")) {
+    if (*s < 0) P.fail("seed", std::to_string(*s), "must be >= 0");
+    g.seed = std::uint64_t(*s);
+  }
+  g.solid_fraction = P.number("solid_fraction", g.solid_fraction);
+  require(P, "solid_fraction", g.solid_fraction, g.solid_fraction > 0 && g.solid_fraction < 0.5,
+          "must lie in (0, 0.5) for a random loose placement");
+  if (auto a = P.vec3("aspect")) {
+    if (!(a->minCoeff() > 0)) P.fail("aspect", Section::node_text(*table("particles")->get("aspect")), "must be positive");
+    g.aspect = *a;
+  }
+  sc.density = P.number("density", sc.density);
+  require(P, "density", sc.density, sc.density > 0, "must be positive");
+  P.reject_unknown();
+
+  Section C(table("cell"), path, "cell");
+  if (auto s = C.vec3("size")) {
+    if (!(s->minCoeff() > 0)) C.fail("size", Section::node_text(*table("cell")->get("size")), "must be positive");
+    sc.cell_size = *s;
+  }
+  C.reject_unknown();
+
+  Section K(table("contact"), path, "contact");
+  ContactLawParams& law = sc.law;
+  const auto E = K.number("youngs_modulus");
+  const auto kn = K.number("normal_stiffness");
+  if (E && kn)
+    K.fail("normal_stiffness", fmt_num(*kn), "give either youngs_modulus or normal_stiffness, not both");
+  if (kn) {
+    require(K, "normal_stiffness", *kn, *kn > 0, "must be positive");
+    law.stiffness_mode = NormalStiffnessMode::Direct;
+    law.normal_stiffness = *kn;
+  } else {
+    law.youngs_modulus = E.value_or(law.youngs_modulus);
+    require(K, "youngs_modulus", law.youngs_modulus, law.youngs_modulus > 0, "must be positive");
+  }
+  law.stiffness_ratio = K.number("stiffness_ratio", law.stiffness_ratio);
+  require(K, "stiffness_ratio", law.stiffness_ratio, law.stiffness_ratio > 0, "must be positive");
+  law.friction = K.number("friction", law.friction);
+  require(K, "friction", law.friction, law.friction >= 0, "must be >= 0");
+  law.rolling_friction = K.number("rolling_friction", law.rolling_friction);
+  require(K, "rolling_friction", law.rolling_friction, law.rolling_friction >= 0, "must be >= 0");
+  const auto bn = K.number("damping_ratio_normal"), bs = K.number("damping_ratio_shear");
+  const auto en = K.number("damping_rate_normal"), es = K.number("damping_rate_shear");
+  if (bn && en) K.fail("damping_rate_normal", fmt_num(*en), "give damping_ratio_normal or damping_rate_normal, not both");
+  if (bs && es) K.fail("damping_rate_shear", fmt_num(*es), "give damping_ratio_shear or damping_rate_shear, not both");
+  law.damping_ratio_n = bn.value_or(0);
+  require(K, "damping_ratio_normal", law.damping_ratio_n, law.damping_ratio_n >= 0 && law.damping_ratio_n < 1, "must lie in [0, 1)");
+  law.damping_ratio_s = bs.value_or(0);
+  require(K, "damping_ratio_shear", law.damping_ratio_s, law.damping_ratio_s >= 0 && law.damping_ratio_s < 1, "must lie in [0, 1)");
+  law.damping_rate_n = en.value_or(0);
+  require(K, "damping_rate_normal", law.damping_rate_n, law.damping_rate_n >= 0, "must be >= 0");
+  law.damping_rate_s = es.value_or(0);
+  require(K, "damping_rate_shear", law.damping_rate_s, law.damping_rate_s >= 0, "must be >= 0");
+  K.reject_unknown();
+
+  Section Q(table("compress"), path, "compress");
+  CompressSpec& cp = sc.compress;
+  cp.enabled = table("compress") != nullptr;
+  cp.target_pressure = Q.number("target_pressure", cp.target_pressure);
+  require(Q, "target_pressure", cp.target_pressure, cp.target_pressure > 0, "must be positive");
+  cp.strain_rate = Q.number("strain_rate", cp.strain_rate);
+  require(Q, "strain_rate", cp.strain_rate, cp.strain_rate < 0, "must be negative (compression)");
+  if (auto m = Q.integer("max_steps")) cp.max_steps = *m;
+  if (cp.max_steps <= 0) Q.fail("max_steps", std::to_string(cp.max_steps), "must be positive");
+  cp.friction = Q.number("friction", cp.friction);
+  require(Q, "friction", cp.friction, cp.friction >= 0, "must be >= 0");
+  Q.reject_unknown();
+
+  Section R(table("run"), path, "run");
+  if (auto s = R.integer("steps")) sc.steps = *s;
+  if (sc.steps < 0) R.fail("steps", std::to_string(sc.steps), "must be >= 0");
+  sc.time_step_fraction = R.number("time_step_fraction", sc.time_step_fraction);
+  require(R, "time_step_fraction", sc.time_step_fraction, sc.time_step_fraction > 0,
+          "must be positive");
+  if (auto dt = R.number("time_step")) {
+    if (R.has("time_step_fraction"))
+      R.fail("time_step", fmt_num(*dt), "give time_step or time_step_fraction, not both");
+    require(R, "time_step", *dt, *dt > 0, "must be positive");
+    sc.time_step = *dt;
+  }
+  sc.force_time_step = R.boolean("force_time_step").value_or(false);
+  sc.skin = R.number("skin", sc.skin);
+  require(R, "skin", sc.skin, sc.skin > 0, "must be positive");
+  if (auto o = R.integer("output_every")) sc.output_every = *o;
+  if (sc.output_every <= 0) R.fail("output_every", std::to_string(sc.output_every), "must be positive");
+  sc.gravity = R.vec3("gravity").value_or(Vec3::Zero());
+  sc.local_damping = R.number("local_damping", sc.local_damping);
+  require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
+          "must lie in [0, 1)");
+  R.reject_unknown();
+  return sc;
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the scene file");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return parse_scene(s.str(), path);
+}
+
+Scene default_scene() { return parse_scene(kDemoScene, "<built-in demo scene>"); }
+
+}  // namespace fabrica

@@ -1,0 +1,62 @@
+// Scene files (TOML). Every key, its unit and its default are documented in docs/scene.md.
+// load_scene validates everything before anything runs: an unknown key, a wrong type, a
+// non-finite number or a non-physical value is refused with the file, the field and the value.
+#pragma once
+#include "core/contact_law.hpp"
+#include "core/types.hpp"
+#include "io/errors.hpp"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace fabrica {
+
+enum class ParticleSource { Generate, File };
+
+struct GenerateSpec {
+  std::int64_t count = 1000;       // N
+  real_t fractal_dimension = 1.9;  // D
+  real_t d_min = 0.010;            // m
+  real_t d_max = 0.060;            // m
+  std::uint64_t seed = 1;
+  real_t solid_fraction = 0.30;    // of the initial (loose) cloud
+  Vec3 aspect = Vec3(2, 1, 1);     // cell length ratios (axis 1 = loading axis)
+};
+
+// Optional isotropic compression at a constant strain rate until the mean stress reaches a
+// target, then relaxation with the cell fixed (a simple preparation stage; the servo-controlled
+// consolidation of the triaxial application replaces it).
+struct CompressSpec {
+  bool enabled = false;
+  real_t target_pressure = 100e3;  // Pa
+  real_t strain_rate = -1.0;       // 1/s, negative = compression
+  std::int64_t max_steps = 1000000;
+  real_t friction = 0.0;           // mu_s while compressing (a lower value packs denser)
+};
+
+struct Scene {
+  std::string path;               // the scene file ("<built-in demo>" for the default)
+  std::string text;               // the scene file's text, kept for the output
+  ParticleSource source = ParticleSource::Generate;
+  GenerateSpec generate;
+  real_t density = 2650;          // kg/m^3 (generated spheres)
+  std::string data_file;          // resolved path (source = file)
+  std::optional<Vec3> cell_size;  // m; for a data file, the box in the file by default
+  ContactLawParams law;
+  real_t local_damping = 0;       // alpha
+  CompressSpec compress;
+  std::int64_t steps = 1000;
+  real_t time_step_fraction = 0.25;
+  std::optional<real_t> time_step;  // s; overrides the fraction when given
+  bool force_time_step = false;
+  real_t skin = 0.001;            // m
+  std::int64_t output_every = 100;
+  Vec3 gravity = Vec3::Zero();    // m/s^2
+};
+
+Scene load_scene(const std::string& path);
+Scene parse_scene(const std::string& text, const std::string& path);  // path: for messages
+Scene default_scene();  // examples/demo.toml, built into the executable
+
+}  // namespace fabrica

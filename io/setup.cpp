@@ -1,0 +1,89 @@
+#include "io/setup.hpp"
+
+#include "core/generate.hpp"
+#include "core/neighbor.hpp"
+#include "core/timestep.hpp"
+#include "io/lammps_data.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+namespace fabrica {
+
+namespace {
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+}  // namespace
+
+real_t scene_time_step(const Scene& sc, real_t critical_dt) {
+  const std::string where = sc.path + ": [run] ";
+  if (sc.time_step) {
+    if (*sc.time_step > critical_dt && !sc.force_time_step)
+      throw InputError(where + "time_step = " + num(*sc.time_step) +
+                       " s exceeds the critical estimate " + num(critical_dt) +
+                       " s; lower it or set force_time_step = true");
+    return *sc.time_step;
+  }
+  if (sc.time_step_fraction > 1.0 && !sc.force_time_step)
+    throw InputError(where + "time_step_fraction = " + num(sc.time_step_fraction) +
+                     " is above 1 (critical estimate " + num(critical_dt) +
+                     " s); lower it or set force_time_step = true");
+  return sc.time_step_fraction * critical_dt;
+}
+
+Setup make_setup(const Scene& sc) {
+  Setup s;
+  if (sc.source == ParticleSource::File) {
+    DataFile df = read_lammps_data(sc.data_file);
+    s.particles = std::move(df.particles);
+    const Vec3 box = df.hi - df.lo;
+    const Vec3 L = sc.cell_size.value_or(box);
+    for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
+      for (int k = 0; k < 3; ++k)
+        if (s.particles.x[a][k] < 0 || s.particles.x[a][k] > L[k])
+          throw InputError(sc.path + ": [cell] size = [" + num(L[0]) + ", " + num(L[1]) + ", " +
+                           num(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
+                           " of " + sc.data_file + " lies outside the cell (coordinate " +
+                           std::to_string(k + 1) + " = " + num(s.particles.x[a][k] + df.lo[k]) + ")");
+    s.cell = PeriodicCell(L);
+  } else {
+    const GenerateSpec& g = sc.generate;
+    Random rng(g.seed);
+    const auto d = fractal_diameters(std::size_t(g.count), g.fractal_dimension, g.d_min, g.d_max, rng);
+    real_t vs = 0;
+    for (real_t x : d) vs += std::numbers::pi / 6 * x * x * x;
+    Vec3 L;
+    if (sc.cell_size) {
+      L = *sc.cell_size;
+    } else {
+      const real_t V = vs / g.solid_fraction;
+      L = g.aspect * std::cbrt(V / g.aspect.prod());
+    }
+    s.cell = PeriodicCell(L);
+    try {
+      check_cell_size(s.cell, 0.5 * g.d_max, sc.skin);
+      s.particles = random_packing(d, sc.density, s.cell, rng);
+    } catch (const std::exception& e) {
+      throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
+    }
+  }
+  try {
+    check_cell_size(s.cell, s.particles.max_radius(), sc.skin);
+  } catch (const std::exception& e) {
+    throw InputError(sc.path + ": [cell] " + e.what());
+  }
+  s.params.law = sc.law;
+  s.params.skin = sc.skin;
+  s.params.gravity = sc.gravity;
+  s.params.local_damping = sc.local_damping;
+  s.critical_dt = critical_time_step(s.particles, sc.law, false);
+  s.params.dt = scene_time_step(sc, s.critical_dt);
+  return s;
+}
+
+}  // namespace fabrica

@@ -1,0 +1,24 @@
+// Turns a validated Scene into a ready Simulation: particles (generated or read), cell, and a
+// time step checked against the critical estimate.
+#pragma once
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+namespace fabrica {
+
+struct Setup {
+  Particles particles;
+  PeriodicCell cell;
+  SimulationParams params;
+  real_t critical_dt = 0;  // s, the estimate of core/timestep.hpp
+};
+
+// Throws InputError (file, field, value) for a particle outside the cell, a cell too small for
+// the largest sphere, or a time step above the critical estimate without force_time_step.
+Setup make_setup(const Scene& scene);
+
+// The time step the scene asks for, validated against the estimate (used again when the
+// contact parameters change between stages).
+real_t scene_time_step(const Scene& scene, real_t critical_dt);
+
+}  // namespace fabrica
