@@ -1,6 +1,7 @@
 #include "io/lammps_data.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <unordered_set>
@@ -37,12 +38,20 @@ DataFile read_lammps_data(const std::string& path) {
         continue;
       }
       ls >> w2 >> w3 >> w4;
+      auto number = [&](const std::string& s) {
+        char* end = nullptr;
+        const double v = std::strtod(s.c_str(), &end);
+        if (s.empty() || *end != '\0' || !std::isfinite(v))
+          throw InputError(where(path, lineno) + ": '" + s + "' is not a finite number in '" +
+                           line + "'");
+        return v;
+      };
       if (w2 == "atoms") {
-        natoms = std::stoll(w1);
+        natoms = static_cast<long long>(number(w1));
       } else if (w3 == "xlo" || w3 == "ylo" || w3 == "zlo") {
         const int k = w3[0] - 'x';
-        out.lo[k] = std::stod(w1);
-        out.hi[k] = std::stod(w2);
+        out.lo[k] = number(w1);
+        out.hi[k] = number(w2);
         have_box[k] = true;
       } else if (w1 == "Velocities" || w1 == "Masses" || w1 == "Bonds") {
         throw InputError(where(path, lineno) + ": section '" + w1 +
@@ -52,12 +61,23 @@ DataFile read_lammps_data(const std::string& path) {
     }
     // Atoms section: id type diameter density x y z
     if (std::isalpha(static_cast<unsigned char>(w1[0]))) break;  // next section
+    // Tokens are converted with strtod so that nan/inf reach the checks below.
     std::istringstream as(body);
-    long long id, type;
-    double dia, rho, x, y, z;
-    if (!(as >> id >> type >> dia >> rho >> x >> y >> z))
+    std::string tok[7];
+    int ntok = 0;
+    while (ntok < 7 && as >> tok[ntok]) ++ntok;
+    double val[7];
+    bool ok = ntok == 7;
+    for (int q = 0; ok && q < 7; ++q) {
+      char* end = nullptr;
+      val[q] = std::strtod(tok[q].c_str(), &end);
+      ok = end && *end == '\0';
+    }
+    if (!ok)
       throw InputError(where(path, lineno) +
                        ": expected 'id type diameter density x y z', got '" + line + "'");
+    const long long id = static_cast<long long>(val[0]);
+    const double dia = val[2], rho = val[3], x = val[4], y = val[5], z = val[6];
     auto bad = [&](const char* field, double v, const char* why) {
       std::ostringstream m;
       m << where(path, lineno) << ": particle " << id << " " << field << " = " << v << " " << why;

@@ -98,6 +98,7 @@ class Section {
   }
 
   static std::string node_text(const toml::node& n) {
+    if (n.is_floating_point() || n.is_integer()) return fmt_num(*n.value<double>());
     std::ostringstream s;
     n.visit([&](auto&& x) { s << x; });
     return s.str();

@@ -1,0 +1,84 @@
+// LAMMPS data files: the shared benchmark file reads as described in its README; malformed
+// files are refused with the file, the line and the value.
+#include "io/lammps_data.hpp"
+#include "io/scene.hpp"
+#include "io/setup.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+using namespace fabrica;
+
+namespace {
+
+std::string write_tmp(const std::string& name, const std::string& text) {
+  const auto p = std::filesystem::temp_directory_path() / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+const char* kHeader =
+    "test data\n\n3 atoms\n1 atom types\n\n0 1 xlo xhi\n0 1 ylo yhi\n0 2 zlo zhi\n\nAtoms\n\n";
+
+void expect_error(const std::string& body, std::initializer_list<std::string> fragments) {
+  const std::string path = write_tmp("fabrica_bad.data", std::string(kHeader) + body);
+  try {
+    read_lammps_data(path);
+    FAIL() << "no error for:\n" << body;
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(path), std::string::npos) << m;
+    for (const auto& f : fragments) EXPECT_NE(m.find(f), std::string::npos) << "missing '" << f << "' in: " << m;
+  }
+}
+
+}  // namespace
+
+TEST(LammpsData, SharedBenchmarkFile) {
+  const std::string path = std::string(FABRICA_SHARED_DIR) + "/bench/dense-13584/dense.data";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not present";
+  const DataFile d = read_lammps_data(path);
+  ASSERT_EQ(d.particles.n_owned(), 13584u);
+  EXPECT_NEAR(d.hi[0] - d.lo[0], 0.397705156, 1e-12);
+  EXPECT_NEAR(d.hi[2] - d.lo[2], 0.795410312, 1e-12);
+  // README: solid volume 0.08178 m^3, diameters in [10, 60] mm.
+  EXPECT_NEAR(d.particles.solid_volume(), 0.08178, 0.00001);
+  EXPECT_GE(d.particles.min_radius(), 0.005 - 1e-12);
+  EXPECT_LE(d.particles.max_radius(), 0.030 + 1e-12);
+}
+
+TEST(LammpsData, MalformedFilesAreRefused) {
+  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n2 1 -0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n",
+               {":13", "particle 2", "diameter", "-0.02"});
+  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 0 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n",
+               {":13", "density", "0"});
+  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 1.5 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n",
+               {"particle 2", "y = 1.5", "outside"});
+  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 nan 0.5 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n",
+               {"particle 2", "x = nan"});
+  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n1 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n",
+               {"appears twice"});
+  expect_error("1 1 0.02 2650 0.5 0.5\n", {":12", "expected"});
+  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n", {"3 atoms", "has 1"});
+  EXPECT_THROW(read_lammps_data("/nonexistent/fabrica.data"), InputError);
+}
+
+TEST(LammpsData, ParticleOutsideTheSceneCellIsRefused) {
+  const std::string data = write_tmp(
+      "fabrica_ok.data", std::string(kHeader) +
+                             "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 1.9\n3 1 0.02 2650 0.7 0.7 0.7\n");
+  const std::string scene = write_tmp(
+      "fabrica_cell.toml", "[particles]\nsource = \"file\"\nfile = \"" + data +
+                               "\"\n[cell]\nsize = [1.0, 1.0, 1.0]\n[contact]\nnormal_stiffness = 1e5\n");
+  try {
+    make_setup(load_scene(scene));
+    FAIL() << "particle outside the cell accepted";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("[cell] size"), std::string::npos) << m;
+    EXPECT_NE(m.find("particle 2"), std::string::npos) << m;
+    EXPECT_NE(m.find("1.9"), std::string::npos) << m;
+  }
+}

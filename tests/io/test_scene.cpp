@@ -1,0 +1,119 @@
+// Scene files: valid scenes parse to the documented values; bad input is refused with a message
+// that names the file, the field and the value.
+#include "io/scene.hpp"
+#include "io/setup.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <string>
+
+using namespace fabrica;
+
+namespace {
+
+// Expects parse_scene to throw an InputError whose message contains every fragment.
+void expect_error(const std::string& text, std::initializer_list<std::string> fragments) {
+  try {
+    parse_scene(text, "bad.toml");
+    FAIL() << "no error for:\n" << text;
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("bad.toml"), std::string::npos) << m;
+    for (const auto& f : fragments) EXPECT_NE(m.find(f), std::string::npos) << "missing '" << f << "' in: " << m;
+  }
+}
+
+}  // namespace
+
+TEST(Scene, DefaultsAndValues) {
+  const Scene s = parse_scene(R"(
+[particles]
+count = 500
+d_min = 0.002
+d_max = 0.004
+[contact]
+normal_stiffness = 2.5e5
+friction = 0.5
+rolling_friction = 0.1
+damping_ratio_normal = 0.2
+[run]
+steps = 10
+time_step = 1e-6
+gravity = [0, 0, -9.81]
+)", "ok.toml");
+  EXPECT_EQ(s.generate.count, 500);
+  EXPECT_DOUBLE_EQ(s.generate.d_min, 0.002);
+  EXPECT_EQ(s.law.stiffness_mode, NormalStiffnessMode::Direct);
+  EXPECT_DOUBLE_EQ(s.law.normal_stiffness, 2.5e5);
+  EXPECT_DOUBLE_EQ(s.law.friction, 0.5);
+  EXPECT_DOUBLE_EQ(s.law.rolling_friction, 0.1);
+  EXPECT_DOUBLE_EQ(s.law.damping_ratio_n, 0.2);
+  EXPECT_DOUBLE_EQ(*s.time_step, 1e-6);
+  EXPECT_DOUBLE_EQ(s.gravity[2], -9.81);
+  EXPECT_DOUBLE_EQ(s.law.stiffness_ratio, 1.0);  // default
+  EXPECT_DOUBLE_EQ(s.skin, 0.001);               // default
+  EXPECT_FALSE(s.compress.enabled);
+}
+
+TEST(Scene, DemoSceneIsValidAndMatchesExample) {
+  const Scene s = default_scene();
+  std::ifstream in(std::string(FABRICA_SOURCE_DIR) + "/examples/demo.toml");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(s.text, text);
+  EXPECT_TRUE(s.compress.enabled);
+}
+
+TEST(Scene, NonPositiveAndNegativeValuesAreRefused) {
+  expect_error("[particles]\nd_min = -0.01\n", {"[particles]", "d_min", "-0.01", "positive"});
+  expect_error("[particles]\ndensity = 0\n", {"density", "0", "positive"});
+  expect_error("[contact]\nyoungs_modulus = -1e8\n", {"[contact]", "youngs_modulus", "-100000000"});
+  expect_error("[contact]\nnormal_stiffness = 0.0\n", {"normal_stiffness", "positive"});
+  expect_error("[contact]\nstiffness_ratio = 0\n", {"stiffness_ratio", "positive"});
+  expect_error("[contact]\nfriction = -0.2\n", {"friction", "-0.2", ">= 0"});
+  expect_error("[contact]\nrolling_friction = -0.05\n", {"rolling_friction", "-0.05"});
+  expect_error("[run]\nskin = 0\n", {"[run]", "skin"});
+  expect_error("[run]\nlocal_damping = 1.5\n", {"local_damping", "1.5"});
+  expect_error("[run]\ntime_step = -1e-6\n", {"time_step", "-1e-06"});
+}
+
+TEST(Scene, NaNAndInfAreRefused) {
+  expect_error("[contact]\nfriction = nan\n", {"friction", "nan", "finite"});
+  expect_error("[contact]\nyoungs_modulus = inf\n", {"youngs_modulus", "inf", "finite"});
+  expect_error("[cell]\nsize = [0.4, nan, 0.8]\n", {"[cell]", "size", "finite"});
+}
+
+TEST(Scene, UnknownKeysAndTablesAreRefused) {
+  expect_error("[contact]\nfricton = 0.3\n", {"[contact]", "fricton", "unknown key"});
+  expect_error("[contacts]\nfriction = 0.3\n", {"contacts", "unknown top-level"});
+  expect_error("steps = 10\n", {"steps", "unknown top-level"});
+}
+
+TEST(Scene, WrongTypesAndContradictionsAreRefused) {
+  expect_error("[contact]\nfriction = \"high\"\n", {"friction", "high", "number"});
+  expect_error("[run]\nsteps = 1.5\n", {"steps", "1.5", "integer"});
+  expect_error("[contact]\nyoungs_modulus = 1e8\nnormal_stiffness = 1e6\n", {"not both"});
+  expect_error("[run]\ntime_step = 1e-6\ntime_step_fraction = 0.2\n", {"time_step", "not both"});
+  expect_error("[particles]\nsource = \"lattice\"\n", {"source", "lattice"});
+  expect_error("[particles]\nsource = \"file\"\n", {"file", "missing"});
+  expect_error("[particles]\nd_min = 0.05\nd_max = 0.01\n", {"d_max", "0.01", "d_min"});
+  expect_error("[contact\nfriction = 0.3\n", {"bad.toml:1", "syntax"});
+}
+
+TEST(Scene, TimeStepAboveTheEstimateIsRefusedUnlessForced) {
+  Scene s = parse_scene("[particles]\ncount = 50\nd_max = 0.012\n[run]\ntime_step_fraction = 1.5\n", "bad.toml");
+  try {
+    make_setup(s);
+    FAIL() << "time_step_fraction 1.5 accepted";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("bad.toml: [run] time_step_fraction = 1.5"), std::string::npos) << m;
+  }
+  s.force_time_step = true;
+  const fabrica::Setup ok = make_setup(s);
+  EXPECT_NEAR(ok.params.dt, 1.5 * ok.critical_dt, 1e-15);
+
+  Scene t = parse_scene("[particles]\ncount = 50\nd_max = 0.012\n[run]\ntime_step = 1.0\n", "bad.toml");
+  EXPECT_THROW(make_setup(t), InputError);
+}
