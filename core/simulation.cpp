@@ -3,6 +3,7 @@
 #include "core/integrator.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 namespace fabrica {
@@ -15,13 +16,44 @@ Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams 
   compute(true);
 }
 
+namespace {
+// Adds the time since the previous lap to one field of PhaseTimes; does nothing when off.
+class PhaseClock {
+ public:
+  using clock = std::chrono::steady_clock;
+  explicit PhaseClock(PhaseTimes* t) : t_(t) {
+    if (t_) last_ = clock::now();
+  }
+  void lap(double PhaseTimes::*field) {
+    if (!t_) return;
+    const clock::time_point now = clock::now();
+    t_->*field += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  PhaseTimes* t_;
+  clock::time_point last_;
+};
+}  // namespace
+
 void Simulation::step(bool measure) {
   const real_t dt = par_.dt;
+  PhaseClock clk(timing_ ? &times_ : nullptr);
   half_kick(p_, dt);
   drift_and_deform(p_, cell_, dt);
-  if (needs_rebuild()) rebuild();
+  clk.lap(&PhaseTimes::integrate);
+  const bool rebuild_now = needs_rebuild();
+  clk.lap(&PhaseTimes::check);
+  if (rebuild_now) {
+    rebuild();
+    clk.lap(&PhaseTimes::rebuild);
+  }
   compute(measure);
+  clk.lap(&PhaseTimes::force);
   half_kick(p_, dt);
+  clk.lap(&PhaseTimes::integrate);
+  times_.steps += timing_;
   ++step_;
   time_ += dt;
 }

@@ -24,6 +24,15 @@ struct SimulationParams {
   bool spatial_sort = true;         // reorder particles in space at rebuilds (cache locality)
 };
 
+// Wall-clock seconds spent in each phase of step(), accumulated while enabled (benchmarks).
+struct PhaseTimes {
+  double integrate = 0;  // both half-kicks and the drift
+  double check = 0;      // needs_rebuild()
+  double rebuild = 0;    // rebuild(), when triggered
+  double force = 0;      // contact forces (and local damping)
+  std::int64_t steps = 0;
+};
+
 class Simulation {
  public:
   // Builds the contact lists and the initial forces. Throws std::invalid_argument if the cell
@@ -55,6 +64,11 @@ class Simulation {
   bool needs_rebuild() const;
   void rebuild();
 
+  // Optional phase timers for step(): off by default (then each phase costs one predictable
+  // branch). Enabling resets the sums.
+  void enable_phase_timers(bool on) { timing_ = on; times_ = PhaseTimes{}; }
+  const PhaseTimes& phase_times() const { return times_; }
+
  private:
   void compute(bool measure);
 
@@ -72,6 +86,8 @@ class Simulation {
   real_t cutoff_max_ = 0;    // 2 Rmax + skin
   std::int64_t step_ = 0, rebuilds_ = 0;
   real_t time_ = 0;
+  bool timing_ = false;
+  PhaseTimes times_;
 };
 
 }  // namespace fabrica
