@@ -1,0 +1,188 @@
+// bench_kernel: the contact kernel alone, on contacts taken from the dense-13584 scene.
+//
+//   contact_law/rolling=R/viscous=V   core/contact_law.hpp contact_law<R,V> over every touching
+//                                      contact of the scene (constants and kinematics precomputed,
+//                                      history read from one array and written to another, so
+//                                      every iteration does the same work)
+//   compute_forces/rolling=R/viscous=V compute_forces (core/forces.cpp) over the scene's whole
+//                                      Verlet list, no integration; the springs are restored
+//                                      between iterations outside the timer
+//
+// The state is the one bench_dense ends with: the scene run for its 2000 steps, so springs and
+// velocities are those of a real run. Counters: ns_per_contact (touching contacts),
+// us_per_particle_step (time / N, i.e. this part's share of one step), and for compute_forces
+// ns_per_pair (entries of the Verlet list, touching or not).
+// Default: 10 repetitions, aggregates only (mean, median, stddev, min); override with the usual
+// --benchmark_repetitions=... flags.
+#include "core/forces.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "io/setup.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+using namespace fabrica;
+
+namespace {
+
+struct Dense {
+  SimulationParams par;
+  Particles p;
+  PeriodicCell cell;
+  PairList pairs;
+  WallContactList walls;
+  // Touching contacts, in Verlet-list order.
+  std::vector<Index> ci, cj;
+  std::vector<ContactKinematics> kin;
+  std::vector<ContactHistory> hist;
+};
+
+Dense make_dense() {
+  const Scene scene = load_scene(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml");
+  Setup s = make_setup(scene);
+  Simulation sim(std::move(s.particles), s.cell, s.params);
+  for (std::int64_t k = 1; k <= scene.steps; ++k) sim.step(k == scene.steps);
+  Dense d;
+  d.par = sim.params();
+  d.p = sim.particles();
+  d.cell = sim.cell();
+  d.pairs = sim.pairs();
+  d.walls = sim.wall_contacts();
+  // The kinematics exactly as core/forces.cpp pair_forces computes them.
+  const Vec3& L = d.cell.lengths();
+  const Vec3& edot = d.cell.strain_rate();
+  for (std::size_t q = 0; q < d.pairs.size(); ++q) {
+    const Index i = d.pairs.i[q], j = d.pairs.j[q];
+    const Vec3 dv = d.p.x[j] + image_offset(d.pairs.image[q], L) - d.p.x[i];
+    const real_t sum_r = d.p.radius[i] + d.p.radius[j];
+    const real_t r2 = dv.squaredNorm();
+    if (r2 >= sum_r * sum_r) continue;
+    const real_t dist = std::sqrt(r2);
+    ContactKinematics k;
+    k.n = dv / dist;
+    k.un = sum_r - dist;
+    const real_t a1 = d.p.radius[i] - 0.5 * k.un, a2 = d.p.radius[j] - 0.5 * k.un;
+    k.w1 = d.p.w[i];
+    k.w2 = d.p.w[j];
+    k.vrel = d.p.v[j] - d.p.v[i] + edot.cwiseProduct(dv) - (a2 * d.p.w[j] + a1 * d.p.w[i]).cross(k.n);
+    ContactHistory h;
+    h.fs = d.pairs.fs[q];
+    h.mr = d.pairs.mr.empty() ? Vec3::Zero() : d.pairs.mr[q];
+    d.ci.push_back(i);
+    d.cj.push_back(j);
+    d.kin.push_back(k);
+    d.hist.push_back(h);
+  }
+  const MacroState m = sim.macro();
+  std::fprintf(stderr,
+               "dense-13584 after %lld steps: %zu spheres, %zu pairs in the Verlet list, %zu "
+               "touching (%lld contacts by the measure), %lld sliding\n",
+               (long long)scene.steps, d.p.n_owned(), d.pairs.size(), d.kin.size(),
+               (long long)m.contacts, (long long)m.sliding);
+  return d;
+}
+
+const Dense& dense() {
+  static const Dense d = make_dense();
+  return d;
+}
+
+ContactLawParams variant_law(ContactLawParams law, bool rolling, bool viscous) {
+  if (!rolling) law.rolling_friction = 0;
+  if (!viscous) law.damping_rate_n = law.damping_rate_s = law.damping_ratio_n = law.damping_ratio_s = 0;
+  return law;
+}
+
+// Time per item in units of 'unit' seconds (1e-9: ns): an iteration-invariant rate of
+// items * unit per second, inverted.
+benchmark::Counter per_item(double items, double unit) {
+  return benchmark::Counter(items * unit,
+                            benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
+template <bool Rolling, bool Viscous>
+void BM_ContactLaw(benchmark::State& state) {
+  const Dense& d = dense();
+  const ContactLawParams law = variant_law(d.par.law, Rolling, Viscous);
+  const real_t dt = d.par.dt;
+  const std::size_t nc = d.kin.size();
+  std::vector<PairConstants> c(nc);
+  for (std::size_t q = 0; q < nc; ++q)
+    c[q] = pair_constants<Rolling, Viscous>(law, d.p.radius[d.ci[q]], d.p.radius[d.cj[q]],
+                                            d.p.mass[d.ci[q]], d.p.mass[d.cj[q]]);
+  std::vector<ContactHistory> out(nc);
+  const ContactKinematics* k = d.kin.data();
+  const ContactHistory* h0 = d.hist.data();
+  for (auto _ : state) {
+    Vec3 acc = Vec3::Zero();
+    for (std::size_t q = 0; q < nc; ++q) {
+      ContactHistory h = h0[q];
+      const ContactResult r = contact_law<Rolling, Viscous>(law, c[q], k[q], h, dt);
+      out[q] = h;
+      acc += r.fn * k[q].n + r.fs + r.mr;
+    }
+    benchmark::DoNotOptimize(acc);
+    benchmark::ClobberMemory();
+  }
+  state.counters["ns_per_contact"] = per_item(double(nc), 1e-9);
+  state.counters["us_per_particle_step"] = per_item(double(d.p.n_owned()), 1e-6);
+}
+
+template <bool Rolling, bool Viscous>
+void BM_ComputeForces(benchmark::State& state) {
+  const Dense& d = dense();
+  const ContactLawParams law = variant_law(d.par.law, Rolling, Viscous);
+  Particles p = d.p;
+  PairList pairs = d.pairs;
+  if (!Rolling) pairs.mr.clear();
+  WallContactList walls = d.walls;
+  Dissipation diss;
+  const ForceContext ctx{law, d.par.walls, d.par.gravity, d.par.dt};
+  for (auto _ : state) {
+    compute_forces(p, d.cell, ctx, pairs, walls, diss, nullptr);
+    benchmark::ClobberMemory();
+    state.PauseTiming();
+    std::copy(d.pairs.fs.begin(), d.pairs.fs.end(), pairs.fs.begin());
+    if (Rolling) std::copy(d.pairs.mr.begin(), d.pairs.mr.end(), pairs.mr.begin());
+    state.ResumeTiming();
+  }
+  benchmark::DoNotOptimize(p.f.data());
+  state.counters["ns_per_contact"] = per_item(double(d.kin.size()), 1e-9);
+  state.counters["ns_per_pair"] = per_item(double(d.pairs.size()), 1e-9);
+  state.counters["us_per_particle_step"] = per_item(double(d.p.n_owned()), 1e-6);
+}
+
+double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
+void add(const std::string& name, void (*fn)(benchmark::State&)) {
+  benchmark::RegisterBenchmark(name.c_str(), fn)
+      ->Repetitions(10)
+      ->ReportAggregatesOnly(true)
+      ->ComputeStatistics("min", min_of)
+      ->Unit(benchmark::kMicrosecond);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  add("contact_law/rolling=0/viscous=0", BM_ContactLaw<false, false>);
+  add("contact_law/rolling=0/viscous=1", BM_ContactLaw<false, true>);
+  add("contact_law/rolling=1/viscous=0", BM_ContactLaw<true, false>);
+  add("contact_law/rolling=1/viscous=1", BM_ContactLaw<true, true>);
+  add("compute_forces/rolling=0/viscous=0", BM_ComputeForces<false, false>);
+  add("compute_forces/rolling=0/viscous=1", BM_ComputeForces<false, true>);
+  add("compute_forces/rolling=1/viscous=0", BM_ComputeForces<true, false>);
+  add("compute_forces/rolling=1/viscous=1", BM_ComputeForces<true, true>);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  dense();  // prepare the state before any timing
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
