@@ -3,10 +3,12 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
+#include "parallel/mpi_context.hpp"
+#include "parallel/mpi_domain.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
-#include <mpi.h>
+#include <memory>
 
 #include <chrono>
 #include <cmath>
@@ -41,19 +43,35 @@ void print_row(const Simulation& sim, const MacroState& m, std::ofstream* csv) {
 // Stops the run with a diagnostic if the state is no longer physical.
 void check_sane(const Simulation& sim, const MacroState& m) {
   if (!std::isfinite(m.kinetic) || !std::isfinite(m.p))
-    throw std::runtime_error(fmt::format("numerical blow-up at step {}: kinetic energy {}, p {}",
-                                         sim.step_count(), m.kinetic, m.p));
+    throw CollectiveError(fmt::format("numerical blow-up at step {}: kinetic energy {}, p {}",
+                                      sim.step_count(), m.kinetic, m.p));
 }
 
-int run(const std::string& scene_path, const std::string& outdir) {
+int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir) {
+  const bool root = mpi.rank() == 0;
   const Scene scene = scene_path.empty() ? default_scene() : load_scene(scene_path);
   Setup s = make_setup(scene);
+  std::unique_ptr<MpiDomain> domain;
+  if (mpi.size() > 1) {
+    MpiDomainOptions o;
+    o.kind = scene.parallel.decomposition == "metis" ? DecompositionKind::Metis
+                                                     : DecompositionKind::Cartesian;
+    o.rebalance_threshold = scene.parallel.rebalance_threshold;
+    o.rebalance_interval = int(scene.parallel.rebalance_interval);
+    domain = std::make_unique<MpiDomain>(mpi.comm(), o);
+  }
+  if (!root) std::fclose(stdout), stdout = std::fopen("/dev/null", "w");
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
              s.particles.n_owned(), s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);
   fmt::print("critical time step {:.4e} s, time step {:.4e} s (fraction {:.3f})\n", s.critical_dt,
              s.params.dt, s.params.dt / s.critical_dt);
-  std::filesystem::create_directories(outdir);
-  std::ofstream csv(std::filesystem::path(outdir) / "series.csv");
+  fmt::print("{} MPI rank(s){}\n", mpi.size(),
+             mpi.size() > 1 ? ", " + scene.parallel.decomposition + " decomposition" : "");
+  std::ofstream csv;
+  if (root) {
+    std::filesystem::create_directories(outdir);
+    csv.open(std::filesystem::path(outdir) / "series.csv");
+  }
   csv << "step,time,s11,s22,s33,s12,s23,s13,p,q,Z,contacts,sliding,rolling,kinetic,e_normal,"
          "e_shear,e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,void_ratio\n";
 
@@ -66,7 +84,7 @@ int run(const std::string& scene_path, const std::string& outdir) {
     prep.rolling_friction = 0;
     s.params.law = prep;
   }
-  Simulation sim(std::move(s.particles), s.cell, s.params);
+  Simulation sim(std::move(s.particles), s.cell, s.params, domain.get());
   print_header();
   if (scene.compress.enabled) {
     const real_t rate = scene.compress.strain_rate;
@@ -99,12 +117,13 @@ int run(const std::string& scene_path, const std::string& outdir) {
     if (!measure) continue;
     const MacroState m = sim.macro();
     check_sane(sim, m);
-    print_row(sim, m, &csv);
+    print_row(sim, m, root ? &csv : nullptr);
   }
   steps_done += scene.steps;
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  fmt::print("{} steps in {:.2f} s: {:.4f} us per particle-step, {} neighbour rebuilds\n", steps_done,
-             secs, secs * 1e6 / (double(steps_done) * double(sim.particles().n_owned())),
+  const double n_total = double(sim.macro().particles);
+  fmt::print("{} steps in {:.2f} s: {:.4f} us per particle-step on {} rank(s), {} neighbour rebuilds\n",
+             steps_done, secs, secs * 1e6 / (double(steps_done) * n_total), mpi.size(),
              sim.rebuild_count());
   fmt::print("series written to {}\n", (std::filesystem::path(outdir) / "series.csv").string());
   return 0;
@@ -113,30 +132,31 @@ int run(const std::string& scene_path, const std::string& outdir) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  int size = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  MpiContext mpi(argc, argv);
   CLI::App app{"Fabrica: DEM for granular mechanics"};
   app.require_subcommand(1);
   std::string scene_path, outdir = "fabrica-output";
   CLI::App* runc = app.add_subcommand("run", "run a scene (default: the built-in demo scene)");
   runc->add_option("scene", scene_path, "scene file (TOML)")->check(CLI::ExistingFile);
   runc->add_option("-o,--output", outdir, "output directory");
-  int rc = 0;
+  // Errors: input errors and collective errors (detected identically on every rank) are
+  // printed once by rank 0 and every rank exits with 1; any other error is printed by the rank
+  // that met it and ends every rank through MPI_Abort, so nothing hangs.
   try {
     app.parse(argc, argv);
-    if (size != 1)
-      throw std::runtime_error(fmt::format(
-          "this build runs on one MPI rank (started on {}): domain decomposition is not yet "
-          "available", size));
-    rc = run(scene_path, outdir);
+    return run(mpi, scene_path, outdir);
   } catch (const CLI::ParseError& e) {
-    rc = app.exit(e);
+    return mpi.rank() == 0 ? app.exit(e) : (e.get_exit_code());
+  } catch (const InputError& e) {
+    if (mpi.rank() == 0) fmt::print(stderr, "fabrica: error: {}\n", e.what());
+    return 1;
+  } catch (const CollectiveError& e) {
+    if (mpi.rank() == 0) fmt::print(stderr, "fabrica: error: {}\n", e.what());
+    return 1;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "fabrica: error: {}\n", e.what());
-    rc = 1;
+    fmt::print(stderr, "fabrica: error on rank {} of {}: {}\n", mpi.rank(), mpi.size(), e.what());
+    std::fflush(stderr);
+    if (mpi.size() > 1) MPI_Abort(mpi.comm(), 1);
+    return 1;
   }
-  if (rc != 0 && size > 1) MPI_Abort(MPI_COMM_WORLD, rc);
-  MPI_Finalize();
-  return rc;
 }

@@ -34,6 +34,7 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
 
   real_t e_fric = 0, e_roll = 0, e_visc = 0;
   const std::size_t np = pl.size();
+  const std::size_t n_owned = P.n_owned();
   for (std::size_t q = 0; q < np; ++q) {
     const Index i = pi[q], j = pj[q];
     const Vec3 d = x[j] + shift[img[q]] - x[i];
@@ -75,20 +76,25 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
       t[j] -= a2 * nxfs;
       t[i] -= a1 * nxfs;
     }
-    e_fric += r.e_friction;
-    if constexpr (Rolling) e_roll += r.e_rolling;
-    if constexpr (Viscous) e_visc += r.e_viscous;
+    // A pair between an owned particle and a ghost is computed on both ranks; its energy and
+    // its share of the measures belong to the rank that owns body i (the lower id).
+    const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+    e_fric += own_i * r.e_friction;
+    if constexpr (Rolling) e_roll += own_i * r.e_rolling;
+    if constexpr (Viscous) e_visc += own_i * r.e_viscous;
     if constexpr (Measure) {
-      sums->fb.noalias() += F * d.transpose();
-      ++sums->contacts;
-      sums->sliding += r.sliding;
-      sums->rolling += r.rolling;
-      sums->e_normal += spring_energy_normal(c, k.un);
-      sums->e_shear += spring_energy_shear(c, h);
-      if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
-      sums->sum_contact_force += F.norm();
-      ++sums->contacts_per_particle[i];
-      ++sums->contacts_per_particle[j];
+      if (own_i != 0.0) {
+        sums->fb.noalias() += F * d.transpose();
+        ++sums->contacts;
+        sums->sliding += r.sliding;
+        sums->rolling += r.rolling;
+        sums->e_normal += spring_energy_normal(c, k.un);
+        sums->e_shear += spring_energy_shear(c, h);
+        if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
+        sums->sum_contact_force += F.norm();
+        ++sums->contacts_per_particle[i];
+      }
+      if (std::size_t(j) < n_owned) ++sums->contacts_per_particle[j];
     }
   }
   diss.friction += e_fric;

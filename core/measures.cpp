@@ -17,33 +17,59 @@ void deviatoric_invariants(const Mat3& sigma, real_t& p, real_t& q) {
   q = std::sqrt(1.5 * s.cwiseProduct(s).sum());
 }
 
-MacroState macro_state(const Particles& p, const PeriodicCell& cell, const ContactSums& sums,
-                       const Dissipation& diss) {
-  MacroState m;
-  m.volume = cell.volume();
-  m.stress = sums.fb / m.volume;
-  deviatoric_invariants(m.stress, m.p, m.q);
+MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
+                              const ContactSums& sums, const Dissipation& diss, Domain& domain) {
   const std::size_t n = p.n_owned();
-  m.contacts = sums.contacts;
-  m.sliding = sums.sliding;
-  m.rolling = sums.rolling;
-  m.coordination = n ? 2.0 * double(sums.contacts) / double(n) : 0.0;
   std::int64_t nonrattlers = 0, c2 = 0;
   for (std::size_t a = 0; a < n; ++a) {
     const int c = sums.contacts_per_particle[a];
     if (c >= 2) ++nonrattlers, c2 += c;
   }
-  m.mech_coordination = nonrattlers ? double(c2) / double(nonrattlers) : 0.0;
-  m.kinetic = kinetic_energy(p);
-  m.e_normal = sums.e_normal;
-  m.e_shear = sums.e_shear;
-  m.e_rolling = sums.e_rolling;
-  m.dissipated = diss;
-  const std::int64_t nc = sums.contacts + sums.wall_contacts;
-  m.unbalanced = (nc > 0 && sums.sum_contact_force > 0)
-                     ? (sums.sum_particle_force / double(n)) / (sums.sum_contact_force / double(nc))
-                     : 0.0;
-  m.void_ratio = m.volume / p.solid_volume() - 1.0;
+  enum : int { kFb = 0, kContacts = 9, kSliding, kRolling, kWall, kEn, kEs, kEr, kFc, kFp,
+               kNonRattlers, kC2, kN, kKin, kVs, kDf, kDr, kDv, kDl, kCount };
+  double v[kCount];
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) v[kFb + 3 * a + b] = sums.fb(a, b);
+  v[kContacts] = double(sums.contacts);
+  v[kSliding] = double(sums.sliding);
+  v[kRolling] = double(sums.rolling);
+  v[kWall] = double(sums.wall_contacts);
+  v[kEn] = sums.e_normal;
+  v[kEs] = sums.e_shear;
+  v[kEr] = sums.e_rolling;
+  v[kFc] = sums.sum_contact_force;
+  v[kFp] = sums.sum_particle_force;
+  v[kNonRattlers] = double(nonrattlers);
+  v[kC2] = double(c2);
+  v[kN] = double(n);
+  v[kKin] = kinetic_energy(p);
+  v[kVs] = p.solid_volume();
+  v[kDf] = diss.friction;
+  v[kDr] = diss.rolling;
+  v[kDv] = diss.viscous;
+  v[kDl] = diss.local;
+  domain.sum_all(std::span<double>(v, kCount));
+
+  MacroState m;
+  m.volume = cell.volume();
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) m.stress(a, b) = v[kFb + 3 * a + b] / m.volume;
+  deviatoric_invariants(m.stress, m.p, m.q);
+  const double N = v[kN];
+  m.contacts = std::int64_t(v[kContacts]);
+  m.sliding = std::int64_t(v[kSliding]);
+  m.rolling = std::int64_t(v[kRolling]);
+  m.coordination = N > 0 ? 2.0 * v[kContacts] / N : 0.0;
+  m.mech_coordination = v[kNonRattlers] > 0 ? v[kC2] / v[kNonRattlers] : 0.0;
+  m.kinetic = v[kKin];
+  m.e_normal = v[kEn];
+  m.e_shear = v[kEs];
+  m.e_rolling = v[kEr];
+  m.dissipated = {v[kDf], v[kDr], v[kDv], v[kDl]};
+  const double nc = v[kContacts] + v[kWall];
+  m.unbalanced = (nc > 0 && v[kFc] > 0) ? (v[kFp] / N) / (v[kFc] / nc) : 0.0;
+  m.void_ratio = m.volume / v[kVs] - 1.0;
+  m.particles = std::int64_t(N);
   return m;
 }
 

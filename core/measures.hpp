@@ -3,6 +3,7 @@
 //   p = sigma_kk / 3,  q = sqrt(3/2 s_ij s_ij),  s = sigma - p I
 //   Z = 2 C / N (all particles), Z_m = 2 C' / N' without rattlers (fewer than 2 contacts)
 #pragma once
+#include "core/domain.hpp"
 #include "core/forces.hpp"
 
 namespace fabrica {
@@ -19,13 +20,15 @@ struct MacroState {
   real_t unbalanced = 0;       // mean |F_particle| / mean |F_contact|
   real_t volume = 0;           // m^3
   real_t void_ratio = 0;
+  std::int64_t particles = 0;  // over all ranks
 };
 
 real_t kinetic_energy(const Particles& p);
 void deviatoric_invariants(const Mat3& sigma, real_t& p, real_t& q);
 
-// Single-rank assembly (the MPI version reduces the same sums first).
-MacroState macro_state(const Particles& p, const PeriodicCell& cell, const ContactSums& sums,
-                       const Dissipation& diss);
+// Reduces this rank's sums over all ranks of the domain (one sum_all of a small array) and
+// assembles the macroscopic state. Collective.
+MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
+                              const ContactSums& sums, const Dissipation& diss, Domain& domain);
 
 }  // namespace fabrica

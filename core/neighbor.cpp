@@ -57,6 +57,7 @@ Grid make_grid(const Vec3& L, real_t edge) {
 void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t skin,
                            PairList& out) {
   const std::size_t n = p.size();
+  const std::size_t n_owned = p.n_owned();
   out.i.clear();
   out.j.clear();
   out.image.clear();
@@ -107,6 +108,7 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
               for (Index q = cell_start_[cc]; q < cell_start_[cc + 1]; ++q) {
                 const Index b = cell_items_[q];
                 if (ca == cb && b <= a) continue;
+                if (std::size_t(a) >= n_owned && std::size_t(b) >= n_owned) continue;
                 Vec3 d = p.x[b] - xa;
                 int s[3];
                 for (int k = 0; k < 3; ++k) {
@@ -128,16 +130,23 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
     }
   }
 
-  // Counting sort by the first index, so the force loop walks particles in order.
+  // Order the pairs by (id_i, id_j). Each particle then receives its contact forces in the
+  // order of its partners' global ids, whatever the rank count or the local storage order:
+  // force sums, and so trajectories, are bitwise the same on any number of ranks.
   const std::size_t m = tmp_i_.size();
-  cell_start_.assign(n + 1, 0);
-  for (std::size_t q = 0; q < m; ++q) ++cell_start_[tmp_i_[q] + 1];
-  for (std::size_t a = 0; a < n; ++a) cell_start_[a + 1] += cell_start_[a];
+  std::vector<std::uint32_t>& order = order_;
+  order.resize(m);
+  for (std::size_t q = 0; q < m; ++q) order[q] = std::uint32_t(q);
+  const GlobalId* id = p.id.data();
+  std::sort(order.begin(), order.end(), [&](std::uint32_t u, std::uint32_t v) {
+    const GlobalId iu = id[tmp_i_[u]], iv = id[tmp_i_[v]];
+    return iu != iv ? iu < iv : id[tmp_j_[u]] < id[tmp_j_[v]];
+  });
   out.i.resize(m);
   out.j.resize(m);
   out.image.resize(m);
-  for (std::size_t q = 0; q < m; ++q) {
-    const Index k = cell_start_[tmp_i_[q]]++;
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::uint32_t q = order[k];
     out.i[k] = tmp_i_[q];
     out.j[k] = tmp_j_[q];
     out.image[k] = tmp_img_[q];

@@ -23,8 +23,9 @@ void check_cell_size(const PeriodicCell& cell, real_t max_radius, real_t skin);
 
 class NeighborSearch {
  public:
-  // Fills out.i, out.j, out.image (springs are left to the caller). Pairs are oriented from the
-  // lower to the higher global id and sorted by i. Positions must lie in [0, L).
+  // Fills out.i, out.j, out.image (springs are left to the caller) with every pair that has at
+  // least one owned particle. Pairs are oriented from the lower to the higher global id and
+  // sorted by (id_i, id_j). Positions must lie in [0, L) (ghosts included).
   void build(const Particles& p, const PeriodicCell& cell, real_t skin, PairList& out);
 
   // Sphere-wall candidates: distance from the plane below R_i + skin.
@@ -39,6 +40,7 @@ class NeighborSearch {
   std::vector<Index> cell_start_, cell_items_; // counting-sort buffers
   std::vector<Index> tmp_i_, tmp_j_;
   std::vector<std::uint8_t> tmp_img_;
+  std::vector<std::uint32_t> order_;
 };
 
 // Reference: every pair within R_i + R_j + skin by testing all N^2/2 pairs (minimum image),

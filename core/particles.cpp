@@ -44,8 +44,22 @@ static void apply_order(std::vector<T>& a, std::span<const Index> order, std::ve
   a.swap(tmp);
 }
 
+std::size_t Particles::append_owned(std::size_t n) {
+  if (n_ghost() != 0) throw std::logic_error("Particles::append_owned called while ghosts are present");
+  const std::size_t first = size();
+  resize(first + n);
+  n_owned_ += n;
+  return first;
+}
+
+std::size_t Particles::append_ghosts(std::size_t n) {
+  const std::size_t first = size();
+  resize(first + n);
+  return first;
+}
+
 void Particles::permute_owned(std::span<const Index> order) {
-  if (order.size() != n_owned_) throw std::logic_error("permute_owned: order has wrong size");
+  if (order.size() > n_owned_) throw std::logic_error("permute_owned: order too long");
   resize(n_owned_);
   std::vector<Vec3> tv;
   std::vector<real_t> tr;
@@ -53,6 +67,7 @@ void Particles::permute_owned(std::span<const Index> order) {
   for (auto* a : {&x, &v, &w, &f, &t}) apply_order(*a, order, tv);
   for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) apply_order(*a, order, tr);
   apply_order(id, order, ti);
+  n_owned_ = order.size();
 }
 
 real_t Particles::max_radius() const {

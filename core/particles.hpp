@@ -37,8 +37,13 @@ class Particles {
   void add(const SphereInit& s);
   // Drops every ghost.
   void clear_ghosts() { resize(n_owned_); }
-  // Reorders the owned particles: new index k holds old index order[k]. Ghosts are dropped.
+  // Reorders the owned particles: new index k holds old index order[k]; 'order' may list a
+  // subset, and the others are dropped (particles that migrated away). Ghosts are dropped.
   void permute_owned(std::span<const Index> order);
+  // Appends n default particles (all zero, id -1) as owned (only without ghosts) or as ghosts;
+  // returns the index of the first. The caller fills them (parallel/ unpacking).
+  std::size_t append_owned(std::size_t n);
+  std::size_t append_ghosts(std::size_t n);
   void reserve(std::size_t n);
 
   real_t max_radius() const;

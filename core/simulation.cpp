@@ -8,12 +8,18 @@
 
 namespace fabrica {
 
-Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params)
-    : p_(std::move(particles)), cell_(cell), par_(std::move(params)) {
-  cutoff_max_ = 2 * p_.max_radius() + par_.skin;
-  check_cell_size(cell_, p_.max_radius(), par_.skin);
+Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
+                       Domain* domain)
+    : domain_(domain ? domain : &serial_), p_(std::move(particles)), cell_(cell),
+      par_(std::move(params)) {
+  const real_t rmax = p_.max_radius();  // every rank still holds every particle
+  cutoff_max_ = 2 * rmax + par_.skin;
+  check_cell_size(cell_, rmax, par_.skin);
+  for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
+  domain_->adopt(p_, cell_, cutoff_max_);
   rebuild();
   compute(true);
+  measure_and_reduce();
 }
 
 namespace {
@@ -43,6 +49,8 @@ void Simulation::step(bool measure) {
   half_kick(p_, dt);
   drift_and_deform(p_, cell_, dt);
   clk.lap(&PhaseTimes::integrate);
+  domain_->update_ghosts(p_);
+  clk.lap(&PhaseTimes::ghost);
   const bool rebuild_now = needs_rebuild();
   clk.lap(&PhaseTimes::check);
   if (rebuild_now) {
@@ -53,6 +61,10 @@ void Simulation::step(bool measure) {
   clk.lap(&PhaseTimes::force);
   half_kick(p_, dt);
   clk.lap(&PhaseTimes::integrate);
+  if (measure) {
+    measure_and_reduce();
+    clk.lap(&PhaseTimes::reduce);
+  }
   times_.steps += timing_;
   ++step_;
   time_ += dt;
@@ -64,7 +76,9 @@ void Simulation::compute(bool measure) {
   if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, par_.dt);
 }
 
-MacroState Simulation::macro() const { return macro_state(p_, cell_, sums_, diss_); }
+void Simulation::measure_and_reduce() {
+  macro_ = reduce_macro_state(p_, cell_, sums_, diss_, *domain_);
+}
 
 void Simulation::set_law(const ContactLawParams& law) {
   const bool had_rolling = par_.law.rolling();
@@ -78,13 +92,13 @@ void Simulation::set_law(const ContactLawParams& law) {
   }
 }
 
-bool Simulation::needs_rebuild() const {
+bool Simulation::needs_rebuild() {
   const Vec3& L = cell_.lengths();
   real_t max2 = 0;
   for (std::size_t a = 0; a < p_.n_owned(); ++a)
     max2 = std::max(max2, (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm());
   const real_t strain = (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
-  return 2.0 * std::sqrt(max2) + strain * cutoff_max_ > par_.skin;
+  return 2.0 * std::sqrt(domain_->max_all(max2)) + strain * cutoff_max_ > par_.skin;
 }
 
 void Simulation::rebuild() {
@@ -100,9 +114,13 @@ void Simulation::rebuild() {
       carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
                     {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
 
-  // 2. Wrap into the cell and sort in space.
+  // 2. Wrap into the cell, move particles that left this subdomain (with their springs), sort
+  //    the owned ones in space, and bring in the ghosts.
+  p_.clear_ghosts();
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
+  domain_->migrate(p_, cell_, carry_);
   if (par_.spatial_sort) p_.permute_owned(search_.spatial_order(p_, cell_));
+  domain_->build_ghosts(p_, cell_, cutoff_max_);
 
   // 3. New lists, with the kept springs attached.
   search_.build(p_, cell_, par_.skin, pairs_);

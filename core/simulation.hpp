@@ -3,6 +3,7 @@
 #pragma once
 #include "core/cell.hpp"
 #include "core/contact_list.hpp"
+#include "core/domain.hpp"
 #include "core/forces.hpp"
 #include "core/history_map.hpp"
 #include "core/measures.hpp"
@@ -27,23 +28,28 @@ struct SimulationParams {
 // Wall-clock seconds spent in each phase of step(), accumulated while enabled (benchmarks).
 struct PhaseTimes {
   double integrate = 0;  // both half-kicks and the drift
-  double check = 0;      // needs_rebuild()
+  double ghost = 0;      // forward ghost update
+  double check = 0;      // needs_rebuild() (one allreduce of the largest displacement)
   double rebuild = 0;    // rebuild(), when triggered
   double force = 0;      // contact forces (and local damping)
+  double reduce = 0;     // reduction of the measures (measuring steps only)
   std::int64_t steps = 0;
 };
 
 class Simulation {
  public:
   // Builds the contact lists and the initial forces. Throws std::invalid_argument if the cell
-  // is too small for the largest sphere and the skin.
-  Simulation(Particles particles, PeriodicCell cell, SimulationParams params);
+  // is too small for the largest sphere and the skin. With a domain (MPI), every rank passes
+  // the same complete set of particles and keeps its own; the domain must outlive the
+  // simulation. Without one, the run is serial.
+  Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
+             Domain* domain = nullptr);
 
-  // Advances one time step. With measure = true the contact sums of this step are kept and
-  // macro() returns the state at the end of the step.
+  // Advances one time step. With measure = true (the same on every rank) the contact sums of
+  // this step are reduced over all ranks and macro() returns the state at the end of the step.
   void step(bool measure = false);
 
-  MacroState macro() const;  // valid after a measuring step (or construction)
+  const MacroState& macro() const { return macro_; }  // after a measuring step or construction
 
   Particles& particles() { return p_; }
   const Particles& particles() const { return p_; }
@@ -59,9 +65,9 @@ class Simulation {
   real_t time() const { return time_; }
   std::int64_t rebuild_count() const { return rebuilds_; }
 
-  // True once particles have moved (or the cell has strained) enough that a pair outside the
-  // list could be touching.
-  bool needs_rebuild() const;
+  // True once particles (on any rank) have moved, or the cell has strained, enough that a pair
+  // outside the list could be touching. Collective.
+  bool needs_rebuild();
   void rebuild();
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable
@@ -72,6 +78,10 @@ class Simulation {
  private:
   void compute(bool measure);
 
+  void measure_and_reduce();
+
+  Domain serial_;
+  Domain* domain_;
   Particles p_;
   PeriodicCell cell_;
   SimulationParams par_;
@@ -81,6 +91,7 @@ class Simulation {
   HistoryMap carry_;
   Dissipation diss_;
   ContactSums sums_;
+  MacroState macro_;
   std::vector<Vec3> s_ref_;  // reduced positions x / L at the last rebuild
   Vec3 L_ref_;
   real_t cutoff_max_ = 0;    // 2 Rmax + skin

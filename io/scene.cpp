@@ -126,13 +126,14 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       << ": TOML syntax error: " << e.description();
     throw InputError(m.str());
   }
-  static const std::set<std::string> tables = {"particles", "cell", "contact", "compress", "run"};
+  static const std::set<std::string> tables = {"particles", "cell", "contact", "compress", "run",
+                                               "parallel"};
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
                        ": unknown top-level entry (expected one of the tables [particles], "
-                       "[cell], [contact], [compress], [run])");
+                       "[cell], [contact], [compress], [run], [parallel])");
   }
   auto table = [&](const char* name) { return root[name].as_table(); };
 
@@ -258,6 +259,19 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
           "must lie in [0, 1)");
   R.reject_unknown();
+
+  Section M(table("parallel"), path, "parallel");
+  ParallelSpec& ps = sc.parallel;
+  ps.decomposition = M.string("decomposition").value_or(ps.decomposition);
+  if (ps.decomposition != "cartesian" && ps.decomposition != "metis")
+    M.fail("decomposition", "\"" + ps.decomposition + "\"", "must be \"cartesian\" or \"metis\"");
+  ps.rebalance_threshold = M.number("rebalance_threshold", ps.rebalance_threshold);
+  require(M, "rebalance_threshold", ps.rebalance_threshold, ps.rebalance_threshold >= 1.0,
+          "must be >= 1 (max/mean work)");
+  if (auto k = M.integer("rebalance_interval")) ps.rebalance_interval = *k;
+  if (ps.rebalance_interval <= 0)
+    M.fail("rebalance_interval", std::to_string(ps.rebalance_interval), "must be positive");
+  M.reject_unknown();
   return sc;
 }
 

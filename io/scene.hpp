@@ -35,6 +35,13 @@ struct CompressSpec {
   real_t friction = 0.0;           // mu_s while compressing (a lower value packs denser)
 };
 
+// Domain decomposition over MPI ranks (ignored on one rank).
+struct ParallelSpec {
+  std::string decomposition = "cartesian";  // "cartesian" or "metis"
+  double rebalance_threshold = 1.10;        // max/mean owned particles that triggers METIS
+  std::int64_t rebalance_interval = 10;     // neighbour rebuilds between imbalance checks
+};
+
 struct Scene {
   std::string path;               // the scene file ("<built-in demo>" for the default)
   std::string text;               // the scene file's text, kept for the output
@@ -53,6 +60,7 @@ struct Scene {
   real_t skin = 0.001;            // m
   std::int64_t output_every = 100;
   Vec3 gravity = Vec3::Zero();    // m/s^2
+  ParallelSpec parallel;
 };
 
 Scene load_scene(const std::string& path);

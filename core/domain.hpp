@@ -1,0 +1,55 @@
+// The seam between the physics (core/) and the communication (parallel/). Simulation::step()
+// calls these hooks at fixed points; the serial domain does nothing, the MPI domain
+// (parallel/mpi_domain.hpp) exchanges ghosts, migrates particles with their contact history and
+// reduces sums. Every rank calls every hook at the same point of every step, so the
+// collectives inside are never behind data-dependent control flow.
+#pragma once
+#include "core/cell.hpp"
+#include "core/history_map.hpp"
+#include "core/particles.hpp"
+
+#include <span>
+
+namespace fabrica {
+
+class Domain {
+ public:
+  virtual ~Domain() = default;
+
+  // Before: owned particles' x, v, w are current. After: every ghost has its owner's x, v, w.
+  virtual void update_ghosts(Particles& p) { (void)p; }
+
+  // The largest value over all ranks (every rank calls it once per step).
+  virtual real_t max_all(real_t local) { return local; }
+
+  // Element-wise sum over all ranks, in place.
+  virtual void sum_all(std::span<double> values) { (void)values; }
+
+  // At start-up. Before: every rank holds the same complete set of particles, as read or
+  // generated, wrapped into the cell. After: each rank keeps only the particles of its
+  // subdomain, whose bins are at least 'cutoff' (2 Rmax + skin) wide.
+  virtual void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) {
+    (void)p, (void)cell, (void)cutoff;
+  }
+
+  // At a rebuild, with owned positions wrapped into the cell. Before: 'history' holds the
+  // springs of this rank's touching contacts, keyed by the two global ids. After: every owned
+  // particle lies in this rank's subdomain; particles that left were sent to their new owners
+  // with the springs of their contacts, and those received were added to 'history'. Ghosts are
+  // dropped (they are rebuilt by build_ghosts after any reordering of the owned particles).
+  virtual void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) {
+    (void)p, (void)cell, (void)history;
+  }
+
+  // Before: no ghosts, owned particles in their subdomain. After: every particle of another
+  // rank within 'cutoff' (2 Rmax + skin, a lower bound on the decomposition bin edge) of this
+  // subdomain is a ghost here, at its owner's (wrapped) position, with every property set.
+  virtual void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) {
+    (void)p, (void)cell, (void)cutoff;
+  }
+
+  virtual int rank() const { return 0; }
+  virtual int size() const { return 1; }
+};
+
+}  // namespace fabrica

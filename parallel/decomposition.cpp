@@ -1,0 +1,135 @@
+#include "parallel/decomposition.hpp"
+
+#include <metis.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace fabrica {
+
+std::array<int, 3> Decomposition::bin_dims(const Vec3& L, real_t cutoff) {
+  std::array<int, 3> d;
+  for (int k = 0; k < 3; ++k) d[k] = std::max(1, int(std::floor(L[k] / cutoff)));
+  return d;
+}
+
+bool Decomposition::fits(const Vec3& L, real_t cutoff) const {
+  for (int k = 0; k < 3; ++k)
+    if (L[k] / dims_[k] < cutoff) return false;
+  return true;
+}
+
+Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff) {
+  Decomposition d;
+  d.kind_ = DecompositionKind::Cartesian;
+  d.dims_ = bin_dims(L, cutoff);
+  // The factorisation P1 P2 P3 = nranks with Pk <= bins along k that minimises the largest
+  // face area of a subdomain (ghost volume), for this cell's aspect ratio.
+  double best = std::numeric_limits<double>::infinity();
+  for (int p0 = 1; p0 <= nranks; ++p0) {
+    if (nranks % p0) continue;
+    for (int p1 = 1; p1 <= nranks / p0; ++p1) {
+      if ((nranks / p0) % p1) continue;
+      const int p2 = nranks / p0 / p1;
+      const int p[3] = {p0, p1, p2};
+      bool ok = true;
+      for (int k = 0; k < 3; ++k) ok &= p[k] <= d.dims_[k];
+      if (!ok) continue;
+      const double a = L[0] / p0, b = L[1] / p1, c = L[2] / p2;
+      const double surface = (p0 > 1 ? b * c : 0) + (p1 > 1 ? a * c : 0) + (p2 > 1 ? a * b : 0);
+      if (surface < best - 1e-15) {
+        best = surface;
+        d.grid_ = {p0, p1, p2};
+      }
+    }
+  }
+  if (!std::isfinite(best))
+    throw std::runtime_error(
+        "cannot split a cell of " + std::to_string(d.dims_[0]) + " x " + std::to_string(d.dims_[1]) +
+        " x " + std::to_string(d.dims_[2]) + " bins (bin edge >= 2 Rmax + skin) over " +
+        std::to_string(nranks) + " ranks; use fewer ranks or a larger specimen");
+  d.owner_.resize(d.bins());
+  for (int z = 0; z < d.dims_[2]; ++z)
+    for (int y = 0; y < d.dims_[1]; ++y)
+      for (int x = 0; x < d.dims_[0]; ++x) {
+        const int c0 = x * d.grid_[0] / d.dims_[0];
+        const int c1 = y * d.grid_[1] / d.dims_[1];
+        const int c2 = z * d.grid_[2] / d.dims_[2];
+        d.owner_[x + d.dims_[0] * (y + d.dims_[1] * z)] = c0 + d.grid_[0] * (c1 + d.grid_[1] * c2);
+      }
+  d.finish(nranks);
+  return d;
+}
+
+namespace {
+// The distinct periodic neighbours of a bin (itself excluded).
+std::vector<int> neighbour_bins(const std::array<int, 3>& n, int bin) {
+  const int c[3] = {bin % n[0], bin / n[0] % n[1], bin / (n[0] * n[1])};
+  std::vector<int> out;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int x = (c[0] + dx + n[0]) % n[0], y = (c[1] + dy + n[1]) % n[1],
+                  z = (c[2] + dz + n[2]) % n[2];
+        const int b = x + n[0] * (y + n[1] * z);
+        if (b != bin && std::find(out.begin(), out.end(), b) == out.end()) out.push_back(b);
+      }
+  return out;
+}
+}  // namespace
+
+Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff,
+                                   const std::vector<double>& bin_work, MPI_Comm comm) {
+  Decomposition d;
+  d.kind_ = DecompositionKind::Metis;
+  d.dims_ = bin_dims(L, cutoff);
+  const int nb = d.bins();
+  if (int(bin_work.size()) != nb) throw std::logic_error("metis: one work value per bin expected");
+  if (nb < nranks)
+    throw std::runtime_error("cannot partition " + std::to_string(nb) +
+                             " bins (bin edge >= 2 Rmax + skin) over " + std::to_string(nranks) +
+                             " ranks; use fewer ranks or a larger specimen");
+  d.owner_.assign(nb, 0);
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  if (nranks > 1 && rank == 0) {
+    std::vector<idx_t> xadj(1, 0), adjncy, vwgt(nb);
+    for (int b = 0; b < nb; ++b) {
+      for (int o : neighbour_bins(d.dims_, b)) adjncy.push_back(o);
+      xadj.push_back(idx_t(adjncy.size()));
+      vwgt[b] = idx_t(1 + std::llround(bin_work[b]));  // +1: empty bins still cost a little
+    }
+    idx_t nv = nb, ncon = 1, np = nranks, objval = 0;
+    idx_t options[METIS_NOPTIONS];
+    METIS_SetDefaultOptions(options);
+    options[METIS_OPTION_SEED] = 1;
+    options[METIS_OPTION_CONTIG] = 0;
+    std::vector<idx_t> part(nb);
+    const int rc = METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr,
+                                       nullptr, &np, nullptr, nullptr, options, &objval, part.data());
+    if (rc != METIS_OK) throw std::runtime_error("METIS_PartGraphKway failed with code " + std::to_string(rc));
+    for (int b = 0; b < nb; ++b) d.owner_[b] = int(part[b]);
+  }
+  MPI_Bcast(d.owner_.data(), nb, MPI_INT, 0, comm);
+  d.finish(nranks);
+  return d;
+}
+
+void Decomposition::finish(int nranks) {
+  (void)nranks;
+  const int nb = bins();
+  adj_ranks_.assign(nb, {});
+  for (int b = 0; b < nb; ++b) {
+    for (int o : neighbour_bins(dims_, b)) {
+      const int r = owner_[o];
+      auto& v = adj_ranks_[b];
+      if (r != owner_[b] && std::find(v.begin(), v.end(), r) == v.end()) v.push_back(r);
+    }
+    std::sort(adj_ranks_[b].begin(), adj_ranks_[b].end());
+  }
+}
+
+}  // namespace fabrica

@@ -1,0 +1,56 @@
+#include "parallel/exchange.hpp"
+
+#include <stdexcept>
+
+namespace fabrica {
+
+std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std::vector<char>>& out) {
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  std::vector<long long> scount(size), rcount(size);
+  for (int r = 0; r < size; ++r) scount[r] = static_cast<long long>(out[r].size());
+  MPI_Alltoall(scount.data(), 1, MPI_LONG_LONG, rcount.data(), 1, MPI_LONG_LONG, comm);
+  std::vector<int> sc(size), sd(size), rc(size), rd(size);
+  long long stot = 0, rtot = 0;
+  for (int r = 0; r < size; ++r) {
+    if (stot + scount[r] > INT32_MAX || rtot + rcount[r] > INT32_MAX)
+      throw std::runtime_error("exchange_all: more than 2 GiB in one exchange");
+    sc[r] = int(scount[r]), sd[r] = int(stot), stot += scount[r];
+    rc[r] = int(rcount[r]), rd[r] = int(rtot), rtot += rcount[r];
+  }
+  std::vector<char> sbuf(stot), rbuf(rtot);
+  for (int r = 0; r < size; ++r) std::copy(out[r].begin(), out[r].end(), sbuf.begin() + sd[r]);
+  MPI_Alltoallv(sbuf.data(), sc.data(), sd.data(), MPI_BYTE, rbuf.data(), rc.data(), rd.data(),
+                MPI_BYTE, comm);
+  std::vector<std::vector<char>> in(size);
+  for (int r = 0; r < size; ++r) in[r].assign(rbuf.begin() + rd[r], rbuf.begin() + rd[r] + rc[r]);
+  return in;
+}
+
+void NeighbourExchange::start(MPI_Comm comm, int tag) {
+  requests.clear();
+  recv_buf.resize(recv_ranks.size());
+  for (std::size_t k = 0; k < recv_ranks.size(); ++k) {
+    recv_buf[k].resize(recv_bytes[k]);
+    requests.emplace_back();
+    MPI_Irecv(recv_buf[k].data(), int(recv_bytes[k]), MPI_BYTE, recv_ranks[k], tag, comm,
+              &requests.back());
+  }
+  for (std::size_t k = 0; k < send_ranks.size(); ++k) {
+    requests.emplace_back();
+    MPI_Isend(send_buf[k].data(), int(send_buf[k].size()), MPI_BYTE, send_ranks[k], tag, comm,
+              &requests.back());
+  }
+}
+
+void NeighbourExchange::wait() {
+  MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+}
+
+std::size_t NeighbourExchange::bytes_sent() const {
+  std::size_t b = 0;
+  for (const auto& s : send_buf) b += s.size();
+  return b;
+}
+
+}  // namespace fabrica

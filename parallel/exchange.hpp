@@ -1,0 +1,29 @@
+// Moving bytes between ranks. No physics here: ranks, counts and byte buffers only.
+#pragma once
+#include <mpi.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace fabrica {
+
+// Sends out[r] to every rank r and returns what each rank sent to this one (in[r]).
+// Collective over comm (one MPI_Alltoall of sizes, one MPI_Alltoallv of bytes).
+// Before: out.size() == comm size. After: in.size() == comm size.
+std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std::vector<char>>& out);
+
+// A plan for the same exchange repeated every step between fixed partners (ghost updates):
+// what each partner gets and how many bytes each partner sends back.
+struct NeighbourExchange {
+  std::vector<int> send_ranks, recv_ranks;
+  std::vector<std::size_t> recv_bytes;  // per recv rank
+  std::vector<std::vector<char>> send_buf, recv_buf;
+  std::vector<MPI_Request> requests;
+
+  // Posts receives and sends of send_buf; after wait(), recv_buf holds the partners' bytes.
+  void start(MPI_Comm comm, int tag);
+  void wait();
+  std::size_t bytes_sent() const;
+};
+
+}  // namespace fabrica

@@ -1,0 +1,45 @@
+// RAII ownership of MPI for one executable: MPI_Init in the constructor, MPI_Finalize in the
+// destructor. Passed explicitly (no singleton); everything else takes an MPI_Comm.
+#pragma once
+#include <mpi.h>
+
+#include <stdexcept>
+#include <string>
+
+namespace fabrica {
+
+class MpiContext {
+ public:
+  MpiContext(int& argc, char**& argv) {
+    int initialized = 0;
+    MPI_Initialized(&initialized);
+    if (!initialized) {
+      MPI_Init(&argc, &argv);
+      owner_ = true;
+    }
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+    MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  }
+  ~MpiContext() {
+    if (owner_) MPI_Finalize();
+  }
+  MpiContext(const MpiContext&) = delete;
+  MpiContext& operator=(const MpiContext&) = delete;
+
+  MPI_Comm comm() const { return MPI_COMM_WORLD; }
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+
+ private:
+  bool owner_ = false;
+  int rank_ = 0, size_ = 1;
+};
+
+// An error that every rank detects identically (e.g. from reduced values): the run ends on every
+// rank with one message, printed by rank 0, without MPI_Abort.
+class CollectiveError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace fabrica

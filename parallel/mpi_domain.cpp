@@ -1,0 +1,220 @@
+#include "parallel/mpi_domain.hpp"
+
+#include "parallel/properties.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <unordered_map>
+
+namespace fabrica {
+
+namespace {
+
+constexpr int kForwardTag = 7101;
+
+struct HistoryRecord {
+  GlobalId a, b;
+  ContactHistory h;
+};
+
+template <class T>
+void put(std::vector<char>& buf, const T& v) {
+  const std::size_t s = buf.size();
+  buf.resize(s + sizeof(T));
+  std::memcpy(buf.data() + s, &v, sizeof(T));
+}
+template <class T>
+T get(const char*& in) {
+  T v;
+  std::memcpy(static_cast<void*>(&v), in, sizeof(T));
+  in += sizeof(T);
+  return v;
+}
+
+}  // namespace
+
+MpiDomain::MpiDomain(MPI_Comm comm, MpiDomainOptions opt) : comm_(comm), opt_(opt) {
+  MPI_Comm_rank(comm_, &rank_);
+  MPI_Comm_size(comm_, &size_);
+  forward_bytes_per_particle_ = bytes_per_particle(Message::Forward);
+}
+
+real_t MpiDomain::max_all(real_t local) {
+  real_t g = local;
+  MPI_Allreduce(&local, &g, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  return g;
+}
+
+void MpiDomain::sum_all(std::span<double> values) {
+  MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_DOUBLE, MPI_SUM, comm_);
+}
+
+double MpiDomain::load_imbalance(const Particles& p) {
+  double n = double(p.n_owned()), mx = 0, sum = 0;
+  MPI_Allreduce(&n, &mx, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  MPI_Allreduce(&n, &sum, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  return sum > 0 ? mx / (sum / size_) : 1.0;
+}
+
+std::vector<double> MpiDomain::global_bin_work(const Particles& p, const PeriodicCell& cell,
+                                               const Decomposition& d) {
+  std::vector<double> work(d.bins(), 0.0);
+  for (std::size_t a = 0; a < p.n_owned(); ++a) work[d.bin_of(p.x[a], cell.lengths())] += 1.0;
+  MPI_Allreduce(MPI_IN_PLACE, work.data(), int(work.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  return work;
+}
+
+void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell) {
+  if (opt_.kind == DecompositionKind::Cartesian) {
+    dec_ = Decomposition::cartesian(size_, cell.lengths(), cutoff_);
+  } else {
+    // Bin work from the current owners (the bins of the new decomposition).
+    const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
+    dec_ = Decomposition::metis(size_, cell.lengths(), cutoff_, global_bin_work(p, cell, shape),
+                                comm_);
+  }
+}
+
+void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) {
+  cutoff_ = cutoff;
+  // Every rank holds every particle here: bin work is local knowledge, so no reduction.
+  if (opt_.kind == DecompositionKind::Cartesian) {
+    dec_ = Decomposition::cartesian(size_, cell.lengths(), cutoff_);
+  } else {
+    const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
+    std::vector<double> work(shape.bins(), 0.0);
+    for (std::size_t a = 0; a < p.n_owned(); ++a) work[shape.bin_of(p.x[a], cell.lengths())] += 1;
+    dec_ = Decomposition::metis(size_, cell.lengths(), cutoff_, work, comm_);
+  }
+  std::vector<Index> keep;
+  for (std::size_t a = 0; a < p.n_owned(); ++a)
+    if (dec_->owner(dec_->bin_of(p.x[a], cell.lengths())) == rank_) keep.push_back(Index(a));
+  p.permute_owned(keep);
+}
+
+void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) {
+  p.clear_ghosts();
+  // The bins must stay at least one cutoff wide as the cell deforms; and METIS partitions are
+  // refreshed when the load has drifted.
+  if (!dec_->fits(cell.lengths(), cutoff_)) decompose(p, cell);
+  if (opt_.kind == DecompositionKind::Metis && ++rebuilds_since_check_ >= opt_.rebalance_interval) {
+    rebuilds_since_check_ = 0;
+    stats_.imbalance = load_imbalance(p);
+    if (stats_.imbalance > opt_.rebalance_threshold) {
+      stats_.imbalance_before = stats_.imbalance;
+      decompose(p, cell);
+      ++stats_.rebalances;
+      stats_.imbalance_after = -1;  // measured after the particles have moved, below
+    }
+  }
+
+  // Particles leaving, by destination.
+  const Vec3& L = cell.lengths();
+  std::vector<std::vector<Index>> leave(size_);
+  std::vector<Index> keep;
+  std::unordered_map<GlobalId, int> dest;
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const int r = dec_->owner(dec_->bin_of(p.x[a], L));
+    if (r == rank_) {
+      keep.push_back(Index(a));
+    } else {
+      leave[r].push_back(Index(a));
+      dest.emplace(p.id[a], r);
+    }
+  }
+  // Their contacts' springs go with them (to both destinations if both bodies leave).
+  std::vector<std::vector<HistoryRecord>> hist_out(size_);
+  if (!dest.empty()) {
+    history.for_each([&](GlobalId a, GlobalId b, const ContactHistory& h) {
+      int ra = -1;
+      if (auto it = dest.find(a); it != dest.end()) hist_out[ra = it->second].push_back({a, b, h});
+      if (b >= 0)
+        if (auto it = dest.find(b); it != dest.end() && it->second != ra)
+          hist_out[it->second].push_back({a, b, h});
+    });
+  }
+  std::vector<std::vector<char>> out(size_);
+  for (int r = 0; r < size_; ++r) {
+    if (leave[r].empty()) continue;
+    put(out[r], std::int64_t(leave[r].size()));
+    pack(p, leave[r], Message::Full, out[r]);
+    put(out[r], std::int64_t(hist_out[r].size()));
+    for (const HistoryRecord& h : hist_out[r]) put(out[r], h);
+    stats_.particles_migrated += std::int64_t(leave[r].size());
+    stats_.bytes_migrated += std::int64_t(out[r].size());
+  }
+  const auto in = exchange_all(comm_, out);
+  p.permute_owned(keep);
+  for (int r = 0; r < size_; ++r) {
+    if (in[r].empty()) continue;
+    const char* c = in[r].data();
+    const auto n = std::size_t(get<std::int64_t>(c));
+    c = unpack(p, p.append_owned(n), n, Message::Full, c);
+    const auto nh = get<std::int64_t>(c);
+    for (std::int64_t k = 0; k < nh; ++k) {
+      const auto h = get<HistoryRecord>(c);
+      history.insert(h.a, h.b, h.h);
+    }
+  }
+  ++stats_.migrations;
+  if (stats_.imbalance_after < 0) stats_.imbalance_after = load_imbalance(p);
+}
+
+void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) {
+  (void)cutoff;  // the bins are at least this wide (checked in migrate)
+  const Vec3& L = cell.lengths();
+  ghost_send_idx_.assign(size_, {});
+  for (std::size_t a = 0; a < p.n_owned(); ++a)
+    for (int r : dec_->neighbour_ranks(dec_->bin_of(p.x[a], L)))
+      ghost_send_idx_[r].push_back(Index(a));
+  std::vector<std::vector<char>> out(size_);
+  for (int r = 0; r < size_; ++r) {
+    if (ghost_send_idx_[r].empty()) continue;
+    pack(p, ghost_send_idx_[r], Message::Full, out[r]);
+    stats_.bytes_ghost_build += std::int64_t(out[r].size());
+  }
+  const auto in = exchange_all(comm_, out);
+  const std::size_t full = bytes_per_particle(Message::Full);
+  ghost_recv_first_.assign(size_, 0);
+  ghost_recv_count_.assign(size_, 0);
+  for (int r = 0; r < size_; ++r) {
+    const std::size_t n = in[r].size() / full;
+    ghost_recv_count_[r] = n;
+    ghost_recv_first_[r] = p.append_ghosts(n);
+    unpack(p, ghost_recv_first_[r], n, Message::Full, in[r].data());
+  }
+  // The forward plan: same partners, same order, every step.
+  forward_.send_ranks.clear();
+  forward_.recv_ranks.clear();
+  forward_.recv_bytes.clear();
+  forward_.send_buf.clear();
+  for (int r = 0; r < size_; ++r) {
+    if (!ghost_send_idx_[r].empty()) {
+      forward_.send_ranks.push_back(r);
+      forward_.send_buf.emplace_back();
+    }
+    if (ghost_recv_count_[r] != 0) {
+      forward_.recv_ranks.push_back(r);
+      forward_.recv_bytes.push_back(ghost_recv_count_[r] * forward_bytes_per_particle_);
+    }
+  }
+}
+
+void MpiDomain::update_ghosts(Particles& p) {
+  for (std::size_t k = 0; k < forward_.send_ranks.size(); ++k) {
+    auto& buf = forward_.send_buf[k];
+    buf.clear();
+    pack(p, ghost_send_idx_[forward_.send_ranks[k]], Message::Forward, buf);
+  }
+  forward_.start(comm_, kForwardTag);
+  forward_.wait();
+  for (std::size_t k = 0; k < forward_.recv_ranks.size(); ++k) {
+    const int r = forward_.recv_ranks[k];
+    unpack(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward,
+           forward_.recv_buf[k].data());
+  }
+  stats_.bytes_forward += std::int64_t(forward_.bytes_sent());
+  ++stats_.forward_updates;
+}
+
+}  // namespace fabrica

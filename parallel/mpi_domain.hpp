@@ -1,0 +1,76 @@
+// The MPI implementation of core/domain.hpp: spatial decomposition (parallel/decomposition.hpp),
+// ghosts, migration with contact history, reductions and load balance.
+//
+// Contacts between an owned particle and a ghost are computed on both ranks, identically
+// (same inputs, bitwise: the ghost is an exact copy, the pair is oriented by global id), and
+// each rank adds the force only to its own particle. There is no reverse communication of
+// forces; the history of such a contact is held, identically, by both ranks, and travels with
+// a migrating particle so that its new owner has it. Energies and measures of a contact are
+// counted by the rank that owns its lower-id body.
+#pragma once
+#include "core/domain.hpp"
+#include "parallel/decomposition.hpp"
+#include "parallel/exchange.hpp"
+
+#include <mpi.h>
+
+#include <optional>
+
+namespace fabrica {
+
+struct MpiDomainOptions {
+  DecompositionKind kind = DecompositionKind::Cartesian;
+  double rebalance_threshold = 1.10;  // repartition (METIS) when max/mean work exceeds this
+  int rebalance_interval = 10;        // check the imbalance every this many rebuilds
+};
+
+struct DomainStats {
+  std::int64_t migrations = 0;          // rebuilds with migration
+  std::int64_t particles_migrated = 0;  // sent by this rank
+  std::int64_t bytes_migrated = 0;      // sent by this rank (particles + history)
+  std::int64_t bytes_ghost_build = 0;   // sent by this rank at ghost creation
+  std::int64_t bytes_forward = 0;       // sent by this rank in forward updates
+  std::int64_t forward_updates = 0;
+  std::int64_t rebalances = 0;
+  double imbalance_before = 1, imbalance_after = 1;  // last rebalance (max/mean owned particles)
+  double imbalance = 1;                 // at the last check
+};
+
+class MpiDomain final : public Domain {
+ public:
+  MpiDomain(MPI_Comm comm, MpiDomainOptions opt = {});
+
+  void update_ghosts(Particles& p) override;
+  real_t max_all(real_t local) override;
+  void sum_all(std::span<double> values) override;
+  void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
+  void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) override;
+  void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
+  int rank() const override { return rank_; }
+  int size() const override { return size_; }
+
+  const Decomposition& decomposition() const { return *dec_; }
+  const DomainStats& stats() const { return stats_; }
+  // max/mean of the owned particle count over ranks (collective).
+  double load_imbalance(const Particles& p);
+
+ private:
+  void decompose(const Particles& p, const PeriodicCell& cell);
+  std::vector<double> global_bin_work(const Particles& p, const PeriodicCell& cell,
+                                      const Decomposition& d);
+
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  MpiDomainOptions opt_;
+  real_t cutoff_ = 0;
+  std::optional<Decomposition> dec_;
+  // Ghost plan: owned indices sent to each partner every step; ghosts received from each.
+  std::vector<std::vector<Index>> ghost_send_idx_;
+  std::vector<std::size_t> ghost_recv_first_, ghost_recv_count_;
+  NeighbourExchange forward_;
+  std::size_t forward_bytes_per_particle_ = 0;
+  std::int64_t rebuilds_since_check_ = 0;
+  DomainStats stats_;
+};
+
+}  // namespace fabrica

@@ -1,0 +1,77 @@
+// How each particle property travels between ranks, declared once; packing and unpacking of
+// ghosts and migrants follow from this list (after waLBerla mesa_pd's syncMode and LAMMPS'
+// fields_comm / fields_border).
+//   EveryStep  - sent to ghosts every step (forward update) and with ghosts and migrants
+//   AtCreation - sent when a ghost is created and with migrants, never in between
+//   Never      - not sent (accumulators, rebuilt every step)
+// Contact history is not a particle property: it travels with migrants, keyed by the two ids
+// (parallel/mpi_domain.cpp).
+#pragma once
+#include "core/particles.hpp"
+
+#include <cstring>
+#include <vector>
+
+namespace fabrica {
+
+enum class Travel { EveryStep, AtCreation, Never };
+
+// Calls f(name, vector, travel) for every property of Particles.
+template <class P, class F>
+void for_each_property(P& p, F&& f) {
+  f("x", p.x, Travel::EveryStep);
+  f("v", p.v, Travel::EveryStep);
+  f("w", p.w, Travel::EveryStep);
+  f("radius", p.radius, Travel::AtCreation);
+  f("mass", p.mass, Travel::AtCreation);
+  f("inertia", p.inertia, Travel::AtCreation);
+  f("inv_mass", p.inv_mass, Travel::AtCreation);
+  f("inv_inertia", p.inv_inertia, Travel::AtCreation);
+  f("id", p.id, Travel::AtCreation);
+  f("f", p.f, Travel::Never);
+  f("t", p.t, Travel::Never);
+}
+
+// Which properties a message carries.
+enum class Message { Forward, Full };  // Forward: EveryStep only; Full: EveryStep + AtCreation
+
+inline bool carries(Message m, Travel t) {
+  return t == Travel::EveryStep || (m == Message::Full && t == Travel::AtCreation);
+}
+
+// Bytes per particle of a message.
+inline std::size_t bytes_per_particle(Message m) {
+  std::size_t b = 0;
+  Particles probe;
+  for_each_property(probe, [&](const char*, auto& vec, Travel t) {
+    if (carries(m, t)) b += sizeof(typename std::decay_t<decltype(vec)>::value_type);
+  });
+  return b;
+}
+
+// Appends the properties of particles idx to buf, particle by particle.
+inline void pack(const Particles& p, const std::vector<Index>& idx, Message m,
+                 std::vector<char>& buf) {
+  const std::size_t start = buf.size();
+  buf.resize(start + idx.size() * bytes_per_particle(m));
+  char* out = buf.data() + start;
+  for (Index a : idx)
+    for_each_property(p, [&](const char*, const auto& vec, Travel t) {
+      if (!carries(m, t)) return;
+      std::memcpy(out, &vec[a], sizeof(vec[a]));
+      out += sizeof(vec[a]);
+    });
+}
+
+// Writes n packed particles from 'in' into p at indices first .. first+n-1; returns the end.
+inline const char* unpack(Particles& p, std::size_t first, std::size_t n, Message m, const char* in) {
+  for (std::size_t a = first; a < first + n; ++a)
+    for_each_property(p, [&](const char*, auto& vec, Travel t) {
+      if (!carries(m, t)) return;
+      std::memcpy(static_cast<void*>(&vec[a]), in, sizeof(vec[a]));
+      in += sizeof(vec[a]);
+    });
+  return in;
+}
+
+}  // namespace fabrica
