@@ -1,0 +1,212 @@
+// Rank-count independence. Each test runs the same scene serially on every rank (no
+// communication) and in parallel over all ranks, then compares, particle by particle (by id),
+// the parallel owner's state with the serial one. Registered at 1, 2, 3 and 4 ranks.
+#include "core/generate.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "io/setup.hpp"
+#include "parallel/mpi_domain.hpp"
+
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <unordered_map>
+
+using namespace fabrica;
+
+namespace {
+
+int comm_size() {
+  int s;
+  MPI_Comm_size(MPI_COMM_WORLD, &s);
+  return s;
+}
+int comm_rank() {
+  int r;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
+double max_all(double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  return v;
+}
+double sum_all(double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  return v;
+}
+
+fabrica::Setup dense_setup() {
+  const std::string path = std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
+  return make_setup(load_scene(path));
+}
+
+// Largest difference of x, v, w between the parallel owners and the serial run, over all ranks.
+struct Diff {
+  double x = 0, v = 0, w = 0;
+  std::int64_t compared = 0;
+};
+Diff compare(const Simulation& par, const Simulation& ser) {
+  const Particles& P = par.particles();
+  const Particles& S = ser.particles();
+  std::unordered_map<GlobalId, std::size_t> at;
+  for (std::size_t a = 0; a < S.n_owned(); ++a) at[S.id[a]] = a;
+  Diff d;
+  for (std::size_t a = 0; a < P.n_owned(); ++a) {
+    const std::size_t b = at.at(P.id[a]);
+    d.x = std::max(d.x, (P.x[a] - S.x[b]).cwiseAbs().maxCoeff());
+    d.v = std::max(d.v, (P.v[a] - S.v[b]).cwiseAbs().maxCoeff());
+    d.w = std::max(d.w, (P.w[a] - S.w[b]).cwiseAbs().maxCoeff());
+  }
+  d.x = max_all(d.x), d.v = max_all(d.v), d.w = max_all(d.w);
+  d.compared = std::int64_t(sum_all(double(P.n_owned())));
+  return d;
+}
+
+class DenseRun : public ::testing::TestWithParam<DecompositionKind> {};
+
+}  // namespace
+
+// The dense packing: 1000 steps on N ranks against 1 rank. Required: relative difference of the
+// positions below 1e-10 (of the cell length); achieved: bitwise equality, asserted as such.
+TEST_P(DenseRun, SameTrajectoryOnEveryRankCount) {
+  fabrica::Setup s = dense_setup();
+  Simulation serial(s.particles, s.cell, s.params);
+  MpiDomainOptions opt;
+  opt.kind = GetParam();
+  MpiDomain domain(MPI_COMM_WORLD, opt);
+  Simulation par(s.particles, s.cell, s.params, &domain);
+  const std::size_t n = s.particles.n_owned();
+
+  auto momentum = [](const Simulation& sim) {
+    Vec3 p = Vec3::Zero();
+    double scale = 0;
+    for (std::size_t a = 0; a < sim.particles().n_owned(); ++a) {
+      p += sim.particles().mass[a] * sim.particles().v[a];
+      scale += sim.particles().mass[a] * sim.particles().v[a].norm();
+    }
+    MPI_Allreduce(MPI_IN_PLACE, p.data(), 3, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    return std::make_pair(p, sum_all(scale));
+  };
+  for (int k = 1; k <= 1000; ++k) {
+    serial.step(k % 500 == 0);
+    par.step(k % 500 == 0);
+  }
+  const Diff d = compare(par, serial);
+  EXPECT_EQ(d.compared, std::int64_t(n));  // every particle owned exactly once
+  const double L = s.cell.lengths().maxCoeff();
+  EXPECT_LT(d.x / L, 1e-10);                // the requirement
+  EXPECT_EQ(d.x, 0.0) << "positions differ from the serial run by " << d.x << " m";
+  EXPECT_EQ(d.v, 0.0);
+  EXPECT_EQ(d.w, 0.0);
+  EXPECT_EQ(par.macro().contacts, serial.macro().contacts);
+  EXPECT_EQ(par.rebuild_count(), serial.rebuild_count());
+  // Measures are sums over ranks in a different order: equal to rounding.
+  EXPECT_NEAR(par.macro().p, serial.macro().p, 1e-12 * serial.macro().p);
+  EXPECT_NEAR(par.macro().kinetic, serial.macro().kinetic, 1e-12 * serial.macro().kinetic);
+  // Total momentum stays zero (it starts at rest) to rounding.
+  const auto [P, scale] = momentum(par);
+  EXPECT_LT(P.norm(), 1e-12 * scale) << "momentum " << P.transpose();
+  EXPECT_GT(serial.rebuild_count(), 5);  // the run did rebuild (and migrate) several times
+  if (comm_rank() == 0 && comm_size() > 1) {
+    const DomainStats& st = domain.stats();
+    std::printf("ranks %d %s: migrated %lld particles, %lld B/step forward, imbalance %.3f\n",
+                comm_size(), GetParam() == DecompositionKind::Metis ? "metis" : "cartesian",
+                (long long)st.particles_migrated,
+                (long long)(st.bytes_forward / std::max<std::int64_t>(1, st.forward_updates)),
+                domain.load_imbalance(par.particles()));
+  } else if (comm_size() > 1) {
+    domain.load_imbalance(par.particles());
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Decompositions, DenseRun,
+                         ::testing::Values(DecompositionKind::Cartesian, DecompositionKind::Metis),
+                         [](const auto& info) {
+                           return info.param == DecompositionKind::Metis ? "Metis" : "Cartesian";
+                         });
+
+// Every pair within R_i + R_j + skin, across ranks and periodic faces, is in exactly one rank's
+// list with its lower-id body owned there, and the union equals the brute-force set.
+TEST(Decomposition, EveryPairFoundExactlyOnce) {
+  fabrica::Setup s = dense_setup();
+  const auto brute = brute_force_pairs(s.particles, s.cell, s.params.skin);
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation par(s.particles, s.cell, s.params, &domain);
+  const Particles& p = par.particles();
+  const PairList& pl = par.pairs();
+  std::vector<long long> mine;
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    if (std::size_t(pl.i[q]) < p.n_owned()) mine.push_back(p.id[pl.i[q]]), mine.push_back(p.id[pl.j[q]]);
+  int count = int(mine.size()), size = comm_size();
+  std::vector<int> counts(size), displs(size);
+  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  int total = 0;
+  for (int r = 0; r < size; ++r) displs[r] = total, total += counts[r];
+  std::vector<long long> all(total);
+  MPI_Allgatherv(mine.data(), count, MPI_LONG_LONG, all.data(), counts.data(), displs.data(),
+                 MPI_LONG_LONG, MPI_COMM_WORLD);
+  std::vector<std::pair<GlobalId, GlobalId>> got;
+  for (int k = 0; k < total; k += 2) got.emplace_back(all[k], all[k + 1]);
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(std::adjacent_find(got.begin(), got.end()), got.end()) << "a pair is listed twice";
+  EXPECT_EQ(got.size(), brute.size());
+  EXPECT_TRUE(got == brute);
+}
+
+// Two soft spheres stay in contact while travelling along the long axis across every subdomain
+// boundary (the contact is sheared and rolled all the way): after the crossings the shear and
+// rolling springs equal the serial run's, bitwise, and particles did migrate.
+TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
+  Particles p;
+  const real_t R = 0.05;
+  p.add({7, R, 2650, Vec3(0.10, 0.15, 0.15), Vec3(20.0, 0.05, 0), Vec3(0, 0, 3.0)});
+  p.add({3, R, 2650, Vec3(0.10, 0.15 + 2 * R - 0.002, 0.15), Vec3(20.0, -0.05, 0), Vec3(0, 0, -3.0)});
+  // Spectators so that every rank owns something.
+  for (int k = 0; k < 8; ++k) p.add({100 + k, 0.02, 2650, Vec3(0.2 + 0.25 * k, 0.05, 0.05)});
+  const PeriodicCell cell(Vec3(2.0, 0.3, 0.3));
+  SimulationParams par;
+  par.law.stiffness_mode = NormalStiffnessMode::Direct;
+  par.law.normal_stiffness = 200.0;
+  par.law.friction = 0.5;
+  par.law.rolling_friction = 0.2;
+  par.skin = 0.002;
+  par.dt = 1e-4;
+  Simulation serial(p, cell, par);
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation sim(p, cell, par, &domain);
+  for (int k = 0; k < 1000; ++k) serial.step(), sim.step();  // 0.1 s: 2 m, the whole cell
+
+  auto find = [](const Simulation& s, Vec3& fs, Vec3& mr) {
+    const Particles& q = s.particles();
+    for (std::size_t c = 0; c < s.pairs().size(); ++c) {
+      const auto i = s.pairs().i[c], j = s.pairs().j[c];
+      if (std::size_t(i) < q.n_owned() && q.id[i] == 3 && q.id[j] == 7 && s.pairs().touching[c]) {
+        fs = s.pairs().fs[c];
+        mr = s.pairs().mr[c];
+        return 1;
+      }
+    }
+    return 0;
+  };
+  Vec3 fs_s, mr_s, fs_p = Vec3::Zero(), mr_p = Vec3::Zero();
+  ASSERT_EQ(find(serial, fs_s, mr_s), 1) << "the contact broke in the serial run";
+  const int here = find(sim, fs_p, mr_p);
+  int owners = here;
+  MPI_Allreduce(MPI_IN_PLACE, &owners, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(owners, 1);  // the contact exists once (with its lower-id body owned)
+  double buf[6] = {0, 0, 0, 0, 0, 0};
+  if (here) std::copy(fs_p.data(), fs_p.data() + 3, buf), std::copy(mr_p.data(), mr_p.data() + 3, buf + 3);
+  MPI_Allreduce(MPI_IN_PLACE, buf, 6, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(fs_s.norm(), 0.0);
+  EXPECT_GT(mr_s.norm(), 0.0);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(buf[k], fs_s[k]);
+    EXPECT_EQ(buf[3 + k], mr_s[k]);
+  }
+  const double migrated = sum_all(double(domain.stats().particles_migrated));
+  if (comm_size() > 1) EXPECT_GE(migrated, 2.0 * comm_size());  // both crossed every boundary
+  const Diff d = compare(sim, serial);
+  EXPECT_EQ(d.x, 0.0);
+}
