@@ -3,6 +3,7 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
+#include "parallel/guard.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
 
@@ -60,7 +61,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     o.rebalance_interval = int(scene.parallel.rebalance_interval);
     domain = std::make_unique<MpiDomain>(mpi.comm(), o);
   }
-  if (!root) std::fclose(stdout), stdout = std::fopen("/dev/null", "w");
+  if (!root && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
              s.particles.n_owned(), s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);
   fmt::print("critical time step {:.4e} s, time step {:.4e} s (fraction {:.3f})\n", s.critical_dt,
@@ -139,24 +140,12 @@ int main(int argc, char** argv) {
   CLI::App* runc = app.add_subcommand("run", "run a scene (default: the built-in demo scene)");
   runc->add_option("scene", scene_path, "scene file (TOML)")->check(CLI::ExistingFile);
   runc->add_option("-o,--output", outdir, "output directory");
-  // Errors: input errors and collective errors (detected identically on every rank) are
-  // printed once by rank 0 and every rank exits with 1; any other error is printed by the rank
-  // that met it and ends every rank through MPI_Abort, so nothing hangs.
-  try {
-    app.parse(argc, argv);
+  return run_guarded(mpi, [&]() -> int {
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      return mpi.rank() == 0 ? app.exit(e) : e.get_exit_code();
+    }
     return run(mpi, scene_path, outdir);
-  } catch (const CLI::ParseError& e) {
-    return mpi.rank() == 0 ? app.exit(e) : (e.get_exit_code());
-  } catch (const InputError& e) {
-    if (mpi.rank() == 0) fmt::print(stderr, "fabrica: error: {}\n", e.what());
-    return 1;
-  } catch (const CollectiveError& e) {
-    if (mpi.rank() == 0) fmt::print(stderr, "fabrica: error: {}\n", e.what());
-    return 1;
-  } catch (const std::exception& e) {
-    fmt::print(stderr, "fabrica: error on rank {} of {}: {}\n", mpi.rank(), mpi.size(), e.what());
-    std::fflush(stderr);
-    if (mpi.size() > 1) MPI_Abort(mpi.comm(), 1);
-    return 1;
-  }
+  });
 }
