@@ -30,8 +30,8 @@ cmake --build build -j"$jobs"
 
 if [ "$mode" = demo ]; then
   out=out/demo
-  echo "== running the built-in demo scene (examples/demo.toml) into $out"
-  mpirun -np 1 build/apps/fabrica run -o "$out"
+  echo "== running the built-in demo scene (examples/demo.toml) on 2 MPI ranks into $out"
+  mpirun --oversubscribe -np 2 build/apps/fabrica run -o "$out"
   /usr/bin/python3 apps/plot_series.py "$out/series.csv" -o "$out"
 else
   echo "== running the test suite"
