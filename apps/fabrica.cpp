@@ -41,11 +41,10 @@ void print_row(const Simulation& sim, const MacroState& m, std::ofstream* csv) {
   }
 }
 
-// Stops the run with a diagnostic if the state is no longer physical.
-void check_sane(const Simulation& sim, const MacroState& m) {
-  if (!std::isfinite(m.kinetic) || !std::isfinite(m.p))
-    throw CollectiveError(fmt::format("numerical blow-up at step {}: kinetic energy {}, p {}",
-                                      sim.step_count(), m.kinetic, m.p));
+// Stops the run, on every rank, with a diagnostic if the state is no longer physical.
+void check_sane(const Simulation& sim, const MacroState& m, real_t max_overlap) {
+  const std::string msg = diagnose(m, sim.step_count(), max_overlap);
+  if (!msg.empty()) throw CollectiveError(msg);
 }
 
 int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir) {
@@ -97,7 +96,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
       sim.step(measure);
       if (!measure) continue;
       const MacroState m = sim.macro();
-      check_sane(sim, m);
+      check_sane(sim, m, scene.max_overlap);
       if (k % (50 * 40) == 0) print_row(sim, m, nullptr);
       if (m.p >= scene.compress.target_pressure) break;
     }
@@ -117,7 +116,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     sim.step(measure);
     if (!measure) continue;
     const MacroState m = sim.macro();
-    check_sane(sim, m);
+    check_sane(sim, m, scene.max_overlap);
     print_row(sim, m, root ? &csv : nullptr);
   }
   steps_done += scene.steps;

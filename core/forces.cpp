@@ -93,6 +93,12 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
         if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
         sums->sum_contact_force += F.norm();
         ++sums->contacts_per_particle[i];
+        const real_t ratio = k.un / std::min(R[i], R[j]);
+        if (ratio > sums->max_overlap_ratio) {
+          sums->max_overlap_ratio = ratio;
+          sums->max_overlap_a = P.id[i];
+          sums->max_overlap_b = P.id[j];
+        }
       }
       if (std::size_t(j) < n_owned) ++sums->contacts_per_particle[j];
     }
@@ -143,6 +149,11 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     diss.viscous += r.e_viscous;
     if constexpr (Measure) {
       ++sums->wall_contacts;
+      if (k.un / R > sums->max_overlap_ratio) {
+        sums->max_overlap_ratio = k.un / R;
+        sums->max_overlap_a = P.id[i];
+        sums->max_overlap_b = -1 - wl.wall[q];
+      }
       sums->e_normal += spring_energy_normal(c, k.un);
       sums->e_shear += spring_energy_shear(c, h);
       if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);

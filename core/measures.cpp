@@ -1,6 +1,8 @@
 #include "core/measures.hpp"
 
 #include <cmath>
+#include <limits>
+#include <sstream>
 
 namespace fabrica {
 
@@ -50,6 +52,18 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   v[kDl] = diss.local;
   domain.sum_all(std::span<double>(v, kCount));
 
+  // Sanity figures: the global maximum and its owner's ids (ties: the largest ids win).
+  GlobalId nonfinite = std::numeric_limits<GlobalId>::max();
+  for (std::size_t a = 0; a < n; ++a)
+    if (!p.x[a].allFinite() || !p.v[a].allFinite() || !p.w[a].allFinite())
+      nonfinite = std::min(nonfinite, p.id[a]);
+  const real_t max_ratio = domain.max_all(sums.max_overlap_ratio);
+  const bool mine = sums.max_overlap_a >= 0 && sums.max_overlap_ratio == max_ratio;
+  const real_t ida = domain.max_all(mine ? real_t(sums.max_overlap_a) : -1.0);
+  const real_t idb = domain.max_all(mine && real_t(sums.max_overlap_a) == ida
+                                        ? real_t(sums.max_overlap_b) : -1e300);
+  const real_t bad = -domain.max_all(-real_t(nonfinite));
+
   MacroState m;
   m.volume = cell.volume();
   for (int a = 0; a < 3; ++a)
@@ -70,7 +84,28 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   m.unbalanced = (nc > 0 && v[kFc] > 0) ? (v[kFp] / N) / (v[kFc] / nc) : 0.0;
   m.void_ratio = m.volume / v[kVs] - 1.0;
   m.particles = std::int64_t(N);
+  m.max_overlap_ratio = max_ratio;
+  m.max_overlap_a = GlobalId(ida);
+  m.max_overlap_b = ida >= 0 ? GlobalId(idb) : -1;
+  m.first_nonfinite = bad < real_t(std::numeric_limits<GlobalId>::max()) ? GlobalId(bad) : -1;
   return m;
+}
+
+std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio) {
+  std::ostringstream s;
+  s.precision(6);
+  if (m.first_nonfinite >= 0 || !std::isfinite(m.kinetic) || !std::isfinite(m.p)) {
+    s << "numerical blow-up at step " << step << ": ";
+    if (m.first_nonfinite >= 0) s << "particle " << m.first_nonfinite << " has a non-finite position, velocity or spin; ";
+    s << "kinetic energy " << m.kinetic << " J, p " << m.p << " Pa";
+  } else if (m.max_overlap_ratio > max_overlap_ratio) {
+    s << "numerical blow-up at step " << step << ": overlap of particles " << m.max_overlap_a
+      << " and " << m.max_overlap_b << " is " << m.max_overlap_ratio
+      << " of the smaller radius (limit " << max_overlap_ratio
+      << "); the time step is too large for the stiffness, or the specimen was generated with "
+         "overlaps";
+  }
+  return s.str();
 }
 
 }  // namespace fabrica

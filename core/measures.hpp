@@ -6,6 +6,8 @@
 #include "core/domain.hpp"
 #include "core/forces.hpp"
 
+#include <string>
+
 namespace fabrica {
 
 struct MacroState {
@@ -21,7 +23,17 @@ struct MacroState {
   real_t volume = 0;           // m^3
   real_t void_ratio = 0;
   std::int64_t particles = 0;  // over all ranks
+  // Sanity: the largest overlap relative to the smaller radius and its two bodies, and the
+  // first particle (lowest id) with a non-finite position, velocity or spin (-1 if none).
+  real_t max_overlap_ratio = 0;
+  GlobalId max_overlap_a = -1, max_overlap_b = -1;
+  GlobalId first_nonfinite = -1;
 };
+
+// A message naming the step, the particle ids and the values if the state is not physical
+// (non-finite values, or an overlap above max_overlap_ratio of the smaller radius); empty if
+// the state is sane. The same on every rank (it reads reduced values only).
+std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio);
 
 real_t kinetic_energy(const Particles& p);
 void deviatoric_invariants(const Mat3& sigma, real_t& p, real_t& q);

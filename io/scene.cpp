@@ -255,6 +255,9 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (auto o = R.integer("output_every")) sc.output_every = *o;
   if (sc.output_every <= 0) R.fail("output_every", std::to_string(sc.output_every), "must be positive");
   sc.gravity = R.vec3("gravity").value_or(Vec3::Zero());
+  sc.max_overlap = R.number("max_overlap", sc.max_overlap);
+  require(R, "max_overlap", sc.max_overlap, sc.max_overlap > 0 && sc.max_overlap <= 1,
+          "must lie in (0, 1] (fraction of the smaller radius)");
   sc.local_damping = R.number("local_damping", sc.local_damping);
   require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
           "must lie in [0, 1)");

@@ -60,6 +60,7 @@ struct Scene {
   real_t skin = 0.001;            // m
   std::int64_t output_every = 100;
   Vec3 gravity = Vec3::Zero();    // m/s^2
+  real_t max_overlap = 0.25;      // stop when an overlap exceeds this fraction of the smaller radius
   ParallelSpec parallel;
 };
 
