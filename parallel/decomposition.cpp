@@ -12,13 +12,13 @@ namespace fabrica {
 
 std::array<int, 3> Decomposition::bin_dims(const Vec3& L, real_t cutoff) {
   std::array<int, 3> d;
-  for (int k = 0; k < 3; ++k) d[k] = std::max(1, int(std::floor(L[k] / cutoff)));
+  for (int k = 0; k < 3; ++k) d[k] = std::max(1, int(std::floor(L[k] * kReach / cutoff)));
   return d;
 }
 
 bool Decomposition::fits(const Vec3& L, real_t cutoff) const {
   for (int k = 0; k < 3; ++k)
-    if (L[k] / dims_[k] < cutoff) return false;
+    if (L[k] / dims_[k] * kReach < cutoff) return false;
   return true;
 }
 
@@ -49,7 +49,7 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff)
   if (!std::isfinite(best))
     throw std::runtime_error(
         "cannot split a cell of " + std::to_string(d.dims_[0]) + " x " + std::to_string(d.dims_[1]) +
-        " x " + std::to_string(d.dims_[2]) + " bins (bin edge >= 2 Rmax + skin) over " +
+        " x " + std::to_string(d.dims_[2]) + " bins (bin edge >= (2 Rmax + skin) / 2) over " +
         std::to_string(nranks) + " ranks; use fewer ranks or a larger specimen");
   d.owner_.resize(d.bins());
   for (int z = 0; z < d.dims_[2]; ++z)
@@ -65,15 +65,15 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff)
 }
 
 namespace {
-// The distinct periodic neighbours of a bin (itself excluded).
+// The distinct periodic bins within kReach of a bin along every axis (itself excluded).
 std::vector<int> neighbour_bins(const std::array<int, 3>& n, int bin) {
   const int c[3] = {bin % n[0], bin / n[0] % n[1], bin / (n[0] * n[1])};
   std::vector<int> out;
-  for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int x = (c[0] + dx + n[0]) % n[0], y = (c[1] + dy + n[1]) % n[1],
-                  z = (c[2] + dz + n[2]) % n[2];
+  for (int dz = -kReach; dz <= kReach; ++dz)
+    for (int dy = -kReach; dy <= kReach; ++dy)
+      for (int dx = -kReach; dx <= kReach; ++dx) {
+        const int x = ((c[0] + dx) % n[0] + n[0]) % n[0], y = ((c[1] + dy) % n[1] + n[1]) % n[1],
+                  z = ((c[2] + dz) % n[2] + n[2]) % n[2];
         const int b = x + n[0] * (y + n[1] * z);
         if (b != bin && std::find(out.begin(), out.end(), b) == out.end()) out.push_back(b);
       }
@@ -90,7 +90,7 @@ Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff,
   if (int(bin_work.size()) != nb) throw std::logic_error("metis: one work value per bin expected");
   if (nb < nranks)
     throw std::runtime_error("cannot partition " + std::to_string(nb) +
-                             " bins (bin edge >= 2 Rmax + skin) over " + std::to_string(nranks) +
+                             " bins (bin edge >= (2 Rmax + skin) / 2) over " + std::to_string(nranks) +
                              " ranks; use fewer ranks or a larger specimen");
   d.owner_.assign(nb, 0);
   int rank = 0;

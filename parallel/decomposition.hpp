@@ -1,8 +1,10 @@
 // Domain decomposition of the periodic cell over MPI ranks.
 //
 // The cell is divided into bins in reduced coordinates (x_k / L_k), so subdomain bounds follow
-// the cell as it deforms. A bin's edge is at least the interaction cutoff (2 Rmax + skin), so
-// every pair that can interact lies in the same or in adjacent bins (26 neighbours, periodic).
+// the cell as it deforms. A bin's edge is at least half the interaction cutoff (2 Rmax + skin),
+// so every pair that can interact lies within two bins of each other along every axis
+// (kReach = 2: the 124 neighbours of a bin, periodic). Half-cutoff bins let the subdomains be
+// cut twice as finely as cutoff-wide bins would, for a better balance of the load.
 // Each bin belongs to one rank:
 //   - Cartesian: the ranks form a P1 x P2 x P3 grid (the factorisation of the rank count that
 //     minimises the largest subdomain surface for this cell's aspect) and own blocks of bins;
@@ -21,6 +23,8 @@ namespace fabrica {
 
 enum class DecompositionKind { Cartesian, Metis };
 
+inline constexpr int kReach = 2;  // bins per cutoff
+
 class Decomposition {
  public:
   // Cartesian decomposition; throws std::runtime_error if the cell is too small for nranks
@@ -29,7 +33,7 @@ class Decomposition {
   // METIS decomposition with one weight per bin (size dims product, in bin order).
   static Decomposition metis(int nranks, const Vec3& L, real_t cutoff,
                              const std::vector<double>& bin_work, MPI_Comm comm);
-  // The bins for a cell and cutoff (the same for both kinds).
+  // The bins for a cell and cutoff (the same for both kinds): edges >= cutoff / kReach.
   static std::array<int, 3> bin_dims(const Vec3& L, real_t cutoff);
 
   DecompositionKind kind() const { return kind_; }
@@ -47,9 +51,9 @@ class Decomposition {
     return c[0] + dims_[0] * (c[1] + dims_[1] * c[2]);
   }
   int owner(int bin) const { return owner_[bin]; }
-  // Distinct ranks other than 'self' that own a bin adjacent to 'bin' (periodic).
+  // Distinct ranks, other than the bin's owner, that own a bin within kReach of 'bin' (periodic).
   const std::vector<int>& neighbour_ranks(int bin) const { return adj_ranks_[bin]; }
-  // True while bins are still at least 'cutoff' wide in the current cell.
+  // True while bins are still at least cutoff / kReach wide in the current cell.
   bool fits(const Vec3& L, real_t cutoff) const;
 
  private:
