@@ -18,7 +18,7 @@ Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams 
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
   domain_->adopt(p_, cell_, cutoff_max_);
   rebuild();
-  compute(true);
+  compute(true, 0.0);  // initial forces: no time passes, so the springs must not advance
   measure_and_reduce();
 }
 
@@ -57,7 +57,7 @@ void Simulation::step(bool measure) {
     rebuild();
     clk.lap(&PhaseTimes::rebuild);
   }
-  compute(measure);
+  compute(measure, dt);
   clk.lap(&PhaseTimes::force);
   half_kick(p_, dt);
   clk.lap(&PhaseTimes::integrate);
@@ -70,10 +70,10 @@ void Simulation::step(bool measure) {
   time_ += dt;
 }
 
-void Simulation::compute(bool measure) {
-  const ForceContext ctx{par_.law, par_.walls, par_.gravity, par_.dt};
+void Simulation::compute(bool measure, real_t dt) {
+  const ForceContext ctx{par_.law, par_.walls, par_.gravity, dt};
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr);
-  if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, par_.dt);
+  if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, dt);
 }
 
 void Simulation::measure_and_reduce() {

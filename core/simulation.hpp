@@ -76,7 +76,9 @@ class Simulation {
   const PhaseTimes& phase_times() const { return times_; }
 
  private:
-  void compute(bool measure);
+  // Forces at the current positions; the contact springs advance by the relative motion over
+  // dt (0 for the initial forces, which must not change the contact history).
+  void compute(bool measure, real_t dt);
 
   void measure_and_reduce();
 
