@@ -1,0 +1,181 @@
+// Neighbour search against brute force (docs/verification.md section 10):
+//  - NeighborSearch::build == brute_force_pairs on polydisperse periodic packings (diameter
+//    ratio 6), including cells where the grid of the largest class has fewer than 3 cells per
+//    axis, with the stored periodic image giving the minimum-image branch vector;
+//  - during a run with a deforming cell, the Verlet rebuild criterion keeps every touching pair
+//    in the list (checked against brute force at every step).
+#include "core/generate.hpp"
+#include "core/neighbor.hpp"
+#include "core/timestep.hpp"
+#include "scene_helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <set>
+
+namespace fabrica {
+namespace {
+
+using Pair = std::pair<GlobalId, GlobalId>;
+
+// n fractal diameters in [10, 60] mm with the extremes forced in (ratio exactly 6).
+std::vector<real_t> diameters(std::size_t n, Random& rng) {
+  std::vector<real_t> d = fractal_diameters(n, 1.9, 0.01, 0.06, rng);
+  d[0] = 0.06;
+  d[1] = 0.01;
+  return d;
+}
+
+real_t solid_volume(const std::vector<real_t>& d) {
+  real_t v = 0;
+  for (real_t x : d) v += std::numbers::pi / 6 * x * x * x;
+  return v;
+}
+
+// Pairs of a list as sorted (lower id, higher id), checking that the stored image gives the
+// minimum-image branch vector and that i holds the lower id.
+std::vector<Pair> list_pairs(const Particles& p, const PeriodicCell& cell, const PairList& pl) {
+  std::vector<Pair> out;
+  for (std::size_t q = 0; q < pl.size(); ++q) {
+    const Index i = pl.i[q], j = pl.j[q];
+    EXPECT_LT(p.id[i], p.id[j]);
+    const Vec3 d = p.x[j] + image_offset(pl.image[q], cell.lengths()) - p.x[i];
+    const Vec3 dmin = cell.minimum_image(p.x[j] - p.x[i]);
+    EXPECT_LT((d - dmin).norm(), 1e-12 * cell.lengths().maxCoeff()) << "wrong image";
+    out.emplace_back(p.id[i], p.id[j]);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void compare_with_brute_force(const Particles& p, const PeriodicCell& cell, real_t skin,
+                              const char* label) {
+  NeighborSearch ns;
+  PairList pl;
+  ns.build(p, cell, skin, pl);
+  const std::vector<Pair> got = list_pairs(p, cell, pl);
+  const std::vector<Pair> ref = brute_force_pairs(p, cell, skin);
+  EXPECT_TRUE(std::adjacent_find(got.begin(), got.end()) == got.end()) << "duplicate pair";
+  EXPECT_EQ(got, ref) << label;
+  // Sorted by the first index, as the force loop expects.
+  EXPECT_TRUE(std::is_sorted(pl.i.begin(), pl.i.end()));
+  std::printf("[neighbor] %s: N = %zu, cell %.3f x %.3f x %.3f m, %zu pairs (brute force %zu)\n",
+              label, p.size(), cell.lengths()[0], cell.lengths()[1], cell.lengths()[2],
+              got.size(), ref.size());
+  EXPECT_GT(ref.size(), p.size() / 4);  // a meaningful number of pairs
+}
+
+// A random packing generated in a cell 1/s times larger, then shrunk by s per axis (the
+// spheres overlap), so that every sphere has several neighbours.
+Particles compressed_packing(const std::vector<real_t>& d, const Vec3& L, real_t s, Random& rng) {
+  const PeriodicCell big(L / s), cell(L);
+  Particles p = random_packing(d, test::kRho, big, rng);
+  for (auto& x : p.x) x = cell.wrap(x * s);
+  return p;
+}
+
+TEST(Neighbor, BuildMatchesBruteForcePolydisperse) {
+  Random rng(42);
+  const std::vector<real_t> d = diameters(600, rng);
+  const real_t L = std::cbrt(solid_volume(d) / 0.3);
+  {
+    const PeriodicCell cell(Vec3(L, 1.1 * L, 0.9 * L));
+    Particles p = random_packing(d, test::kRho, cell, rng);
+    compare_with_brute_force(p, cell, 0.02, "random packing phi = 0.3, skin 0.02 m");
+  }
+  // Shrunk to phi = 0.3 / 0.75^3 = 0.71 (overlapping spheres).
+  const PeriodicCell cell(0.75 * Vec3(L, 1.1 * L, 0.9 * L));
+  const Particles p = compressed_packing(d, cell.lengths(), 0.75, rng);
+  for (real_t skin : {0.0, 0.002, 0.02})
+    compare_with_brute_force(p, cell, skin, "phi = 0.71");
+}
+
+// Cells barely larger than 2 (2 Rmax + skin): the grid of the (largest, largest) class pair has
+// fewer than 3 cells along an axis, so the 27-cell stencil wraps onto itself and must not visit
+// a cell twice.
+TEST(Neighbor, BuildMatchesBruteForceSmallCell) {
+  Random rng(7);
+  const real_t skin = 0.003, Rmax = 0.03;
+  const real_t Lmin = 2 * (2 * Rmax + skin) * 1.01;
+  for (const Vec3& Lv : {Vec3(Lmin, Lmin, Lmin), Vec3(Lmin, 1.6 * Lmin, 2.5 * Lmin),
+                         Vec3(3.1 * Lmin, Lmin, 1.3 * Lmin)}) {
+    const PeriodicCell cell(Lv);
+    EXPECT_LT(int(std::floor(Lv.minCoeff() / (2 * Rmax + skin))), 3);
+    // About phi = 0.3 before shrinking by 0.8 per axis (phi = 0.59).
+    std::vector<real_t> d = diameters(400, rng);
+    real_t vs = solid_volume(d);
+    while (vs > 0.3 * cell.volume() / 0.512) vs -= std::numbers::pi / 6 * std::pow(d.back(), 3), d.pop_back();
+    const Particles p = compressed_packing(d, Lv, 0.8, rng);
+    for (real_t s : {0.0, skin}) compare_with_brute_force(p, cell, s, "small cell");
+  }
+}
+
+// The Verlet criterion under a deforming cell: at every step, every pair that touches now
+// (brute force, skin 0) is in the simulation's list with the right image.
+TEST(Neighbor, VerletListKeepsEveryTouchingPairUnderDeformation) {
+  Random rng(3);
+  const std::vector<real_t> d = diameters(250, rng);
+  const real_t L = std::cbrt(solid_volume(d) / 0.3);
+  const PeriodicCell cell(0.85 * Vec3(L, L, 1.2 * L));  // phi = 0.49, some overlaps
+  Particles p = compressed_packing(d, cell.lengths(), 0.85, rng);
+  for (auto& v : p.v) v = Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 4.0;
+  ContactLawParams law;
+  law.youngs_modulus = 100e6;
+  law.friction = 0.5;
+  law.rolling_friction = 0.1;
+  SimulationParams sp;
+  sp.law = law;
+  sp.skin = 0.002;
+  sp.dt = 0.3 * critical_time_step(p, law, false);
+  Simulation sim(std::move(p), cell, sp);
+  // Compress axis 1 by about 10 % over the run, extend axes 2 and 3 less (denser at the end).
+  const int steps = 1500;
+  const real_t edot = 0.1 / (steps * sp.dt);
+  sim.cell().set_strain_rate(Vec3(-edot, 0.3 * edot, 0.2 * edot));
+  const std::int64_t rebuilds0 = sim.rebuild_count();
+  std::size_t touching_checked = 0, missing = 0;
+  real_t min_gap_unlisted = sp.skin;
+  for (int s = 0; s < steps; ++s) {
+    sim.step();
+    const Particles& q = sim.particles();
+    const std::vector<Pair> touching = brute_force_pairs(q, sim.cell(), 0.0);
+    const std::vector<Pair> near = brute_force_pairs(q, sim.cell(), sp.skin);
+    std::set<Pair> listed;
+    for (std::size_t k = 0; k < sim.pairs().size(); ++k) {
+      const Index i = sim.pairs().i[k], j = sim.pairs().j[k];
+      listed.emplace(q.id[i], q.id[j]);
+      const Vec3 dd = q.x[j] + image_offset(sim.pairs().image[k], sim.cell().lengths()) - q.x[i];
+      if (dd.norm() < q.radius[i] + q.radius[j]) {
+        // A listed pair that touches must use the minimum image.
+        EXPECT_LT((dd - sim.cell().minimum_image(q.x[j] - q.x[i])).norm(), 1e-12);
+      }
+    }
+    for (const Pair& t : touching) missing += listed.count(t) == 0;
+    // Smallest surface gap of a pair outside the list (how close the criterion came to a miss).
+    for (const Pair& t : near) {
+      if (listed.count(t)) continue;
+      const std::size_t a = test::index_of(q, t.first), b = test::index_of(q, t.second);
+      const real_t gap = sim.cell().minimum_image(q.x[b] - q.x[a]).norm() - q.radius[a] - q.radius[b];
+      min_gap_unlisted = std::min(min_gap_unlisted, gap);
+    }
+    touching_checked += touching.size();
+  }
+  const real_t strain = sim.cell().lengths()[0] / cell.lengths()[0] - 1;
+  std::printf("[neighbor] Verlet run: %d steps, strain_1 = %.3f, %lld rebuilds, %zu touching "
+              "pairs checked, %zu missing; smallest gap of an unlisted pair %.3f skin\n",
+              steps, strain, (long long)(sim.rebuild_count() - rebuilds0), touching_checked,
+              missing, min_gap_unlisted / sp.skin);
+  EXPECT_EQ(missing, 0u);
+  EXPECT_GT(min_gap_unlisted, 0.0);
+  EXPECT_GT(touching_checked, std::size_t(steps) * 20);
+  EXPECT_GT(sim.rebuild_count() - rebuilds0, 5);           // the criterion was exercised
+  EXPECT_LT(sim.rebuild_count() - rebuilds0, steps / 3);   // and is not trivially "always"
+  EXPECT_NEAR(strain, std::exp(-0.1) - 1, 1e-9);           // exact exponential cell update
+}
+
+}  // namespace
+}  // namespace fabrica
