@@ -27,23 +27,28 @@ namespace {
 struct RunResult {
   double seconds = 0;
   std::int64_t rebuilds = 0;  // during the loop (the constructor's first build not counted)
+  MacroState start;           // after construction (step 0)
   MacroState end;             // at the last step
+  double ke_trans = 0;        // translational kinetic energy at the end [J] (the peers' "ke")
   PhaseTimes phases;
 };
 
 RunResult run_once(const Scene& scene, const Setup& setup, bool phases) {
   Simulation sim(setup.particles, setup.cell, setup.params);  // copies: same start every time
+  RunResult r;
+  r.start = sim.macro();
   sim.enable_phase_timers(phases);
   const std::int64_t rebuilds0 = sim.rebuild_count();
   const auto t0 = std::chrono::steady_clock::now();
   for (std::int64_t k = 1; k <= scene.steps; ++k)
     sim.step(k % scene.output_every == 0 || k == scene.steps);
   const auto t1 = std::chrono::steady_clock::now();
-  RunResult r;
   r.seconds = std::chrono::duration<double>(t1 - t0).count();
   r.rebuilds = sim.rebuild_count() - rebuilds0;
   r.end = sim.macro();
   r.phases = sim.phase_times();
+  const Particles& p = sim.particles();
+  for (std::size_t a = 0; a < p.n_owned(); ++a) r.ke_trans += 0.5 * p.mass[a] * p.v[a].squaredNorm();
   return r;
 }
 
@@ -108,12 +113,15 @@ int main(int argc, char** argv) {
 
     const MacroState& m = first.end;
     const double med = median(us), mn = *std::min_element(us.begin(), us.end());
-    std::printf("\nend state (step %lld): p = %.15e Pa, q = %.6e Pa, contacts = %lld, Z = %.6f, "
-                "Z_m = %.6f,\n  kinetic energy = %.15e J, sliding = %lld, rebuilds in the loop = "
-                "%lld; repetitions bitwise identical: %s\n",
+    std::printf("\nstart state (step 0): p = %.10e Pa, contacts = %lld\n", first.start.p,
+                (long long)first.start.contacts);
+    std::printf("end state (step %lld): p = %.15e Pa, q = %.6e Pa, contacts = %lld, Z = %.6f, "
+                "Z_m = %.6f,\n  kinetic energy = %.15e J (translational %.6e J), sliding = %lld, "
+                "rolling = %lld, rebuilds in the loop = %lld;\n  repetitions bitwise "
+                "identical: %s\n",
                 (long long)scene.steps, m.p, m.q, (long long)m.contacts, m.coordination,
-                m.mech_coordination, m.kinetic, (long long)m.sliding, (long long)first.rebuilds,
-                identical ? "yes" : "NO");
+                m.mech_coordination, m.kinetic, first.ke_trans, (long long)m.sliding,
+                (long long)m.rolling, (long long)first.rebuilds, identical ? "yes" : "NO");
     std::printf("us per particle-step over %d reps: median %.4f, min %.4f, max %.4f\n", reps, med,
                 mn, *std::max_element(us.begin(), us.end()));
     if (phase_reps > 0) {
@@ -128,9 +136,9 @@ int main(int argc, char** argv) {
     }
     std::printf("RESULT bench=dense-13584 ranks=1 n=%zu steps=%lld reps=%d "
                 "us_per_particle_step_median=%.4f min=%.4f rebuilds=%lld contacts=%lld "
-                "p_Pa=%.10e ke_J=%.10e",
+                "p_Pa=%.10e ke_J=%.10e ke_trans_J=%.6e p0_Pa=%.10e",
                 n, (long long)scene.steps, reps, med, mn, (long long)first.rebuilds,
-                (long long)m.contacts, m.p, m.kinetic);
+                (long long)m.contacts, m.p, m.kinetic, first.ke_trans, first.start.p);
     if (phase_reps > 0)
       std::printf(" force=%.4f integrate=%.4f check=%.4f rebuild=%.4f", median(ph_frc),
                   median(ph_int), median(ph_chk), median(ph_reb));
