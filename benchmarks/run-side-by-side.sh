@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Fabrica against LAMMPS and LIGGGHTS on the shared dense-13584 scene, in one sitting.
+#
+#   REPS=5 benchmarks/run-side-by-side.sh            (about 1 minute per round)
+#
+# Each of the REPS rounds runs, back to back: Fabrica's bench_dense (one repetition, 1 rank) and
+# the peers' own script ../shared/bench/dense-13584/run-peers.sh with REPS=1 (LAMMPS and
+# LIGGGHTS, 1 rank then 2 ranks). Alternating the engines spreads the machine's noise over all
+# of them. Every figure is loop time / (N x steps) in microseconds per particle-step: the
+# peers' "Loop time", Fabrica's timed step loop (setup excluded in both).
+#
+# The table compares Fabrica's 1-rank figure with the peers' 1-rank figures only: bench_dense
+# runs serially (one rank). The peers' 2-rank figures are printed for reference.
+#
+# Then one diagnostics run of each peer (outside any timing) gives the end state to compare
+# with Fabrica's: pressure, contact count, neighbour-list builds, translational kinetic energy.
+#
+# Environment: REPS (5), BUILD (build-bench at the repository root), PEERS (the shared bench
+# directory), DIAG (1: run the diagnostics).
+set -euo pipefail
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+REPS=${REPS:-5}
+BUILD=${BUILD:-$root/build-bench}
+PEERS=${PEERS:-$(cd "$root/../shared/bench/dense-13584" && pwd)}
+DIAG=${DIAG:-1}
+bench=$BUILD/benchmarks/bench_dense
+[ -x "$bench" ] || { echo "no $bench: cmake -S . -B build-bench -DFABRICA_TESTS=OFF && make -C build-bench -j2 bench_dense" >&2; exit 1; }
+[ -x "$PEERS/run-peers.sh" ] || { echo "no $PEERS/run-peers.sh" >&2; exit 1; }
+N=13584 STEPS=2000
+
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+echo "dense-13584 side by side, $(date -u '+%Y-%m-%d %H:%M UTC'), $(lscpu | sed -n 's/^Model name: *//p'), $(nproc) cores"
+echo "Fabrica $(git -C "$root" describe --always --dirty 2>/dev/null || echo '?'), $bench"
+echo "load before: $(uptime | sed 's/.*load average: //')"
+for rep in $(seq 1 "$REPS"); do
+  "$bench" 1 0 > "$out/fab.$rep"
+  fab=$(sed -n 's/^RESULT .*us_per_particle_step_median=\([0-9.]*\).*/\1/p' "$out/fab.$rep")
+  echo "ranks=1 rep=$rep fabrica_us=$fab" | tee -a "$out/times"
+  REPS=1 "$PEERS/run-peers.sh" | sed "s/rep=1/rep=$rep/" | tee -a "$out/times"
+done
+echo "load after: $(uptime | sed 's/.*load average: //')"
+
+# Median and min of one engine's column at a rank count.
+stats() {  # engine ranks
+  sed -n "s/^ranks=$2 .*$1_us=\([0-9.]*\).*/\1/p" "$out/times" | sort -g |
+    awk '{v[NR] = $1} END {if (NR == 0) {print "- -"; exit}
+         m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.4f %.4f\n", m, v[1]}'
+}
+read -r fab_med fab_min < <(stats fabrica 1)
+echo
+echo "us per particle-step over $REPS rounds (median / min); ratio = Fabrica / peer (below 1: Fabrica faster)"
+printf "%-34s %-17s %-17s %s\n" "engine" "1 rank" "2 ranks" "Fabrica/peer, 1 rank (median, min)"
+printf "%-34s %-17s %-17s %s\n" "Fabrica (bench_dense)" "$fab_med / $fab_min" "n/a (serial)" "-"
+for e in liggghts lammps; do
+  read -r m1 n1 < <(stats $e 1)
+  read -r m2 n2 < <(stats $e 2)
+  name=$([ $e = liggghts ] && echo "LIGGGHTS-PUBLIC (bin, newton off)" || echo "LAMMPS (bin, newton on)")
+  printf "%-34s %-17s %-17s %s\n" "$name" "$m1 / $n1" "$m2 / $n2" \
+    "$(awk -v a="$fab_med" -v b="$m1" -v c="$fab_min" -v d="$n1" 'BEGIN {printf "%.2f, %.2f", a / b, c / d}')"
+done
+grep -h '^RESULT' "$out/fab.1"
+
+[ "$DIAG" = 1 ] || exit 0
+echo
+echo "end state after $STEPS steps (one more run of each peer, outside the timing)"
+(cd "$PEERS" && mpirun -np 1 lmp -in bench_lammps.in -var neigh bin -log "$out/lmp.log" -screen none)
+# The LIGGGHTS deck prints no pressure: a copy of it adds the virial pressure to its
+# diagnostics run (after the timed run, which is unchanged).
+mkdir "$out/lig"
+cp "$PEERS/dense.data" "$PEERS/params.in" "$PEERS/contact_liggghts.in" "$out/lig/"
+sed 's/^thermo_style *custom step ke c_z$/compute t all temp\ncompute p all pressure t virial\nthermo_style custom step ke c_z c_p/' \
+  "$PEERS/bench_liggghts.in" > "$out/lig/bench.in"
+(cd "$out/lig" && mpirun -np 1 liggghts -in bench.in -log "$out/lig.log" -screen none)
+# LAMMPS: "Step KinEng c_p c_z c_fab" then "2000 ke p z contacts"; LIGGGHTS: "Step KinEng z p".
+lmp_row=$(awk '/^ *Step +KinEng +c_p/ {getline; print; exit}' "$out/lmp.log")
+lig_row=$(awk '/^ *Step +KinEng +z/ {getline; print; exit}' "$out/lig.log")
+lmp_p0=$(awk '/^ *Step +CPU +KinEng +Press/ {getline; print $4; exit}' "$out/lmp.log")
+lmp_builds=$(sed -n 's/^Neighbor list builds = //p' "$out/lmp.log" | head -1)
+lig_builds=$(sed -n 's/^Neighbor list builds = //p' "$out/lig.log" | head -1)
+r=$(grep -h '^RESULT' "$out/fab.1")
+val() { echo "$r" | sed -n "s/.* $1=\([^ ]*\).*/\1/p"; }
+printf "%-10s %-14s %-14s %-9s %-10s %-14s\n" engine p_end_Pa p_step0_Pa contacts "nl builds" ke_trans_J
+printf "%-10s %-14.8g %-14.8g %-9s %-10s %-14.6g\n" Fabrica "$(val p_Pa)" "$(val p0_Pa)" "$(val contacts)" \
+  "$(val rebuilds)" "$(val ke_trans_J)"
+set -- $lmp_row
+printf "%-10s %-14.8g %-14.8g %-9s %-10s %-14.6g\n" LAMMPS "$3" "$lmp_p0" "$5" "$lmp_builds" "$2"
+set -- $lig_row
+printf "%-10s %-14.8g %-14s %-9s %-10s %-14.6g\n" LIGGGHTS "${4:-nan}" "-" \
+  "$(awk -v z="$3" -v n=$N 'BEGIN {printf "%.0f", z * n / 2}')" "$lig_builds" "$2"
+echo "(LAMMPS contacts: compute fabric; LIGGGHTS: contact/atom average x N / 2; LAMMPS p_step0 is"
+echo " the thermo 'press' of step 0; builds: 'Neighbor list builds' of the timed run, Fabrica's"
+echo " rebuilds in the loop; the peers' ke is translational only)"
