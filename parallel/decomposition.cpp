@@ -11,8 +11,12 @@
 namespace fabrica {
 
 std::array<int, 3> Decomposition::bin_dims(const Vec3& L, real_t cutoff) {
+  // Bins no smaller than half the cutoff, and no more than kMaxBins of them: a fine grid adds
+  // nothing to the balance of a large cell of small particles but costs METIS time.
+  constexpr double kMaxBins = 32768;
+  const real_t edge = std::max(cutoff / kReach, std::cbrt(L.prod() / kMaxBins));
   std::array<int, 3> d;
-  for (int k = 0; k < 3; ++k) d[k] = std::max(1, int(std::floor(L[k] * kReach / cutoff)));
+  for (int k = 0; k < 3; ++k) d[k] = std::max(1, int(std::floor(L[k] / edge)));
   return d;
 }
 
@@ -65,13 +69,13 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff)
 }
 
 namespace {
-// The distinct periodic bins within kReach of a bin along every axis (itself excluded).
-std::vector<int> neighbour_bins(const std::array<int, 3>& n, int bin) {
+// The distinct periodic bins within 'reach' of a bin along every axis (itself excluded).
+std::vector<int> neighbour_bins(const std::array<int, 3>& n, int bin, int reach) {
   const int c[3] = {bin % n[0], bin / n[0] % n[1], bin / (n[0] * n[1])};
   std::vector<int> out;
-  for (int dz = -kReach; dz <= kReach; ++dz)
-    for (int dy = -kReach; dy <= kReach; ++dy)
-      for (int dx = -kReach; dx <= kReach; ++dx) {
+  for (int dz = -reach; dz <= reach; ++dz)
+    for (int dy = -reach; dy <= reach; ++dy)
+      for (int dx = -reach; dx <= reach; ++dx) {
         const int x = ((c[0] + dx) % n[0] + n[0]) % n[0], y = ((c[1] + dy) % n[1] + n[1]) % n[1],
                   z = ((c[2] + dz) % n[2] + n[2]) % n[2];
         const int b = x + n[0] * (y + n[1] * z);
@@ -98,9 +102,9 @@ Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff,
   if (nranks > 1 && rank == 0) {
     std::vector<idx_t> xadj(1, 0), adjncy, vwgt(nb);
     for (int b = 0; b < nb; ++b) {
-      for (int o : neighbour_bins(d.dims_, b)) adjncy.push_back(o);
+      for (int o : neighbour_bins(d.dims_, b, 1)) adjncy.push_back(o);  // face/edge/corner graph
       xadj.push_back(idx_t(adjncy.size()));
-      vwgt[b] = idx_t(1 + std::llround(bin_work[b]));  // +1: empty bins still cost a little
+      vwgt[b] = idx_t(1 + 1000 * std::llround(bin_work[b]));  // an empty bin: 0.1 % of a particle
     }
     idx_t nv = nb, ncon = 1, np = nranks, objval = 0;
     idx_t options[METIS_NOPTIONS];
@@ -123,7 +127,7 @@ void Decomposition::finish(int nranks) {
   const int nb = bins();
   adj_ranks_.assign(nb, {});
   for (int b = 0; b < nb; ++b) {
-    for (int o : neighbour_bins(dims_, b)) {
+    for (int o : neighbour_bins(dims_, b, kReach)) {
       const int r = owner_[o];
       auto& v = adj_ranks_[b];
       if (r != owner_[b] && std::find(v.begin(), v.end(), r) == v.end()) v.push_back(r);
