@@ -149,6 +149,7 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     diss.viscous += r.e_viscous;
     if constexpr (Measure) {
       ++sums->wall_contacts;
+      sums->sum_contact_force += F.norm();  // walls count in the mean contact force too
       if (k.un / R > sums->max_overlap_ratio) {
         sums->max_overlap_ratio = k.un / R;
         sums->max_overlap_a = P.id[i];

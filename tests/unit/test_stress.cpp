@@ -96,5 +96,70 @@ TEST(Stress, SimpleCubicAnisotropic) {
   check_lattice(sim, {4, 3, 5}, a, R, kn);
 }
 
+// With friction and motion the contact forces have shear parts; the stress is recomputed
+// independently from the raw contact data (f = k_n u_n n + f_s on the body the branch vector
+// points to, b the minimum-image branch vector): relative 1e-12 of max |sigma_ij|.
+TEST(Stress, LoveWeberWithShearForcesFromRawContacts) {
+  const real_t R = 0.01, a = 0.0198;
+  ContactLawParams law;
+  law.youngs_modulus = 100e6;
+  law.friction = 0.4;
+  law.rolling_friction = 0.1;
+  const real_t kn = kPi * R * R * law.youngs_modulus / (2 * R);
+  Particles p = simple_cubic(4, R, a, test::kRho);
+  Random rng(1);
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    p.v[k] = 0.5 * Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5);
+    p.w[k] = 50.0 * Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5);
+  }
+  SimulationParams sp;
+  sp.law = law;
+  sp.skin = 0.1 * R;
+  sp.dt = 1e-6;
+  Simulation sim(std::move(p), PeriodicCell(Vec3::Constant(4 * a)), sp);
+  for (int s = 0; s < 200; ++s) sim.step();
+  sim.step(true);
+  const Particles& q = sim.particles();
+  const PairList& pl = sim.pairs();
+  Mat3 fb = Mat3::Zero();
+  real_t shear = 0;
+  for (std::size_t k = 0; k < pl.size(); ++k) {
+    const Index i = pl.i[k], j = pl.j[k];
+    const Vec3 d = sim.cell().minimum_image(q.x[j] - q.x[i]);
+    const real_t un = q.radius[i] + q.radius[j] - d.norm();
+    if (un <= 0) continue;
+    const Vec3 f = kn * un * d.normalized() + pl.fs[k];
+    fb += f * d.transpose();
+    shear = std::max(shear, pl.fs[k].norm() / (kn * un));
+  }
+  const Mat3 sigma = fb / sim.cell().volume();
+  const MacroState m = sim.macro();
+  const real_t err = (m.stress - sigma).cwiseAbs().maxCoeff() / sigma.cwiseAbs().maxCoeff();
+  const real_t asym = (sigma - sigma.transpose()).cwiseAbs().maxCoeff() / sigma.cwiseAbs().maxCoeff();
+  std::printf("[stress] with shear forces (max |f_s| / f_n = %.2f): rel err %.2e, asymmetric part "
+              "%.2e of max |sigma|\n", shear, err, asym);
+  EXPECT_LT(err, 1e-12);
+  EXPECT_GT(shear, 0.05);  // shear forces are a real part of the stress
+  EXPECT_GT(m.contacts, 150);  // of the 192 lattice contacts
+}
+
+// Unbalanced-force ratio mean |F_particle| / mean |F_contact| with a wall contact: a sphere under
+// gravity pressed into a wall to twice its equilibrium overlap carries a contact force 2 m g and
+// a resultant m g, so the ratio is 1/2 (relative 1e-9: the overlap is recovered from positions
+// near 0.5 m, so it carries a rounding error of about 1e-11). A first version counted wall
+// contacts in the mean but not their forces and reported 0.
+TEST(Stress, UnbalancedRatioCountsWallContacts) {
+  const real_t R = 0.01, m = test::sphere_mass(R), kn = 1e5, g = 9.81;
+  const real_t un = 2 * m * g / kn;
+  Particles p = test::make_particles({{0, R, test::kRho, Vec3(0.5, 0.5, 0.5 + R - un)}});
+  Simulation sim = test::make_sim(std::move(p), test::direct_law(kn, 0.3), 1e-6, 0.1 * R,
+                                  {Wall{Vec3(0, 0, 0.5), Vec3::UnitZ()}}, Vec3(0, 0, -g));
+  const MacroState ms = sim.macro();
+  std::printf("[measures] unbalanced ratio with one wall contact: %.6f (exact 0.5)\n", ms.unbalanced);
+  EXPECT_NEAR(ms.unbalanced / 0.5, 1.0, 1e-9);
+  EXPECT_EQ(ms.contacts, 0);  // particle-particle contacts only
+  EXPECT_NEAR(ms.e_normal / (0.5 * kn * un * un), 1.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace fabrica
