@@ -248,3 +248,74 @@ TEST(Conservation, ConstructionDoesNotAdvanceContactHistory) {
 
 }  // namespace
 }  // namespace fabrica
+
+namespace fabrica {
+namespace {
+
+// Energy balance with every dissipative mechanism: kinetic + elastic (normal, shear, rolling
+// springs) + booked dissipation (Coulomb slip, rolling slip, dashpots, local damping) stays
+// equal to the initial energy, over the same physical time (20000 steps at 0.05 of the critical
+// step) at two step sizes. Slip is booked with trapezoidal increments (second order in dt);
+// dashpot and local-damping work use the half-step velocity (first order), so:
+//   friction + rolling: max |E + D - E0| / E0 < 5e-4 at 0.05, and halving dt divides it by > 2;
+//   all mechanisms:     < 4e-3 at 0.05, and halving dt divides it by > 1.67.
+real_t energy_balance_case(const ContactLawParams& law, real_t alpha, real_t frac,
+                           const char* label) {
+  Random rng(99);
+  PeriodicCell cell;
+  Particles p = packing(150, 0.01, 0.03, 0.4, 0.92, 0.5, rng, cell);
+  SimulationParams sp;
+  sp.law = law;
+  sp.local_damping = alpha;
+  sp.skin = 0.001;
+  sp.dt = frac * critical_time_step(p, law, false);
+  Simulation sim(std::move(p), cell, sp);
+  auto total = [](const MacroState& m) {
+    return m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
+  };
+  auto dissipated = [](const MacroState& m) {
+    return m.dissipated.friction + m.dissipated.rolling + m.dissipated.viscous +
+           m.dissipated.local;
+  };
+  const real_t E0 = total(sim.macro()) + dissipated(sim.macro());
+  const int steps = int(std::lround(20000 * 0.05 / frac)), every = steps / 100;
+  real_t err = 0;
+  for (int s = 1; s <= steps; ++s) {
+    const bool sample = s % every == 0;
+    sim.step(sample);
+    if (sample) err = std::max(err, std::abs(total(sim.macro()) + dissipated(sim.macro()) - E0) / E0);
+  }
+  const MacroState m = sim.macro();
+  std::printf("[energy balance] %s, dt = %.3f dt_crit: max |E + D - E0| / E0 = %.2e; D / E0 = "
+              "%.2f (friction %.2f, rolling %.2f, viscous %.2f, local %.2f)\n",
+              label, frac, err, dissipated(m) / E0, m.dissipated.friction / E0,
+              m.dissipated.rolling / E0, m.dissipated.viscous / E0, m.dissipated.local / E0);
+  EXPECT_GT(dissipated(m), 0.5 * E0);  // most of the energy went through the books
+  return err;
+}
+
+TEST(Conservation, EnergyBalanceFrictionRolling) {
+  ContactLawParams law;
+  law.friction = 0.3;
+  law.rolling_friction = 0.1;
+  const real_t e1 = energy_balance_case(law, 0.0, 0.05, "friction + rolling");
+  const real_t e2 = energy_balance_case(law, 0.0, 0.025, "friction + rolling");
+  EXPECT_LT(e1, 5e-4);
+  EXPECT_LT(e2, e1 / 2);
+}
+
+TEST(Conservation, EnergyBalanceAllDissipation) {
+  ContactLawParams law;
+  law.friction = 0.3;
+  law.rolling_friction = 0.1;
+  law.damping_ratio_n = 0.2;
+  law.damping_ratio_s = 0.1;
+  const char* label = "friction + rolling + dashpots + local damping 0.3";
+  const real_t e1 = energy_balance_case(law, 0.3, 0.05, label);
+  const real_t e2 = energy_balance_case(law, 0.3, 0.025, label);
+  EXPECT_LT(e1, 4e-3);
+  EXPECT_LT(e2, e1 / 1.67);
+}
+
+}  // namespace
+}  // namespace fabrica

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <map>
 #include <set>
 
 namespace fabrica {
@@ -175,6 +176,47 @@ TEST(Neighbor, VerletListKeepsEveryTouchingPairUnderDeformation) {
   EXPECT_GT(sim.rebuild_count() - rebuilds0, 5);           // the criterion was exercised
   EXPECT_LT(sim.rebuild_count() - rebuilds0, steps / 3);   // and is not trivially "always"
   EXPECT_NEAR(strain, std::exp(-0.1) - 1, 1e-9);           // exact exponential cell update
+}
+
+// A rebuild (re-sorting particles in space, new list) carries every touching contact's shear
+// and rolling springs, keyed by the two ids, bit for bit.
+TEST(Neighbor, RebuildCarriesContactHistory) {
+  Random rng(17);
+  const std::vector<real_t> d = diameters(200, rng);
+  const real_t L = std::cbrt(solid_volume(d) / 0.3);
+  const PeriodicCell cell(0.85 * Vec3(L, L, L));
+  Particles p = compressed_packing(d, cell.lengths(), 0.85, rng);
+  for (auto& v : p.v) v = Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5);
+  SimulationParams sp;
+  sp.law.friction = 0.5;
+  sp.law.rolling_friction = 0.1;
+  sp.skin = 0.002;
+  sp.dt = 0.3 * critical_time_step(p, sp.law, false);
+  Simulation sim(std::move(p), cell, sp);
+  for (int s = 0; s < 300; ++s) sim.step();
+  auto history = [&] {
+    std::map<Pair, std::pair<Vec3, Vec3>> h;
+    const Particles& q = sim.particles();
+    for (std::size_t k = 0; k < sim.pairs().size(); ++k)
+      if (sim.pairs().touching[k])
+        h[{q.id[sim.pairs().i[k]], q.id[sim.pairs().j[k]]}] = {sim.pairs().fs[k], sim.pairs().mr[k]};
+    return h;
+  };
+  const auto h0 = history();
+  std::size_t loaded = 0;
+  for (const auto& [k, v] : h0) loaded += v.first.norm() > 0 && v.second.norm() > 0;
+  sim.rebuild();
+  const auto h1 = history();
+  EXPECT_EQ(h0.size(), h1.size());
+  bool same = h0.size() == h1.size();
+  for (const auto& [k, v] : h0) {
+    auto it = h1.find(k);
+    same = same && it != h1.end() && it->second.first == v.first && it->second.second == v.second;
+  }
+  std::printf("[neighbor] rebuild: %zu touching contacts (%zu with loaded shear and rolling "
+              "springs) carried, identical: %s\n", h0.size(), loaded, same ? "yes" : "no");
+  EXPECT_TRUE(same);
+  EXPECT_GT(loaded, 50u);
 }
 
 }  // namespace
