@@ -161,5 +161,34 @@ TEST(Stress, UnbalancedRatioCountsWallContacts) {
   EXPECT_NEAR(ms.e_normal / (0.5 * kn * un * un), 1.0, 1e-9);
 }
 
+// Affine kinematics of the deforming cell: two touching spheres at rest relative to the affine
+// field, branch d along (1,1,0)/sqrt 2, strain rates (e, -e, 0). The affine relative velocity
+// edot (.) d = e (d_x, -d_y, 0) is tangential, so after one step the shear spring holds
+// -k_s (edot (.) d) dt (relative 1e-6; the normal force only moves the spheres along n).
+TEST(Stress, AffineRelativeVelocityLoadsTheShearSpring) {
+  const real_t R = 0.01, un = 1e-6, kn = 1e5, e = 2.0, dt = 1e-6;
+  const Vec3 n = Vec3(1, 1, 0).normalized();
+  const Vec3 c(0.05, 0.05, 0.05);
+  Particles p = test::make_particles({{0, R, test::kRho, c - (R - 0.5 * un) * n},
+                                      {1, R, test::kRho, c + (R - 0.5 * un) * n}});
+  SimulationParams sp;
+  sp.law = test::direct_law(kn, 10.0);
+  sp.skin = 0.1 * R;
+  sp.dt = dt;
+  Simulation sim(std::move(p), PeriodicCell(Vec3::Constant(0.1)), sp);
+  sim.cell().set_strain_rate(Vec3(e, -e, 0));
+  sim.step();
+  const Particles& q = sim.particles();
+  const std::size_t a = test::index_of(q, 0), b = test::index_of(q, 1);
+  const Vec3 d = q.x[b] - q.x[a];
+  const Vec3 va = Vec3(e, -e, 0).cwiseProduct(d);
+  const Vec3 expected = -kn * (va - va.dot(d.normalized()) * d.normalized()) * dt;
+  const Vec3 fs = sim.pairs().fs[0];
+  std::printf("[kinematics] affine shear increment: |f_s| = %.6e N, expected %.6e N, rel err %.2e\n",
+              fs.norm(), expected.norm(), (fs - expected).norm() / expected.norm());
+  EXPECT_LT((fs - expected).norm(), 1e-6 * expected.norm());
+  EXPECT_GT(expected.norm(), 0.0);
+}
+
 }  // namespace
 }  // namespace fabrica
