@@ -1,5 +1,6 @@
 // fabrica: runs a scene (the built-in demo scene when none is given).
 //   fabrica run [scene.toml] [--output DIR]
+#include "apps/triaxial.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
@@ -50,6 +51,8 @@ void check_sane(const Simulation& sim, const MacroState& m, real_t max_overlap) 
 int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir) {
   const bool root = mpi.rank() == 0;
   const Scene scene = scene_path.empty() ? default_scene() : load_scene(scene_path);
+  if (!root && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
+  if (scene.triaxial.enabled) return run_triaxial(mpi, scene, outdir);
   Setup s = make_setup(scene);
   std::unique_ptr<MpiDomain> domain;
   if (mpi.size() > 1) {
@@ -60,7 +63,6 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     o.rebalance_interval = int(scene.parallel.rebalance_interval);
     domain = std::make_unique<MpiDomain>(mpi.comm(), o);
   }
-  if (!root && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
              s.particles.n_owned(), s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);
   fmt::print("critical time step {:.4e} s, time step {:.4e} s (fraction {:.3f})\n", s.critical_dt,

@@ -8,6 +8,7 @@
 #include "core/history_map.hpp"
 #include "core/particles.hpp"
 
+#include <memory>
 #include <span>
 
 namespace fabrica {
@@ -47,6 +48,9 @@ class Domain {
   virtual void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) {
     (void)p, (void)cell, (void)cutoff;
   }
+
+  // A copy of this domain's state (decomposition, ghost plan), for a copy of the simulation.
+  virtual std::unique_ptr<Domain> clone() const { return std::make_unique<Domain>(*this); }
 
   virtual int rank() const { return 0; }
   virtual int size() const { return 1; }

@@ -43,6 +43,10 @@ class PhaseClock {
 };
 }  // namespace
 
+Simulation::Simulation(const Simulation& other, Domain* domain) : Simulation(other) {
+  domain_ = domain ? domain : &serial_;
+}
+
 void Simulation::step(bool measure) {
   const real_t dt = par_.dt;
   PhaseClock clk(timing_ ? &times_ : nullptr);

@@ -45,6 +45,10 @@ class Simulation {
   Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
              Domain* domain = nullptr);
 
+  // A copy of 'other' that communicates through 'domain' (a clone of other's domain, or null
+  // for a serial run): to branch several runs from one prepared state.
+  Simulation(const Simulation& other, Domain* domain);
+
   // Advances one time step. With measure = true (the same on every rank) the contact sums of
   // this step are reduced over all ranks and macro() returns the state at the end of the step.
   void step(bool measure = false);
@@ -57,6 +61,8 @@ class Simulation {
   const PeriodicCell& cell() const { return cell_; }
   const SimulationParams& params() const { return par_; }
   void set_law(const ContactLawParams& law);  // e.g. switching mu_s / mu_r between stages
+  void set_local_damping(real_t alpha) { par_.local_damping = alpha; }
+  Domain& domain() { return *domain_; }
   const PairList& pairs() const { return pairs_; }
   const WallContactList& wall_contacts() const { return walls_; }
   const Dissipation& dissipation() const { return diss_; }

@@ -89,6 +89,8 @@ class Section {
     return v;
   }
 
+  void mark_used(const std::string& key) { used_.insert(key); }
+
   void reject_unknown() const {
     if (!t_) return;
     for (auto&& [k, v] : *t_) {
@@ -127,13 +129,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     throw InputError(m.str());
   }
   static const std::set<std::string> tables = {"particles", "cell", "contact", "compress", "run",
-                                               "parallel"};
+                                               "triaxial", "parallel"};
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
                        ": unknown top-level entry (expected one of the tables [particles], "
-                       "[cell], [contact], [compress], [run], [parallel])");
+                       "[cell], [contact], [compress], [run], [triaxial], [parallel])");
   }
   auto table = [&](const char* name) { return root[name].as_table(); };
 
@@ -262,6 +264,54 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
           "must lie in [0, 1)");
   R.reject_unknown();
+
+  Section T(table("triaxial"), path, "triaxial");
+  TriaxialSpec& tx = sc.triaxial;
+  tx.enabled = table("triaxial") != nullptr;
+  auto positive = [&](const char* key, real_t& v) {
+    v = T.number(key, v);
+    require(T, key, v, v > 0, "must be positive");
+  };
+  positive("confining_pressure", tx.confining_pressure);
+  tx.consolidation_friction = T.number("consolidation_friction", tx.consolidation_friction);
+  require(T, "consolidation_friction", tx.consolidation_friction, tx.consolidation_friction >= 0, "must be >= 0");
+  positive("servo_gain", tx.servo_gain);
+  tx.servo_integral_gain = T.number("servo_integral_gain", tx.servo_integral_gain);
+  require(T, "servo_integral_gain", tx.servo_integral_gain, tx.servo_integral_gain >= 0, "must be >= 0");
+  positive("max_strain_rate", tx.max_strain_rate);
+  positive("stress_tolerance", tx.stress_tolerance);
+  positive("unbalanced_tolerance", tx.unbalanced_tolerance);
+  if (auto k = T.integer("servo_interval")) tx.servo_interval = *k;
+  if (tx.servo_interval <= 0) T.fail("servo_interval", std::to_string(tx.servo_interval), "must be positive");
+  positive("axial_strain_rate", tx.axial_strain_rate);
+  positive("axial_strain", tx.axial_strain);
+  require(T, "axial_strain", tx.axial_strain, tx.axial_strain < 1, "must be below 1");
+  tx.preparation_damping = T.number("preparation_damping", tx.preparation_damping);
+  require(T, "preparation_damping", tx.preparation_damping, tx.preparation_damping >= 0 && tx.preparation_damping < 1, "must lie in [0, 1)");
+  tx.shear_damping = T.number("shear_damping", tx.shear_damping);
+  require(T, "shear_damping", tx.shear_damping, tx.shear_damping >= 0 && tx.shear_damping < 1, "must lie in [0, 1)");
+  if (auto k = T.integer("max_stage_steps")) tx.max_stage_steps = *k;
+  if (tx.max_stage_steps <= 0) T.fail("max_stage_steps", std::to_string(tx.max_stage_steps), "must be positive");
+  positive("progress_seconds", tx.progress_seconds);
+  if (T.has("rolling_friction_cases")) {
+    const toml::node* n = table("triaxial")->get("rolling_friction_cases");
+    const toml::array* a = n->as_array();
+    if (!a || a->empty()) T.fail("rolling_friction_cases", Section::node_text(*n), "must be a non-empty array of numbers");
+    for (const toml::node& e : *a) {
+      const std::optional<double> v = e.value<double>();
+      if (!v || e.is_boolean() || !std::isfinite(*v) || *v < 0)
+        T.fail("rolling_friction_cases", Section::node_text(*n), "must hold finite numbers >= 0");
+      tx.rolling_friction_cases.push_back(*v);
+    }
+  }
+  T.mark_used("rolling_friction_cases");
+  T.reject_unknown();
+  if (tx.enabled && R.has("steps"))
+    throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
+                     ": not used with [triaxial], which runs until [triaxial] axial_strain; remove it");
+  if (tx.enabled && cp.enabled)
+    throw InputError(path + ": [compress] and [triaxial] both given: the triaxial test consolidates "
+                     "the specimen itself; remove [compress]");
 
   Section M(table("parallel"), path, "parallel");
   ParallelSpec& ps = sc.parallel;

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace fabrica {
 
@@ -33,6 +34,30 @@ struct CompressSpec {
   real_t strain_rate = -1.0;       // 1/s, negative = compression
   std::int64_t max_steps = 1000000;
   real_t friction = 0.0;           // mu_s while compressing (a lower value packs denser)
+};
+
+// The periodic triaxial test of shared/spec/reference-problem.md section 4: servo-controlled
+// isotropic consolidation, a switch of contact parameters with re-equilibration, then
+// conventional triaxial compression along axis 1 with the lateral stresses held by the servo.
+struct TriaxialSpec {
+  bool enabled = false;
+  real_t confining_pressure = 200e3;    // Pa
+  real_t consolidation_friction = 1.0;  // mu_s while consolidating (mu_r = 0 then)
+  // Servo: a PI controller of each servo-controlled axis' strain rate on its relative stress
+  // error e = (sigma_ii - target) / target: edot_i = gain e + integral_gain int e dt, capped.
+  real_t servo_gain = 2.0;              // 1/s
+  real_t servo_integral_gain = 500.0;   // 1/s^2
+  real_t max_strain_rate = 1.0;         // 1/s, cap of the servo's strain rates
+  real_t stress_tolerance = 0.005;      // relative, to end consolidation / re-equilibration
+  real_t unbalanced_tolerance = 1e-4;   // unbalanced-force ratio to end them
+  std::int64_t servo_interval = 5;      // steps between stress measurements of the servo
+  real_t axial_strain_rate = 0.5;       // 1/s, compression of axis 1 during shear
+  real_t axial_strain = 0.25;           // eps_1 at the end of shear
+  real_t preparation_damping = 0.7;     // local damping alpha while consolidating / equilibrating
+  real_t shear_damping = 0.0;           // alpha during shear
+  std::int64_t max_stage_steps = 2000000;  // a stage that does not converge ends the run
+  std::vector<real_t> rolling_friction_cases;  // a sweep over mu_r (empty: [contact] value)
+  real_t progress_seconds = 5.0;        // a progress line at most this often
 };
 
 // Domain decomposition over MPI ranks (ignored on one rank).
@@ -61,6 +86,7 @@ struct Scene {
   std::int64_t output_every = 100;
   Vec3 gravity = Vec3::Zero();    // m/s^2
   real_t max_overlap = 0.25;      // stop when an overlap exceeds this fraction of the smaller radius
+  TriaxialSpec triaxial;
   ParallelSpec parallel;
 };
 

@@ -46,6 +46,7 @@ class MpiDomain final : public Domain {
   void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
+  std::unique_ptr<Domain> clone() const override { return std::make_unique<MpiDomain>(*this); }
   int rank() const override { return rank_; }
   int size() const override { return size_; }
 

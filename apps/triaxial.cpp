@@ -1,0 +1,288 @@
+#include "apps/triaxial.hpp"
+
+#include "io/setup.hpp"
+#include "parallel/mpi_context.hpp"
+#include "parallel/mpi_domain.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <numbers>
+
+namespace fabrica {
+
+Vec3 Servo::update(const Mat3& stress, real_t elapsed) {
+  Vec3 r = fixed_;
+  for (int k = 0; k < 3; ++k) {
+    if (!axes_[k]) continue;
+    const real_t e = (stress(k, k) - target_) / target_;
+    const real_t trial = kp_ * e + ki_ * (integral_[k] + e * elapsed);
+    if (std::abs(trial) < cap_) integral_[k] += e * elapsed;  // anti-windup
+    r[k] = std::clamp(kp_ * e + ki_ * integral_[k], -cap_, cap_);
+  }
+  return r;
+}
+
+void write_series_header(std::ostream& out) {
+  out << "stage,step,time,eps1,eps2,eps3,epsv,s11,s22,s33,s12,s23,s13,p,q,q_p,void_ratio,Z,Z_m,"
+         "sliding_fraction,rolling_fraction,inertial_number,unbalanced,kinetic,e_normal,e_shear,"
+         "e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,boundary_work,"
+         "energy_error\n";
+}
+
+TriaxialRun::TriaxialRun(const Scene& scene, Simulation& sim, real_t mean_diameter,
+                         real_t density, std::ostream* series, std::ostream* log,
+                         const TriaxialRun* parent)
+    : scene_(scene), tx_(scene.triaxial), sim_(sim), d_mean_(mean_diameter), density_(density),
+      series_(series), log_(log), l0_(sim.cell().lengths()) {
+  const MacroState& m = sim_.macro();
+  last_stress_ = m.stress;
+  if (parent) {  // a branch of the parent's simulation: the energy account continues
+    work_ = parent->work_;
+    e0_ = parent->e0_;
+    l0_ = parent->l0_;
+  } else {
+    e0_ = m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
+  }
+}
+
+real_t TriaxialRun::energy_error(const MacroState& m) const {
+  const Dissipation& d = m.dissipated;
+  const real_t stored = m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
+  const real_t spent = d.friction + d.rolling + d.viscous + d.local;
+  // Relative to the work done on the specimen since the simulation started.
+  return work_ > 0 ? (e0_ + work_ - stored - spent) / work_ : 0.0;
+}
+
+void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
+  if (!series_) return;
+  static const char* names[] = {"consolidation", "equilibration", "shear"};
+  const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
+  const real_t inertial =
+      m.p > 0 ? std::abs(sim_.cell().strain_rate()[0]) * d_mean_ * std::sqrt(density_ / m.p) : 0;
+  const Dissipation& d = m.dissipated;
+  const real_t values[] = {sim_.time(), eps[0], eps[1], eps[2], eps.sum(),
+                           m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
+                           m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.p > 0 ? m.q / m.p : 0.0,
+                           m.void_ratio, m.coordination, m.mech_coordination,
+                           real_t(m.sliding) / nc, real_t(m.rolling) / nc, inertial, m.unbalanced,
+                           m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
+                           d.viscous, d.local, work_, energy_error(m)};
+  *series_ << names[int(stage)] << ',' << sim_.step_count();
+  for (real_t v : values) *series_ << fmt::format(",{:.10g}", v);
+  *series_ << '\n';
+}
+
+StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
+                                   const std::function<bool(const MacroState&, const Vec3&)>& done) {
+  using clock = std::chrono::steady_clock;
+  static const char* names[] = {"consolidation", "equilibration", "shear"};
+  StageResult res;
+  const real_t dt = sim_.params().dt;
+  const real_t target = tx_.confining_pressure;
+  auto strain = [&] {
+    Vec3 e;
+    for (int k = 0; k < 3; ++k) e[k] = std::log(l0_[k] / sim_.cell().lengths()[k]);
+    return e;
+  };
+  sim_.cell().set_strain_rate(servo.update(last_stress_, 0.0));
+  real_t last_servo = sim_.time();
+  const auto t0 = clock::now();
+  auto last_print = t0;
+  for (std::int64_t k = 1;; ++k) {
+    if (k > tx_.max_stage_steps)
+      throw CollectiveError(fmt::format(
+          "{}: [triaxial] max_stage_steps = {}: the {} stage did not converge (last p = {:.6g} Pa, "
+          "unbalanced-force ratio {:.3g}); raise max_stage_steps, servo_gain or the damping",
+          scene_.path, tx_.max_stage_steps, names[int(stage)], res.state.p, res.state.unbalanced));
+    const bool out = k % scene_.output_every == 0;
+    const bool measure = out || k % tx_.servo_interval == 0;
+    // Boundary work of this step: -V sum_i sigma_ii edot_i dt, with the latest stress.
+    const Vec3 rate = sim_.cell().strain_rate();
+    sim_.step(measure);
+    work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
+    if (!measure) continue;
+    const MacroState& m = sim_.macro();
+    last_stress_ = m.stress;
+    res.state = m;
+    const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap);
+    if (!bad.empty()) throw CollectiveError(bad);
+    const Vec3 eps = strain();
+    res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
+    if (stage == Stage::Shear && out) {  // at the output instants, as in the series
+      const real_t qp = m.p > 0 ? m.q / m.p : 0;
+      if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
+      for (int a = 1; a < 3; ++a)
+        res.max_lateral_error =
+            std::max(res.max_lateral_error, std::abs(m.stress(a, a) - target) / target);
+    }
+    if (out) row(stage, m, eps);
+    sim_.cell().set_strain_rate(servo.update(m.stress, sim_.time() - last_servo));
+    last_servo = sim_.time();
+    const auto now = clock::now();
+    if (log_ && std::chrono::duration<double>(now - last_print).count() > tx_.progress_seconds) {
+      last_print = now;
+      const double secs = std::chrono::duration<double>(now - t0).count();
+      std::string eta;
+      if (stage == Stage::Shear && eps[0] > 0)
+        eta = fmt::format(", {:.0f} s left", secs * (tx_.axial_strain - eps[0]) / eps[0]);
+      *log_ << fmt::format("  [{}] step {}: eps1 {:.4f}, p {:.1f} kPa, q/p {:.4f}, e {:.4f}, "
+                           "unbalanced {:.2e}, {:.0f} steps/s{}\n",
+                           names[int(stage)], sim_.step_count(), eps[0], m.p / 1e3,
+                           m.p > 0 ? m.q / m.p : 0, m.void_ratio, m.unbalanced, k / secs, eta);
+      log_->flush();
+    }
+    if (done(m, eps)) {
+      res.steps = k;
+      res.strain = eps;
+      if (!out) row(stage, m, eps);
+      return res;
+    }
+  }
+}
+
+Servo TriaxialRun::make_servo(std::array<bool, 3> axes, Vec3 fixed) const {
+  return Servo(tx_.confining_pressure, tx_.servo_gain, tx_.servo_integral_gain, tx_.max_strain_rate,
+               axes, fixed);
+}
+
+StageResult TriaxialRun::consolidate() {
+  ContactLawParams law = sim_.params().law;
+  law.friction = tx_.consolidation_friction;
+  law.rolling_friction = 0;
+  sim_.set_law(law);
+  sim_.set_local_damping(tx_.preparation_damping);
+  const real_t target = tx_.confining_pressure;
+  return run_stage(Stage::Consolidation, make_servo({true, true, true}, Vec3::Zero()),
+                   [&](const MacroState& m, const Vec3&) {
+                     for (int k = 0; k < 3; ++k)
+                       if (std::abs(m.stress(k, k) - target) > tx_.stress_tolerance * target) return false;
+                     return m.unbalanced < tx_.unbalanced_tolerance;
+                   });
+}
+
+StageResult TriaxialRun::equilibrate(real_t rolling_friction) {
+  ContactLawParams law = scene_.law;
+  law.rolling_friction = rolling_friction;
+  sim_.set_law(law);
+  sim_.set_local_damping(tx_.preparation_damping);
+  const real_t target = tx_.confining_pressure;
+  return run_stage(Stage::Equilibration, make_servo({true, true, true}, Vec3::Zero()),
+                   [&](const MacroState& m, const Vec3&) {
+                     for (int k = 0; k < 3; ++k)
+                       if (std::abs(m.stress(k, k) - target) > tx_.stress_tolerance * target) return false;
+                     return m.unbalanced < tx_.unbalanced_tolerance;
+                   });
+}
+
+StageResult TriaxialRun::shear() {
+  sim_.set_local_damping(tx_.shear_damping);
+  l0_ = sim_.cell().lengths();  // strains of the shear stage are measured from here
+  return run_stage(Stage::Shear, make_servo({false, true, true}, Vec3(-tx_.axial_strain_rate, 0, 0)),
+                   [&](const MacroState&, const Vec3& eps) { return eps[0] >= tx_.axial_strain; });
+}
+
+namespace {
+std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
+  if (mpi.size() == 1) return nullptr;
+  MpiDomainOptions o;
+  o.kind = scene.parallel.decomposition == "metis" ? DecompositionKind::Metis
+                                                   : DecompositionKind::Cartesian;
+  o.rebalance_threshold = scene.parallel.rebalance_threshold;
+  o.rebalance_interval = int(scene.parallel.rebalance_interval);
+  return std::make_unique<MpiDomain>(mpi.comm(), o);
+}
+}  // namespace
+
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir) {
+  namespace fs = std::filesystem;
+  using clock = std::chrono::steady_clock;
+  const bool root = mpi.rank() == 0;
+  std::ostream* log = root ? &std::cout : nullptr;
+  const TriaxialSpec& tx = scene.triaxial;
+  std::vector<TriaxialCase> cases;
+  if (tx.rolling_friction_cases.empty()) {
+    cases.push_back({fmt::format("mur_{}", scene.law.rolling_friction), scene.law.rolling_friction});
+  } else {
+    for (real_t mur : tx.rolling_friction_cases) cases.push_back({fmt::format("mur_{}", mur), mur});
+  }
+  // The time step must suit the stiffest stage: rolling springs of the largest mu_r included.
+  Scene sized = scene;
+  for (const auto& c : cases) sized.law.rolling_friction = std::max(sized.law.rolling_friction, c.rolling_friction);
+  Setup s = make_setup(sized);
+  s.params.law = scene.law;
+  real_t dsum = 0, msum = 0, vsum = 0;
+  for (std::size_t a = 0; a < s.particles.n_owned(); ++a) {
+    const real_t R = s.particles.radius[a];
+    dsum += 2 * R, msum += s.particles.mass[a], vsum += 4.0 / 3.0 * std::numbers::pi * R * R * R;
+  }
+  const real_t d_mean = dsum / real_t(s.particles.n_owned()), density = msum / vsum;
+  if (log)
+    *log << fmt::format("triaxial test: {} spheres, mean diameter {:.2f} mm, {} rank(s), time step "
+                        "{:.3e} s ({:.3f} of the critical estimate), {} case(s)\n",
+                        s.particles.n_owned(), d_mean * 1e3, mpi.size(), s.params.dt,
+                        s.params.dt / s.critical_dt, cases.size());
+  std::unique_ptr<Domain> domain = make_domain(mpi, scene);
+  const auto t0 = clock::now();
+  Simulation prepared(std::move(s.particles), s.cell, s.params, domain.get());
+  std::ofstream cons_series;
+  if (root) {
+    fs::create_directories(outdir);
+    cons_series.open(fs::path(outdir) / "consolidation.csv");
+    write_series_header(cons_series);
+  }
+  TriaxialRun prep(scene, prepared, d_mean, density, root ? &cons_series : nullptr, log);
+  const StageResult c = prep.consolidate();
+  const double t_cons = std::chrono::duration<double>(clock::now() - t0).count();
+  if (log)
+    *log << fmt::format("consolidated to p = {:.1f} kPa in {} steps ({:.1f} s): void ratio {:.4f}, "
+                        "Z {:.3f}\n", c.state.p / 1e3, c.steps, t_cons, c.state.void_ratio,
+                        c.state.coordination);
+  std::ofstream summary;
+  if (root) {
+    summary.open(fs::path(outdir) / "summary.csv");
+    summary << "case,rolling_friction,void_ratio_consolidated,peak_q_p,eps1_at_peak,eps_v_end,"
+               "q_p_end,max_lateral_error,max_energy_error,max_inertial_number,wall_seconds\n";
+  }
+  for (const TriaxialCase& tc : cases) {
+    const auto t1 = clock::now();
+    std::unique_ptr<Domain> d2 = domain ? domain->clone() : nullptr;
+    Simulation sim(prepared, d2.get());
+    std::ofstream series;
+    if (root) {
+      fs::create_directories(fs::path(outdir) / tc.name);
+      series.open(fs::path(outdir) / tc.name / "series.csv");
+      write_series_header(series);
+    }
+    TriaxialRun run(scene, sim, d_mean, density, root ? &series : nullptr, log, &prep);
+    if (log) *log << fmt::format("case {}: mu_s = {}, mu_r = {}\n", tc.name, scene.law.friction, tc.rolling_friction);
+    const StageResult e = run.equilibrate(tc.rolling_friction);
+    const StageResult sh = run.shear();
+    const double secs = std::chrono::duration<double>(clock::now() - t1).count();
+    const real_t p_end = sh.state.p;
+    const real_t inertial = tx.axial_strain_rate * d_mean * std::sqrt(density / std::max(p_end, 1.0));
+    const real_t qp_end = p_end > 0 ? sh.state.q / p_end : 0;
+    if (log)
+      *log << fmt::format("case {}: equilibrated in {} steps; sheared to eps1 = {:.3f} in {} steps "
+                          "({:.1f} s): peak q/p {:.4f} at eps1 = {:.4f}, end q/p {:.4f}, eps_v {:.4f}, "
+                          "lateral stress error <= {:.2f} %, energy balance error <= {:.3f} %, "
+                          "inertial number {:.2e}\n",
+                          tc.name, e.steps, sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
+                          qp_end, sh.strain.sum(), 100 * sh.max_lateral_error,
+                          100 * std::max(e.max_energy_error, sh.max_energy_error), inertial);
+    if (root)
+      summary << fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.3e},{:.1f}\n",
+                             tc.name, tc.rolling_friction, c.state.void_ratio, sh.peak_q_p,
+                             sh.peak_eps1, sh.strain.sum(), qp_end, sh.max_lateral_error,
+                             std::max(e.max_energy_error, sh.max_energy_error), inertial, secs);
+  }
+  if (log) *log << fmt::format("series and summary written to {}\n", outdir);
+  return 0;
+}
+
+}  // namespace fabrica

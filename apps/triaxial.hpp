@@ -1,0 +1,94 @@
+// The periodic triaxial test (shared/spec/reference-problem.md section 4) as three stages on a
+// Simulation: servo-controlled isotropic consolidation, re-equilibration with the shear-stage
+// contact parameters, and conventional triaxial compression along axis 1 with the lateral
+// stresses held by the servo. Every rank runs the same control flow; every decision is taken
+// from reduced (identical) values.
+#pragma once
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+#include <fstream>
+#include <functional>
+#include <string>
+
+namespace fabrica {
+
+// The servo: a PI controller per axis. For the axes in 'servo', with e_k = (sigma_kk - target)
+// / target (compression-positive stress), edot_k = gain e_k + integral_gain I_k, capped at
+// +-cap (extension positive: a specimen above the target stress expands); I_k integrates e_k
+// over time except while the rate is capped (anti-windup). Other axes keep 'fixed'.
+class Servo {
+ public:
+  Servo(real_t target, real_t gain, real_t integral_gain, real_t cap, std::array<bool, 3> axes,
+        Vec3 fixed)
+      : target_(target), kp_(gain), ki_(integral_gain), cap_(cap), axes_(axes), fixed_(fixed) {}
+  // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one.
+  Vec3 update(const Mat3& stress, real_t elapsed);
+
+ private:
+  real_t target_, kp_, ki_, cap_;
+  std::array<bool, 3> axes_;
+  Vec3 fixed_;
+  Vec3 integral_ = Vec3::Zero();
+};
+
+struct TriaxialCase {
+  std::string name;        // e.g. "mur_0.05"
+  real_t rolling_friction; // mu_r of the shear stage
+};
+
+struct StageResult {
+  std::int64_t steps = 0;
+  MacroState state;
+  Vec3 strain = Vec3::Zero();  // eps_i = ln(l_i0 / l_i), compression positive
+  // Shear only, over the output instants: the largest q/p and eps_1 there, and the largest
+  // relative error of the lateral stresses, max |sigma_ii - target| / target, i = 2, 3.
+  real_t peak_q_p = 0;
+  real_t peak_eps1 = 0;
+  real_t max_lateral_error = 0;
+  real_t max_energy_error = 0;   // over the stage, relative to the boundary work
+};
+
+// One run of the protocol: the series rows go to 'series' (rank 0's stream; others pass null).
+class TriaxialRun {
+ public:
+  // With a parent (the run 'sim' was copied from), strains and the energy account continue.
+  TriaxialRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density,
+              std::ostream* series, std::ostream* log, const TriaxialRun* parent = nullptr);
+
+  StageResult consolidate();
+  StageResult equilibrate(real_t rolling_friction);
+  StageResult shear();
+
+  real_t boundary_work() const { return work_; }
+
+ private:
+  enum class Stage { Consolidation, Equilibration, Shear };
+  // Steps until done() (checked at servo steps) returns true; the servo updates the rates.
+  StageResult run_stage(Stage stage, Servo servo,
+                        const std::function<bool(const MacroState&, const Vec3&)>& done);
+  void row(Stage stage, const MacroState& m, const Vec3& eps);
+  Servo make_servo(std::array<bool, 3> axes, Vec3 fixed) const;
+  real_t energy_error(const MacroState& m) const;
+
+  const Scene& scene_;
+  const TriaxialSpec& tx_;
+  Simulation& sim_;
+  real_t d_mean_, density_;
+  std::ostream* series_;
+  std::ostream* log_;
+  Vec3 l0_;          // cell lengths at the start of the current strain reference
+  real_t work_ = 0;  // boundary work done on the specimen since the start [J]
+  real_t e0_ = 0;    // kinetic + elastic energy at the start [J]
+  Mat3 last_stress_ = Mat3::Zero();
+};
+
+void write_series_header(std::ostream& out);
+
+class MpiContext;
+// The whole test for a scene with [triaxial]: one consolidation, then for each case of the sweep
+// (or the single [contact] rolling_friction) a branch of the consolidated state that is
+// re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0).
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir);
+
+}  // namespace fabrica
