@@ -32,7 +32,7 @@ void write_series_header(std::ostream& out) {
   out << "stage,step,time,eps1,eps2,eps3,epsv,s11,s22,s33,s12,s23,s13,p,q,q_p,void_ratio,Z,Z_m,"
          "sliding_fraction,rolling_fraction,inertial_number,unbalanced,kinetic,e_normal,e_shear,"
          "e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,boundary_work,"
-         "energy_error\n";
+         "energy_error,mean_overlap_d,max_overlap_r\n";
 }
 
 TriaxialRun::TriaxialRun(const Scene& scene, Simulation& sim, real_t mean_diameter,
@@ -72,7 +72,8 @@ void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
                            m.void_ratio, m.coordination, m.mech_coordination,
                            real_t(m.sliding) / nc, real_t(m.rolling) / nc, inertial, m.unbalanced,
                            m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
-                           d.viscous, d.local, work_, energy_error(m)};
+                           d.viscous, d.local, work_, energy_error(m), m.mean_overlap / d_mean_,
+                           m.max_overlap_ratio};
   *series_ << names[int(stage)] << ',' << sim_.step_count();
   for (real_t v : values) *series_ << fmt::format(",{:.10g}", v);
   *series_ << '\n';
@@ -241,8 +242,9 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
   const double t_cons = std::chrono::duration<double>(clock::now() - t0).count();
   if (log)
     *log << fmt::format("consolidated to p = {:.1f} kPa in {} steps ({:.1f} s): void ratio {:.4f}, "
-                        "Z {:.3f}\n", c.state.p / 1e3, c.steps, t_cons, c.state.void_ratio,
-                        c.state.coordination);
+                        "Z {:.3f}, mean overlap {:.3f} % of the mean diameter\n",
+                        c.state.p / 1e3, c.steps, t_cons, c.state.void_ratio, c.state.coordination,
+                        100 * c.state.mean_overlap / d_mean);
   std::ofstream summary;
   if (root) {
     summary.open(fs::path(outdir) / "summary.csv");

@@ -93,6 +93,7 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
         if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
         sums->sum_contact_force += F.norm();
         ++sums->contacts_per_particle[i];
+        sums->sum_overlap += k.un;
         const real_t ratio = k.un / std::min(R[i], R[j]);
         if (ratio > sums->max_overlap_ratio) {
           sums->max_overlap_ratio = ratio;

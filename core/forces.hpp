@@ -23,6 +23,7 @@ struct ContactSums {
   real_t sum_contact_force = 0;  // sum of |f| over contacts [N]
   real_t sum_particle_force = 0; // sum of |resultant force| over owned particles [N]
   std::vector<std::int32_t> contacts_per_particle;  // for the mechanical coordination number
+  real_t sum_overlap = 0;        // sum of u_n over particle-particle contacts [m]
   real_t max_overlap_ratio = 0;  // largest u_n / min(R_i, R_j) (walls: u_n / R_i)
   GlobalId max_overlap_a = -1, max_overlap_b = -1;  // its bodies (b = -1 - wall for walls)
 };

@@ -28,7 +28,7 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
     if (c >= 2) ++nonrattlers, c2 += c;
   }
   enum : int { kFb = 0, kContacts = 9, kSliding, kRolling, kWall, kEn, kEs, kEr, kFc, kFp,
-               kNonRattlers, kC2, kN, kKin, kVs, kDf, kDr, kDv, kDl, kCount };
+               kNonRattlers, kC2, kN, kKin, kVs, kDf, kDr, kDv, kDl, kOv, kCount };
   double v[kCount];
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) v[kFb + 3 * a + b] = sums.fb(a, b);
@@ -50,6 +50,7 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   v[kDr] = diss.rolling;
   v[kDv] = diss.viscous;
   v[kDl] = diss.local;
+  v[kOv] = sums.sum_overlap;
   domain.sum_all(std::span<double>(v, kCount));
 
   // Sanity figures: the global maximum and its owner's ids (ties: the largest ids win).
@@ -84,6 +85,7 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   m.unbalanced = (nc > 0 && v[kFc] > 0) ? (v[kFp] / N) / (v[kFc] / nc) : 0.0;
   m.void_ratio = m.volume / v[kVs] - 1.0;
   m.particles = std::int64_t(N);
+  m.mean_overlap = v[kContacts] > 0 ? v[kOv] / v[kContacts] : 0.0;
   m.max_overlap_ratio = max_ratio;
   m.max_overlap_a = GlobalId(ida);
   m.max_overlap_b = ida >= 0 ? GlobalId(idb) : -1;

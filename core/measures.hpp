@@ -25,6 +25,7 @@ struct MacroState {
   std::int64_t particles = 0;  // over all ranks
   // Sanity: the largest overlap relative to the smaller radius and its two bodies, and the
   // first particle (lowest id) with a non-finite position, velocity or spin (-1 if none).
+  real_t mean_overlap = 0;  // m, over particle-particle contacts
   real_t max_overlap_ratio = 0;
   GlobalId max_overlap_a = -1, max_overlap_b = -1;
   GlobalId first_nonfinite = -1;

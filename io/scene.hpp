@@ -45,8 +45,8 @@ struct TriaxialSpec {
   real_t consolidation_friction = 1.0;  // mu_s while consolidating (mu_r = 0 then)
   // Servo: a PI controller of each servo-controlled axis' strain rate on its relative stress
   // error e = (sigma_ii - target) / target: edot_i = gain e + integral_gain int e dt, capped.
-  real_t servo_gain = 2.0;              // 1/s
-  real_t servo_integral_gain = 500.0;   // 1/s^2
+  real_t servo_gain = 4.0;              // 1/s
+  real_t servo_integral_gain = 2000.0;  // 1/s^2
   real_t max_strain_rate = 1.0;         // 1/s, cap of the servo's strain rates
   real_t stress_tolerance = 0.005;      // relative, to end consolidation / re-equilibration
   real_t unbalanced_tolerance = 1e-4;   // unbalanced-force ratio to end them
@@ -85,7 +85,7 @@ struct Scene {
   real_t skin = 0.001;            // m
   std::int64_t output_every = 100;
   Vec3 gravity = Vec3::Zero();    // m/s^2
-  real_t max_overlap = 0.25;      // stop when an overlap exceeds this fraction of the smaller radius
+  real_t max_overlap = 1.0;       // stop when an overlap exceeds this fraction of the smaller radius
   TriaxialSpec triaxial;
   ParallelSpec parallel;
 };

@@ -62,7 +62,8 @@ TEST(Scene, DemoSceneIsValidAndMatchesExample) {
   std::ifstream in(std::string(FABRICA_SOURCE_DIR) + "/examples/demo.toml");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_EQ(s.text, text);
-  EXPECT_TRUE(s.compress.enabled);
+  EXPECT_TRUE(s.triaxial.enabled);
+  EXPECT_EQ(s.triaxial.rolling_friction_cases.size(), 2u);
 }
 
 TEST(Scene, NonPositiveAndNegativeValuesAreRefused) {
@@ -116,4 +117,19 @@ TEST(Scene, TimeStepAboveTheEstimateIsRefusedUnlessForced) {
 
   Scene t = parse_scene("[particles]\ncount = 50\nd_max = 0.012\n[run]\ntime_step = 1.0\n", "bad.toml");
   EXPECT_THROW(make_setup(t), InputError);
+}
+
+TEST(Scene, TriaxialTableIsValidated) {
+  const Scene s = parse_scene(
+      "[triaxial]\nconfining_pressure = 1e5\nrolling_friction_cases = [0.0, 0.05]\n"
+      "axial_strain = 0.1\n", "ok.toml");
+  EXPECT_TRUE(s.triaxial.enabled);
+  EXPECT_DOUBLE_EQ(s.triaxial.confining_pressure, 1e5);
+  EXPECT_EQ(s.triaxial.rolling_friction_cases, (std::vector<real_t>{0.0, 0.05}));
+  expect_error("[triaxial]\nconfining_pressure = -2e5\n", {"[triaxial]", "confining_pressure", "-200000"});
+  expect_error("[triaxial]\nrolling_friction_cases = [0.1, -0.2]\n", {"rolling_friction_cases", "-0.2"});
+  expect_error("[triaxial]\naxial_strain = 1.5\n", {"axial_strain", "1.5"});
+  expect_error("[triaxial]\nservo_gian = 1\n", {"servo_gian", "unknown key"});
+  expect_error("[triaxial]\n[compress]\n", {"[compress] and [triaxial]"});
+  expect_error("[triaxial]\n[run]\nsteps = 10\n", {"[run] steps", "not used with [triaxial]"});
 }
