@@ -32,7 +32,7 @@ if [ "$mode" = demo ]; then
   out=out/demo
   echo "== running the built-in demo scene (examples/demo.toml) on 2 MPI ranks into $out"
   mpirun --oversubscribe -np 2 build/apps/fabrica run -o "$out"
-  /usr/bin/python3 apps/plot_series.py "$out/series.csv" -o "$out"
+  /usr/bin/python3 apps/plot_triaxial.py "$out"
 else
   echo "== running the test suite"
   ctest --test-dir build --output-on-failure -j"$jobs"
