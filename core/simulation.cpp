@@ -60,6 +60,8 @@ void Simulation::step(bool measure) {
   if (rebuild_now) {
     rebuild();
     clk.lap(&PhaseTimes::rebuild);
+    times_.rebuild -= last_migrate_seconds_;
+    times_.migrate += last_migrate_seconds_;
   }
   compute(measure, dt);
   clk.lap(&PhaseTimes::force);
@@ -122,9 +124,16 @@ void Simulation::rebuild() {
   //    the owned ones in space, and bring in the ghosts.
   p_.clear_ghosts();
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
+  using clock = std::chrono::steady_clock;
+  const auto t0 = timing_ ? clock::now() : clock::time_point{};
   domain_->migrate(p_, cell_, carry_);
+  const auto t1 = timing_ ? clock::now() : clock::time_point{};
   if (par_.spatial_sort) p_.permute_owned(search_.spatial_order(p_, cell_));
+  const auto t2 = timing_ ? clock::now() : clock::time_point{};
   domain_->build_ghosts(p_, cell_, cutoff_max_);
+  if (timing_)
+    last_migrate_seconds_ = std::chrono::duration<double>(t1 - t0).count() +
+                            std::chrono::duration<double>(clock::now() - t2).count();
 
   // 3. New lists, with the kept springs attached.
   search_.build(p_, cell_, par_.skin, pairs_);

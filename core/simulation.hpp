@@ -30,7 +30,8 @@ struct PhaseTimes {
   double integrate = 0;  // both half-kicks and the drift
   double ghost = 0;      // forward ghost update
   double check = 0;      // needs_rebuild() (one allreduce of the largest displacement)
-  double rebuild = 0;    // rebuild(), when triggered
+  double rebuild = 0;    // rebuild(), when triggered, without its communication:
+  double migrate = 0;    //   migration of particles and history, and the ghost rebuild
   double force = 0;      // contact forces (and local damping)
   double reduce = 0;     // reduction of the measures (measuring steps only)
   std::int64_t steps = 0;
@@ -106,6 +107,7 @@ class Simulation {
   std::int64_t step_ = 0, rebuilds_ = 0;
   real_t time_ = 0;
   bool timing_ = false;
+  double last_migrate_seconds_ = 0;  // communication time of the last rebuild (when timing)
   PhaseTimes times_;
 };
 

@@ -1,0 +1,126 @@
+// bench_scaling: MPI scaling on the shared dense-13584 scene.
+//
+//   mpirun -np P bench_scaling strong|weak [REPS=3] [STEPS=2000]
+//
+// strong: the 13,584 spheres on P ranks. weak: P copies of the packing stacked along its long
+// axis (13,584 spheres per rank; the Cartesian decomposition gives each rank one copy's worth).
+// Each repetition builds a fresh Simulation (outside the timer) and times the step loop; the
+// time is the slowest rank's. One rank runs the serial code (no MPI domain), as a user's
+// one-rank run does. Per phase: the slowest rank's seconds per step. Bytes: sent by all ranks
+// per step (ghost updates every step, migration and ghost rebuilds amortised). The last line is
+// machine-readable.
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+#include "io/setup.hpp"
+#include "parallel/mpi_context.hpp"
+#include "parallel/mpi_domain.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+using namespace fabrica;
+
+namespace {
+
+double max_all(MPI_Comm c, double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, c);
+  return v;
+}
+double sum_all(MPI_Comm c, double v) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, c);
+  return v;
+}
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// P copies of the packing along axis 3, ids shifted by k N.
+Setup replicate(const Setup& s, int copies) {
+  Setup r = s;
+  if (copies == 1) return r;
+  const Vec3 L = s.cell.lengths();
+  Particles p;
+  const std::size_t n = s.particles.n_owned();
+  p.reserve(n * copies);
+  for (int k = 0; k < copies; ++k)
+    for (std::size_t a = 0; a < n; ++a) {
+      const real_t R = s.particles.radius[a];
+      const real_t rho = s.particles.mass[a] / (4.0 / 3.0 * 3.14159265358979323846 * R * R * R);
+      p.add({s.particles.id[a] + GlobalId(k) * GlobalId(n) * 10, R, rho,
+             s.particles.x[a] + Vec3(0, 0, k * L[2])});
+    }
+  r.particles = std::move(p);
+  r.cell = PeriodicCell(Vec3(L[0], L[1], L[2] * copies));
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  MpiContext mpi(argc, argv);
+  const MPI_Comm comm = mpi.comm();
+  const std::string mode = argc > 1 ? argv[1] : "strong";
+  const int reps = argc > 2 ? std::atoi(argv[2]) : 3;
+  const int steps = argc > 3 ? std::atoi(argv[3]) : 2000;
+  if ((mode != "strong" && mode != "weak") || reps < 1 || steps < 1) {
+    if (mpi.rank() == 0) std::fprintf(stderr, "usage: bench_scaling strong|weak [REPS] [STEPS]\n");
+    return 2;
+  }
+  const Scene scene = load_scene(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml");
+  const Setup setup = replicate(make_setup(scene), mode == "weak" ? mpi.size() : 1);
+  const double n = double(setup.particles.n_owned());
+  std::vector<double> us;
+  PhaseTimes ph;
+  double bytes_per_step = 0, rebuilds = 0;
+  for (int rep = 0; rep < reps; ++rep) {
+    std::unique_ptr<MpiDomain> domain;
+    if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(comm);
+    Simulation sim(setup.particles, setup.cell, setup.params, domain.get());
+    sim.enable_phase_timers(true);
+    const std::int64_t r0 = sim.rebuild_count();
+    const DomainStats st0 = domain ? domain->stats() : DomainStats{};
+    MPI_Barrier(comm);
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 1; k <= steps; ++k) sim.step(k % 1000 == 0 || k == steps);
+    const double secs = max_all(comm, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    us.push_back(secs * 1e6 / (n * steps));
+    const PhaseTimes& t = sim.phase_times();
+    ph.integrate += max_all(comm, t.integrate) / (reps * steps);
+    ph.ghost += max_all(comm, t.ghost) / (reps * steps);
+    ph.check += max_all(comm, t.check) / (reps * steps);
+    ph.rebuild += max_all(comm, t.rebuild) / (reps * steps);
+    ph.migrate += max_all(comm, t.migrate) / (reps * steps);
+    ph.force += max_all(comm, t.force) / (reps * steps);
+    ph.reduce += max_all(comm, t.reduce) / (reps * steps);
+    rebuilds += double(sim.rebuild_count() - r0) / reps;
+    if (domain) {
+      const DomainStats& st = domain->stats();
+      const double b = double(st.bytes_forward - st0.bytes_forward) +
+                       double(st.bytes_migrated - st0.bytes_migrated) +
+                       double(st.bytes_ghost_build - st0.bytes_ghost_build);
+      bytes_per_step += sum_all(comm, b) / (reps * steps);
+    }
+    if (mpi.rank() == 0)
+      std::printf("rep %d: %.4f us per particle-step (%.3f s for %d steps of %.0f spheres)\n", rep + 1,
+                  us.back(), secs, steps, n);
+  }
+  if (mpi.rank() == 0) {
+    std::printf("phases (slowest rank, us per step): integrate %.1f, ghost update %.1f, rebuild check "
+                "(allreduce) %.1f, neighbour build %.1f, migration + ghost build %.1f, force %.1f, "
+                "reduction %.1f; %.1f rebuilds\n",
+                ph.integrate * 1e6, ph.ghost * 1e6, ph.check * 1e6, ph.rebuild * 1e6,
+                ph.migrate * 1e6, ph.force * 1e6, ph.reduce * 1e6, rebuilds);
+    std::printf("RESULT bench=scaling mode=%s ranks=%d particles=%.0f steps=%d us_per_particle_step_median=%.4f "
+                "min=%.4f bytes_per_step=%.0f\n",
+                mode.c_str(), mpi.size(), n, steps, median(us), *std::min_element(us.begin(), us.end()),
+                bytes_per_step);
+  }
+  return 0;
+}
