@@ -23,6 +23,9 @@ class Domain {
   // The largest value over all ranks (every rank calls it once per step).
   virtual real_t max_all(real_t local) { return local; }
 
+  // Element-wise maximum over all ranks, in place.
+  virtual void max_all(std::span<double> values) { (void)values; }
+
   // Element-wise sum over all ranks, in place.
   virtual void sum_all(std::span<double> values) { (void)values; }
 

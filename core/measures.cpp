@@ -58,12 +58,15 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   for (std::size_t a = 0; a < n; ++a)
     if (!p.x[a].allFinite() || !p.v[a].allFinite() || !p.w[a].allFinite())
       nonfinite = std::min(nonfinite, p.id[a]);
-  const real_t max_ratio = domain.max_all(sums.max_overlap_ratio);
+  double mx[2] = {sums.max_overlap_ratio, -double(nonfinite)};
+  domain.max_all(std::span<double>(mx, 2));
+  const real_t max_ratio = mx[0], bad = -mx[1];
   const bool mine = sums.max_overlap_a >= 0 && sums.max_overlap_ratio == max_ratio;
-  const real_t ida = domain.max_all(mine ? real_t(sums.max_overlap_a) : -1.0);
-  const real_t idb = domain.max_all(mine && real_t(sums.max_overlap_a) == ida
-                                        ? real_t(sums.max_overlap_b) : -1e300);
-  const real_t bad = -domain.max_all(-real_t(nonfinite));
+  double ids[2] = {mine ? double(sums.max_overlap_a) : -1.0, -1e300};
+  domain.max_all(std::span<double>(ids, 1));
+  ids[1] = mine && double(sums.max_overlap_a) == ids[0] ? double(sums.max_overlap_b) : -1e300;
+  domain.max_all(std::span<double>(ids + 1, 1));
+  const real_t ida = ids[0], idb = ids[1];
 
   MacroState m;
   m.volume = cell.volume();

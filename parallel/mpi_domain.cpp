@@ -45,6 +45,10 @@ real_t MpiDomain::max_all(real_t local) {
   return g;
 }
 
+void MpiDomain::max_all(std::span<double> values) {
+  MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_DOUBLE, MPI_MAX, comm_);
+}
+
 void MpiDomain::sum_all(std::span<double> values) {
   MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_DOUBLE, MPI_SUM, comm_);
 }
