@@ -6,7 +6,6 @@
 #include "io/setup.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_context.hpp"
-#include "parallel/mpi_domain.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -54,15 +53,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   if (!root && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
   if (scene.triaxial.enabled) return run_triaxial(mpi, scene, outdir);
   Setup s = make_setup(scene);
-  std::unique_ptr<MpiDomain> domain;
-  if (mpi.size() > 1) {
-    MpiDomainOptions o;
-    o.kind = scene.parallel.decomposition == "metis" ? DecompositionKind::Metis
-                                                     : DecompositionKind::Cartesian;
-    o.rebalance_threshold = scene.parallel.rebalance_threshold;
-    o.rebalance_interval = int(scene.parallel.rebalance_interval);
-    domain = std::make_unique<MpiDomain>(mpi.comm(), o);
-  }
+  std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
              s.particles.n_owned(), s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);
   fmt::print("critical time step {:.4e} s, time step {:.4e} s (fraction {:.3f})\n", s.critical_dt,

@@ -188,7 +188,6 @@ StageResult TriaxialRun::shear() {
                    [&](const MacroState&, const Vec3& eps) { return eps[0] >= tx_.axial_strain; });
 }
 
-namespace {
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
   if (mpi.size() == 1) return nullptr;
   MpiDomainOptions o;
@@ -198,7 +197,6 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
   o.rebalance_interval = int(scene.parallel.rebalance_interval);
   return std::make_unique<MpiDomain>(mpi.comm(), o);
 }
-}  // namespace
 
 int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir) {
   namespace fs = std::filesystem;

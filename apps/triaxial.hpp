@@ -9,6 +9,7 @@
 
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <string>
 
 namespace fabrica {
@@ -86,6 +87,9 @@ class TriaxialRun {
 void write_series_header(std::ostream& out);
 
 class MpiContext;
+// The scene's MPI domain ([parallel]) on several ranks; null (serial) on one.
+std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
+
 // The whole test for a scene with [triaxial]: one consolidation, then for each case of the sweep
 // (or the single [contact] rolling_friction) a branch of the consolidated state that is
 // re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0).
