@@ -15,8 +15,12 @@
 # Then one diagnostics run of each peer (outside any timing) gives the end state to compare
 # with Fabrica's: pressure, contact count, neighbour-list builds, translational kinetic energy.
 #
+# On a shared machine, QUIET=1 (the default) waits before each round, up to MAXWAIT seconds
+# (300), until no other process is runnable (the running-task count of /proc/loadavg, sampled
+# for 2 s); the load average at the start of each round is printed with its times.
+#
 # Environment: REPS (5), BUILD (build-bench at the repository root), PEERS (the shared bench
-# directory), DIAG (1: run the diagnostics).
+# directory), DIAG (1: run the diagnostics), QUIET (1), MAXWAIT (300).
 set -euo pipefail
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
@@ -26,10 +30,30 @@ REPS=${REPS:-5}
 BUILD=${BUILD:-$root/build-bench}
 PEERS=${PEERS:-$(cd "$root/../shared/bench/dense-13584" && pwd)}
 DIAG=${DIAG:-1}
+QUIET=${QUIET:-1}
+MAXWAIT=${MAXWAIT:-300}
 bench=$BUILD/benchmarks/bench_dense
 [ -x "$bench" ] || { echo "no $bench: cmake -S . -B build-bench -DFABRICA_TESTS=OFF && make -C build-bench -j2 bench_dense" >&2; exit 1; }
 [ -x "$PEERS/run-peers.sh" ] || { echo "no $PEERS/run-peers.sh" >&2; exit 1; }
 N=13584 STEPS=2000
+
+# True if no process but this shell was runnable in 5 samples over 2 s.
+idle() {
+  local a b c r rest k
+  for k in 1 2 3 4 5; do
+    read -r a b c r rest < /proc/loadavg
+    [ "${r%/*}" -le 1 ] || return 1
+    sleep 0.5
+  done
+}
+wait_idle() {
+  [ "$QUIET" = 1 ] || return 0
+  local t0=$SECONDS
+  until idle; do
+    if [ $((SECONDS - t0)) -ge "$MAXWAIT" ]; then echo "(still busy after ${MAXWAIT} s: running anyway)"; return 0; fi
+    sleep 3
+  done
+}
 
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
@@ -37,6 +61,8 @@ echo "dense-13584 side by side, $(date -u '+%Y-%m-%d %H:%M UTC'), $(lscpu | sed 
 echo "Fabrica $(git -C "$root" describe --always --dirty 2>/dev/null || echo '?'), $bench"
 echo "load before: $(uptime | sed 's/.*load average: //')"
 for rep in $(seq 1 "$REPS"); do
+  wait_idle
+  echo "round $rep, load $(cut -d' ' -f1-3 /proc/loadavg)"
   "$bench" 1 0 > "$out/fab.$rep"
   fab=$(sed -n 's/^RESULT .*us_per_particle_step_median=\([0-9.]*\).*/\1/p' "$out/fab.$rep")
   echo "ranks=1 rep=$rep fabrica_us=$fab" | tee -a "$out/times"
