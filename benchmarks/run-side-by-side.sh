@@ -3,14 +3,13 @@
 #
 #   REPS=5 benchmarks/run-side-by-side.sh            (about 1 minute per round)
 #
-# Each of the REPS rounds runs, back to back: Fabrica's bench_dense (one repetition, 1 rank) and
-# the peers' own script ../shared/bench/dense-13584/run-peers.sh with REPS=1 (LAMMPS and
-# LIGGGHTS, 1 rank then 2 ranks). Alternating the engines spreads the machine's noise over all
-# of them. Every figure is loop time / (N x steps) in microseconds per particle-step: the
-# peers' "Loop time", Fabrica's timed step loop (setup excluded in both).
-#
-# The table compares Fabrica's 1-rank figure with the peers' 1-rank figures only: bench_dense
-# runs serially (one rank). The peers' 2-rank figures are printed for reference.
+# Each of the REPS rounds runs, back to back: Fabrica's bench_dense (one repetition, 1 rank),
+# Fabrica on 2 ranks (bench_scaling strong, MPI domain decomposition; skipped when
+# bench_scaling is not built or FABRICA2=0), and the peers' own script
+# ../shared/bench/dense-13584/run-peers.sh with REPS=1 (LAMMPS and LIGGGHTS, 1 rank then 2
+# ranks). Alternating the engines spreads the machine's noise over all of them. Every figure is
+# loop time / (N x steps) in microseconds per particle-step: the peers' "Loop time", Fabrica's
+# timed step loop (setup excluded in both; on 2 ranks the slowest rank's loop).
 #
 # Then one diagnostics run of each peer (outside any timing) gives the end state to compare
 # with Fabrica's: pressure, contact count, neighbour-list builds, translational kinetic energy.
@@ -20,7 +19,7 @@
 # for 2 s); the load average at the start of each round is printed with its times.
 #
 # Environment: REPS (5), BUILD (build-bench at the repository root), PEERS (the shared bench
-# directory), DIAG (1: run the diagnostics), QUIET (1), MAXWAIT (300).
+# directory), DIAG (1: run the diagnostics), QUIET (1), MAXWAIT (300), FABRICA2 (1).
 set -euo pipefail
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
@@ -32,7 +31,10 @@ PEERS=${PEERS:-$(cd "$root/../shared/bench/dense-13584" && pwd)}
 DIAG=${DIAG:-1}
 QUIET=${QUIET:-1}
 MAXWAIT=${MAXWAIT:-300}
+FABRICA2=${FABRICA2:-1}
 bench=$BUILD/benchmarks/bench_dense
+scaling=$BUILD/benchmarks/bench_scaling
+[ -x "$scaling" ] || FABRICA2=0
 [ -x "$bench" ] || { echo "no $bench: cmake -S . -B build-bench -DFABRICA_TESTS=OFF && make -C build-bench -j2 bench_dense" >&2; exit 1; }
 [ -x "$PEERS/run-peers.sh" ] || { echo "no $PEERS/run-peers.sh" >&2; exit 1; }
 N=13584 STEPS=2000
@@ -66,6 +68,10 @@ for rep in $(seq 1 "$REPS"); do
   "$bench" 1 0 > "$out/fab.$rep"
   fab=$(sed -n 's/^RESULT .*us_per_particle_step_median=\([0-9.]*\).*/\1/p' "$out/fab.$rep")
   echo "ranks=1 rep=$rep fabrica_us=$fab" | tee -a "$out/times"
+  if [ "$FABRICA2" = 1 ]; then
+    fab2=$(mpirun -np 2 "$scaling" strong 1 "$STEPS" | sed -n 's/^RESULT .*us_per_particle_step_median=\([0-9.]*\).*/\1/p')
+    echo "ranks=2 rep=$rep fabrica_us=$fab2" | tee -a "$out/times"
+  fi
   REPS=1 "$PEERS/run-peers.sh" | sed "s/rep=1/rep=$rep/" | tee -a "$out/times"
 done
 echo "load after: $(uptime | sed 's/.*load average: //')"
@@ -77,16 +83,19 @@ stats() {  # engine ranks
          m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.4f %.4f\n", m, v[1]}'
 }
 read -r fab_med fab_min < <(stats fabrica 1)
+read -r fab2_med fab2_min < <(stats fabrica 2)
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN {if (a + 0 > 0 && b + 0 > 0) printf "%.2f", a / b; else printf "-"}'; }
 echo
-echo "us per particle-step over $REPS rounds (median / min); ratio = Fabrica / peer (below 1: Fabrica faster)"
-printf "%-34s %-17s %-17s %s\n" "engine" "1 rank" "2 ranks" "Fabrica/peer, 1 rank (median, min)"
-printf "%-34s %-17s %-17s %s\n" "Fabrica (bench_dense)" "$fab_med / $fab_min" "n/a (serial)" "-"
+echo "us per particle-step over $REPS rounds (median / min); ratio = Fabrica / peer at the same"
+echo "rank count (below 1: Fabrica faster)"
+printf "%-34s %-17s %-17s %-14s %s\n" "engine" "1 rank" "2 ranks" "ratio 1 rank" "ratio 2 ranks"
+printf "%-34s %-17s %-17s %-14s %s\n" "Fabrica" "$fab_med / $fab_min" "$fab2_med / $fab2_min" "(median, min)" "(median, min)"
 for e in liggghts lammps; do
   read -r m1 n1 < <(stats $e 1)
   read -r m2 n2 < <(stats $e 2)
   name=$([ $e = liggghts ] && echo "LIGGGHTS-PUBLIC (bin, newton off)" || echo "LAMMPS (bin, newton on)")
-  printf "%-34s %-17s %-17s %s\n" "$name" "$m1 / $n1" "$m2 / $n2" \
-    "$(awk -v a="$fab_med" -v b="$m1" -v c="$fab_min" -v d="$n1" 'BEGIN {printf "%.2f, %.2f", a / b, c / d}')"
+  printf "%-34s %-17s %-17s %-14s %s\n" "$name" "$m1 / $n1" "$m2 / $n2" \
+    "$(ratio "$fab_med" "$m1"), $(ratio "$fab_min" "$n1")" "$(ratio "$fab2_med" "$m2"), $(ratio "$fab2_min" "$n2")"
 done
 grep -h '^RESULT' "$out/fab.1"
 
