@@ -1,0 +1,47 @@
+#include "core/contact_snapshot.hpp"
+
+#include <array>
+#include <cmath>
+
+namespace fabrica {
+
+std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell,
+                                           const ContactLawParams& law, const PairList& pairs) {
+  std::array<Vec3, 27> shift;
+  for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
+  const bool rolling = law.rolling() && pairs.mr.size() == pairs.size();
+  // The springs were capped to the limit exactly, up to the rounding of one rescaling.
+  constexpr real_t kAtLimit = 1.0 - 1e-9;
+  std::vector<ContactRecord> out;
+  for (std::size_t q = 0; q < pairs.size(); ++q) {
+    const Index i = pairs.i[q], j = pairs.j[q];
+    if (!pairs.touching[q] || std::size_t(i) >= p.n_owned()) continue;
+    const Vec3 d = p.x[j] + shift[pairs.image[q]] - p.x[i];
+    const real_t sum_r = p.radius[i] + p.radius[j];
+    const real_t r2 = d.squaredNorm();
+    if (r2 >= sum_r * sum_r) continue;
+    const real_t dist = std::sqrt(r2);
+    ContactRecord c;
+    c.id1 = p.id[i];
+    c.id2 = p.id[j];
+    c.branch = d;
+    c.normal = d / dist;
+    c.overlap = sum_r - dist;
+    const PairConstants k =
+        pair_constants<true, false>(law, p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
+    c.fn = k.kn * c.overlap;
+    c.ft = pairs.fs[q];
+    const real_t cap = law.friction * c.fn;
+    c.sliding = c.ft.norm() >= kAtLimit * cap;
+    if (rolling) {
+      c.mr = pairs.mr[q];
+      c.rolling = c.mr.norm() >= kAtLimit * law.rolling_friction * k.rbar * c.fn;
+    } else {
+      c.rolling = true;  // no rolling resistance: every contact rolls freely (spec section 5)
+    }
+    out.push_back(c);
+  }
+  return out;
+}
+
+}  // namespace fabrica
