@@ -13,8 +13,11 @@ declare -A res
 for rep in $(seq 1 "$REPS"); do
   for mode in strong weak; do
     for np in 1 2; do
-      line=$(mpirun --oversubscribe -np "$np" "$bin" "$mode" 1 "$STEPS" | tee /dev/stderr | grep '^RESULT')
+      out=$(mpirun --oversubscribe -np "$np" "$bin" "$mode" 1 "$STEPS")
+      grep -E '^(phases|RESULT)' <<<"$out"
+      line=$(grep '^RESULT' <<<"$out")
       us=$(sed -E 's/.*us_per_particle_step_median=([0-9.]+).*/\1/' <<<"$line")
+      echo "round $rep, $mode, $np rank(s): $us us per particle-step"
       res[$mode,$np]="${res[$mode,$np]:-} $us"
     done
   done

@@ -4,12 +4,30 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
-#include <unordered_set>
+#include <unordered_map>
+#include <vector>
 
 namespace fabrica {
 
 namespace {
+
 std::string where(const std::string& path, int line) { return path + ":" + std::to_string(line); }
+
+// The numbers of a data line (comments stripped); strtod, so that nan/inf reach the checks.
+bool parse_numbers(const std::string& body, int n, double* val) {
+  std::istringstream as(body);
+  std::string tok;
+  int k = 0;
+  while (as >> tok) {
+    if (k == n) return false;
+    char* end = nullptr;
+    val[k] = std::strtod(tok.c_str(), &end);
+    if (!end || *end != '\0') return false;
+    ++k;
+  }
+  return k == n;
+}
+
 }  // namespace
 
 DataFile read_lammps_data(const std::string& path) {
@@ -18,11 +36,13 @@ DataFile read_lammps_data(const std::string& path) {
   DataFile out;
   long long natoms = -1;
   bool have_box[3] = {false, false, false};
+  enum class Section { Header, Atoms, Velocities } section = Section::Header;
+  bool seen_atoms = false, seen_velocities = false;
   std::string line;
   int lineno = 0;
-  bool in_atoms = false;
-  long long read = 0;
-  std::unordered_set<GlobalId> seen;
+  std::unordered_map<GlobalId, std::size_t> index;  // id -> particle index
+  struct Motion { Vec3 v, w; int line; };
+  std::unordered_map<GlobalId, Motion> motion;
   std::getline(in, line);  // title line
   ++lineno;
   while (std::getline(in, line)) {
@@ -30,14 +50,25 @@ DataFile read_lammps_data(const std::string& path) {
     const auto hash = line.find('#');
     const std::string body = hash == std::string::npos ? line : line.substr(0, hash);
     std::istringstream ls(body);
-    std::string w1, w2, w3, w4;
+    std::string w1, w2, w3;
     if (!(ls >> w1)) continue;
-    if (!in_atoms) {
-      if (w1 == "Atoms") {
-        in_atoms = true;
+    if (std::isalpha(static_cast<unsigned char>(w1[0]))) {  // a section keyword
+      if (w1 == "Atoms" || w1 == "Velocities") {
+        if (natoms < 0) throw InputError(where(path, lineno) + ": section '" + w1 +
+                                         "' before the 'N atoms' line of the header");
+        bool& seen = w1 == "Atoms" ? seen_atoms : seen_velocities;
+        if (seen) throw InputError(where(path, lineno) + ": section '" + w1 + "' appears twice");
+        seen = true;
+        section = w1 == "Atoms" ? Section::Atoms : Section::Velocities;
         continue;
       }
-      ls >> w2 >> w3 >> w4;
+      // Header keywords follow numbers ("N atoms", "lo hi xlo xhi"): a line that starts with a
+      // word is a section, and we read no other.
+      throw InputError(where(path, lineno) + ": section '" + w1 +
+                       "' is not supported (only Atoms and Velocities of atom_style sphere)");
+    }
+    if (section == Section::Header) {
+      ls >> w2 >> w3;
       auto number = [&](const std::string& s) {
         char* end = nullptr;
         const double v = std::strtod(s.c_str(), &end);
@@ -53,56 +84,75 @@ DataFile read_lammps_data(const std::string& path) {
         out.lo[k] = number(w1);
         out.hi[k] = number(w2);
         have_box[k] = true;
-      } else if (w1 == "Velocities" || w1 == "Masses" || w1 == "Bonds") {
-        throw InputError(where(path, lineno) + ": section '" + w1 +
-                         "' is not supported (only the Atoms section of atom_style sphere)");
       }
       continue;
     }
-    // Atoms section: id type diameter density x y z
-    if (std::isalpha(static_cast<unsigned char>(w1[0]))) break;  // next section
-    // Tokens are converted with strtod so that nan/inf reach the checks below.
-    std::istringstream as(body);
-    std::string tok[7];
-    int ntok = 0;
-    while (ntok < 7 && as >> tok[ntok]) ++ntok;
+    if (section == Section::Atoms) {
+      double val[7];
+      if (!parse_numbers(body, 7, val))
+        throw InputError(where(path, lineno) +
+                         ": expected 'id type diameter density x y z', got '" + line + "'");
+      const long long id = static_cast<long long>(val[0]);
+      const double dia = val[2], rho = val[3];
+      auto bad = [&](const char* field, double v, const char* why) {
+        std::ostringstream m;
+        m << where(path, lineno) << ": particle " << id << " " << field << " = " << v << " " << why;
+        throw InputError(m.str());
+      };
+      if (!std::isfinite(dia) || dia <= 0) bad("diameter", dia, "must be positive and finite");
+      if (!std::isfinite(rho) || rho <= 0) bad("density", rho, "must be positive and finite");
+      const char* names[3] = {"x", "y", "z"};
+      for (int k = 0; k < 3; ++k) {
+        const double xk = val[4 + k];
+        if (!std::isfinite(xk)) bad(names[k], xk, "is not finite");
+        if (xk < out.lo[k] || xk > out.hi[k])
+          bad(names[k], xk, "lies outside the box given in the header");
+      }
+      if (!index.emplace(GlobalId(id), out.particles.n_owned()).second)
+        bad("id", double(id), "appears twice");
+      out.particles.add({GlobalId(id), 0.5 * dia, rho, Vec3(val[4], val[5], val[6]) - out.lo});
+      continue;
+    }
+    // Velocities section.
     double val[7];
-    bool ok = ntok == 7;
-    for (int q = 0; ok && q < 7; ++q) {
-      char* end = nullptr;
-      val[q] = std::strtod(tok[q].c_str(), &end);
-      ok = end && *end == '\0';
-    }
-    if (!ok)
-      throw InputError(where(path, lineno) +
-                       ": expected 'id type diameter density x y z', got '" + line + "'");
+    if (!parse_numbers(body, 7, val))
+      throw InputError(where(path, lineno) + ": expected 'id vx vy vz wx wy wz', got '" + line + "'");
     const long long id = static_cast<long long>(val[0]);
-    const double dia = val[2], rho = val[3], x = val[4], y = val[5], z = val[6];
-    auto bad = [&](const char* field, double v, const char* why) {
-      std::ostringstream m;
-      m << where(path, lineno) << ": particle " << id << " " << field << " = " << v << " " << why;
-      throw InputError(m.str());
-    };
-    if (!std::isfinite(dia) || dia <= 0) bad("diameter", dia, "must be positive and finite");
-    if (!std::isfinite(rho) || rho <= 0) bad("density", rho, "must be positive and finite");
-    const double xs[3] = {x, y, z};
-    const char* names[3] = {"x", "y", "z"};
-    for (int k = 0; k < 3; ++k) {
-      if (!std::isfinite(xs[k])) bad(names[k], xs[k], "is not finite");
-      if (xs[k] < out.lo[k] || xs[k] > out.hi[k])
-        bad(names[k], xs[k], "lies outside the box given in the header");
-    }
-    if (!seen.insert(id).second) bad("id", double(id), "appears twice");
-    out.particles.add({GlobalId(id), 0.5 * dia, rho, Vec3(x, y, z) - out.lo});
-    ++read;
+    static const char* vnames[6] = {"vx", "vy", "vz", "wx", "wy", "wz"};
+    for (int k = 0; k < 6; ++k)
+      if (!std::isfinite(val[1 + k])) {
+        std::ostringstream m;
+        m << where(path, lineno) << ": particle " << id << " " << vnames[k] << " = " << val[1 + k]
+          << " is not finite";
+        throw InputError(m.str());
+      }
+    if (!motion.emplace(GlobalId(id), Motion{Vec3(val[1], val[2], val[3]),
+                                              Vec3(val[4], val[5], val[6]), lineno}).second)
+      throw InputError(where(path, lineno) + ": particle " + std::to_string(id) +
+                       " appears twice in the Velocities section");
   }
   if (natoms < 0) throw InputError(path + ": no 'N atoms' line in the header");
   for (int k = 0; k < 3; ++k)
     if (!have_box[k] || !(out.hi[k] > out.lo[k]))
       throw InputError(path + ": missing or empty box bounds along axis " + std::to_string(k + 1));
+  const long long read = static_cast<long long>(out.particles.n_owned());
   if (read != natoms)
     throw InputError(path + ": header says " + std::to_string(natoms) + " atoms, Atoms section has " +
                      std::to_string(read));
+  if (seen_velocities) {
+    for (const auto& [id, m] : motion) {
+      const auto it = index.find(id);
+      if (it == index.end())
+        throw InputError(where(path, m.line) + ": Velocities of particle " + std::to_string(id) +
+                         ", which is not in the Atoms section");
+      out.particles.v[it->second] = m.v;
+      out.particles.w[it->second] = m.w;
+    }
+    if (static_cast<long long>(motion.size()) != natoms)
+      throw InputError(path + ": header says " + std::to_string(natoms) +
+                       " atoms, Velocities section has " + std::to_string(motion.size()));
+    out.has_velocities = true;
+  }
   return out;
 }
 

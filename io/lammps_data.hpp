@@ -1,5 +1,9 @@
-// Reader for LAMMPS/LIGGGHTS data files with atom_style sphere
-// (Atoms section columns: id type diameter density x y z), as used by shared/bench.
+// Reader for LAMMPS/LIGGGHTS data files with atom_style sphere, as used by shared/bench:
+//   Atoms section:      id type diameter density x y z
+//   Velocities section: id vx vy vz wx wy wz      (optional; every atom once if present)
+// Velocities become the particles' initial velocity and spin (Fabrica's v is relative to the
+// affine field of the deforming cell: for a cell at rest, as in the benchmark, the same thing).
+// Any other section (Masses, Bonds, ...) is refused, so nothing in a file is silently ignored.
 #pragma once
 #include "core/particles.hpp"
 #include "io/errors.hpp"
@@ -11,6 +15,7 @@ namespace fabrica {
 struct DataFile {
   Particles particles;  // ids as in the file
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // box bounds (m)
+  bool has_velocities = false;
 };
 
 // Throws InputError naming the file, the line and the offending value.

@@ -1,5 +1,6 @@
-// LAMMPS data files: the shared benchmark file reads as described in its README; malformed
-// files are refused with the file, the line and the value.
+// LAMMPS data files: the shared benchmark file reads as described in its README, velocities and
+// spins included; malformed files are refused with the file, the line and the value, and a
+// section the reader does not understand is refused rather than ignored.
 #include "io/lammps_data.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
@@ -47,6 +48,33 @@ TEST(LammpsData, SharedBenchmarkFile) {
   EXPECT_NEAR(d.particles.solid_volume(), 0.08178, 0.00001);
   EXPECT_GE(d.particles.min_radius(), 0.005 - 1e-12);
   EXPECT_LE(d.particles.max_radius(), 0.030 + 1e-12);
+  // Its Velocities section (id vx vy vz wx wy wz): first and last lines of the file.
+  ASSERT_TRUE(d.has_velocities);
+  const Particles& p = d.particles;
+  ASSERT_EQ(p.id.front(), 1);
+  EXPECT_EQ(p.v.front(), Vec3(0.0013670254331688519, -0.0056850833390829705, -0.0012122080089355927));
+  EXPECT_EQ(p.w.front(), Vec3(-1.1802470304325205, -1.0096064313222537, 0.22513232706954273));
+  ASSERT_EQ(p.id.back(), 13584);
+  EXPECT_EQ(p.v.back(), Vec3(-4.7270119630446086e-05, -8.689208417756553e-06, -8.9801880632100417e-06));
+  EXPECT_EQ(p.w.back(), Vec3(-5.4023679161515344e-05, 0.00036734898874706158, 0.0006382993890906057));
+}
+
+TEST(LammpsData, VelocitiesAreReadInAnyOrder) {
+  const std::string path = write_tmp(
+      "fabrica_vel.data", std::string(kHeader) +
+          "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n\n"
+          "Velocities\n\n3 0.75 0 0 0 0 3\n1 0.25 0 0 0 0 1\n2 0.5 0 0 0 0 2\n");
+  const DataFile d = read_lammps_data(path);
+  ASSERT_TRUE(d.has_velocities);
+  for (std::size_t a = 0; a < 3; ++a) {
+    EXPECT_EQ(d.particles.v[a], Vec3(0.25 * double(d.particles.id[a]), 0, 0));
+    EXPECT_EQ(d.particles.w[a], Vec3(0, 0, double(d.particles.id[a])));
+  }
+  const DataFile none = read_lammps_data(write_tmp(
+      "fabrica_novel.data", std::string(kHeader) +
+          "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n"));
+  EXPECT_FALSE(none.has_velocities);
+  EXPECT_EQ(none.particles.v[1], Vec3::Zero());
 }
 
 TEST(LammpsData, MalformedFilesAreRefused) {
@@ -62,6 +90,16 @@ TEST(LammpsData, MalformedFilesAreRefused) {
                {"appears twice"});
   expect_error("1 1 0.02 2650 0.5 0.5\n", {":12", "expected"});
   expect_error("1 1 0.02 2650 0.5 0.5 0.5\n", {"3 atoms", "has 1"});
+  const std::string atoms =
+      "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n\n";
+  expect_error(atoms + "Velocities\n\n1 0 0 0 0 0 0\n2 0 0 0 0 0 0\n", {"Velocities section has 2"});
+  expect_error(atoms + "Velocities\n\n1 0 0 0 0 0 0\n2 0 inf 0 0 0 0\n3 0 0 0 0 0 0\n",
+               {":19", "particle 2", "vy = inf"});
+  expect_error(atoms + "Velocities\n\n1 0 0 0 0 0 0\n7 0 0 0 0 0 0\n3 0 0 0 0 0 0\n",
+               {":19", "particle 7", "not in the Atoms section"});
+  expect_error(atoms + "Velocities\n\n1 0 0 0 0 0 0\n1 0 0 0 0 0 0\n", {"appears twice"});
+  expect_error(atoms + "Velocities\n\n1 0 0 0\n", {":18", "expected 'id vx vy vz wx wy wz'"});
+  expect_error(atoms + "Masses\n\n1 2.0\n", {":16", "Masses", "not supported"});
   EXPECT_THROW(read_lammps_data("/nonexistent/fabrica.data"), InputError);
 }
 
