@@ -206,7 +206,9 @@ TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
     EXPECT_EQ(buf[3 + k], mr_s[k]);
   }
   const double migrated = sum_all(double(domain.stats().particles_migrated));
-  if (comm_size() > 1) EXPECT_GE(migrated, 2.0 * comm_size());  // both crossed every boundary
+  if (comm_size() > 1) {
+    EXPECT_GE(migrated, 2.0 * comm_size());  // both crossed every boundary
+  }
   const Diff d = compare(sim, serial);
   EXPECT_EQ(d.x, 0.0);
 }
