@@ -110,7 +110,7 @@ double write_column(const h5::Group& g, const std::string& name, const std::stri
   const std::size_t w = std::max<hsize_t>(cols, 1);
   std::vector<T> buf(recs.size() * w);
   for (std::size_t i = 0; i < recs.size(); ++i) get(recs[i], &buf[i * w]);
-  d.write_rows(type_of<T>(), row0, recs.size(), buf.data(), true);
+  if (total > 0) d.write_rows(type_of<T>(), row0, recs.size(), buf.data(), true);  // same on all ranks
   return double(total * w * sizeof(T));
 }
 
