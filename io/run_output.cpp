@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -168,6 +169,10 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
 }
 
 RunOutput::~RunOutput() {
+  if (std::uncaught_exceptions() > 0 && size_ > 1) {
+    file_.abandon();
+    return;
+  }
   try {
     close();
   } catch (const std::exception& e) {

@@ -28,7 +28,11 @@ class RunOutput {
   // Creates OUT/run.h5 (and OUT); an existing file is refused with an InputError unless
   // 'overwrite'. Writes the version attributes and the scene.
   RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, bool overwrite);
-  ~RunOutput();  // closes the file if close() was not called (errors then only printed)
+  // Closes the file if close() was not called (errors then only printed) - except while an
+  // exception unwinds on several ranks: it may be this rank's alone, and closing is collective,
+  // so the file is abandoned instead (flushed at the last snapshot). Callers close() explicitly
+  // on errors that every rank meets (CollectiveError, InputError).
+  ~RunOutput();
   RunOutput(const RunOutput&) = delete;
   RunOutput& operator=(const RunOutput&) = delete;
 
