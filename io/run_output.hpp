@@ -78,6 +78,7 @@ class RunOutput {
     double time;
     std::int64_t particles;
   };
+  void write_header(const Scene& scene);  // version attributes, /scene, empty groups
   void flush_series();
   void write_xmf() const;
 
