@@ -1,5 +1,6 @@
 #include "apps/triaxial.hpp"
 
+#include "io/run_output.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
@@ -13,6 +14,7 @@
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <sstream>
 
 namespace fabrica {
 
@@ -64,7 +66,7 @@ real_t TriaxialRun::energy_error(const MacroState& m) const {
 }
 
 void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
-  if (!series_) return;
+  if (!series_ && !output_) return;
   static const char* names[] = {"consolidation", "equilibration", "shear"};
   const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
   const real_t inertial =
@@ -78,6 +80,15 @@ void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
                            m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
                            d.viscous, d.local, work_, energy_error(m), m.mean_overlap / d_mean_,
                            m.max_overlap_ratio};
+  if (output_) {
+    static const std::string header = [] {
+      std::ostringstream h;
+      write_series_header(h);
+      return h.str();
+    }();
+    output_->series_row(case_, header, names[int(stage)], sim_.step_count(), values);
+  }
+  if (!series_) return;
   *series_ << names[int(stage)] << ',' << sim_.step_count();
   for (real_t v : values) *series_ << fmt::format(",{:.10g}", v);
   *series_ << '\n';
@@ -111,6 +122,7 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
     const Vec3 rate = sim_.cell().strain_rate();
     sim_.step(measure);
     work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
+    if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
     if (!measure) continue;
     const MacroState& m = sim_.macro();
     last_stress_ = m.stress;
@@ -146,6 +158,7 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
       res.steps = k;
       res.strain = eps;
       if (!out) row(stage, m, eps);
+      if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
       return res;
     }
   }
@@ -202,7 +215,8 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
   return std::make_unique<MpiDomain>(mpi.comm(), o);
 }
 
-int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir) {
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
+                 RunOutput* output) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   const bool root = mpi.rank() == 0;
@@ -240,6 +254,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     write_series_header(cons_series);
   }
   TriaxialRun prep(scene, prepared, d_mean, density, root ? &cons_series : nullptr, log);
+  prep.set_output(output, "consolidation");
   const StageResult c = prep.consolidate();
   const double t_cons = std::chrono::duration<double>(clock::now() - t0).count();
   if (log)
@@ -264,6 +279,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
       write_series_header(series);
     }
     TriaxialRun run(scene, sim, d_mean, density, root ? &series : nullptr, log, &prep);
+    run.set_output(output, tc.name);
     if (log) *log << fmt::format("case {}: mu_s = {}, mu_r = {}\n", tc.name, scene.law.friction, tc.rolling_friction);
     const StageResult e = run.equilibrate(tc.rolling_friction);
     const StageResult sh = run.shear();

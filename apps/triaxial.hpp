@@ -14,6 +14,8 @@
 
 namespace fabrica {
 
+class RunOutput;
+
 // The servo: a PI controller per axis. For the axes in 'servo', with e_k = (sigma_kk - target)
 // / target (compression-positive stress), edot_k = gain e_k + integral_gain I_k, capped at
 // +-cap (extension positive: a specimen above the target stress expands); I_k integrates e_k
@@ -63,6 +65,13 @@ class TriaxialRun {
 
   real_t boundary_work() const { return work_; }
 
+  // Optional HDF5 output (io/run_output.hpp): the series rows and the snapshots (every
+  // [run] snapshot_every steps and at the end of each stage) go to case 'case_name' of 'out'.
+  void set_output(RunOutput* out, std::string case_name) {
+    output_ = out;
+    case_ = std::move(case_name);
+  }
+
  private:
   enum class Stage { Consolidation, Equilibration, Shear };
   // Steps until done() (checked at servo steps) returns true; the servo updates the rates.
@@ -82,6 +91,8 @@ class TriaxialRun {
   real_t work_ = 0;  // boundary work done on the specimen since the start [J]
   real_t e0_ = 0;    // kinetic + elastic energy at the start [J]
   Mat3 last_stress_ = Mat3::Zero();
+  RunOutput* output_ = nullptr;
+  std::string case_;
 };
 
 void write_series_header(std::ostream& out);
@@ -92,7 +103,10 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 
 // The whole test for a scene with [triaxial]: one consolidation, then for each case of the sweep
 // (or the single [contact] rolling_friction) a branch of the consolidated state that is
-// re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0).
-int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir);
+// re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0), and
+// with 'output' the same series and the snapshots into run.h5 (cases "consolidation" and each
+// case's name).
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
+                 RunOutput* output = nullptr);
 
 }  // namespace fabrica

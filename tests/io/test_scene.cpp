@@ -133,3 +133,15 @@ TEST(Scene, TriaxialTableIsValidated) {
   expect_error("[triaxial]\n[compress]\n", {"[compress] and [triaxial]"});
   expect_error("[triaxial]\n[run]\nsteps = 10\n", {"[run] steps", "not used with [triaxial]"});
 }
+
+TEST(Scene, OutputKeys) {
+  const Scene d = parse_scene("", "empty.toml");
+  EXPECT_EQ(d.snapshot_every, 10000);
+  EXPECT_TRUE(d.hdf5);
+  const Scene s = parse_scene("[run]\nsnapshot_every = 250\nhdf5 = false\n", "out.toml");
+  EXPECT_EQ(s.snapshot_every, 250);
+  EXPECT_FALSE(s.hdf5);
+  expect_error("[run]\nsnapshot_every = 0\n", {"[run]", "snapshot_every", "0", "positive"});
+  expect_error("[run]\nsnapshot_every = 1.5\n", {"snapshot_every", "1.5", "integer"});
+  expect_error("[run]\nhdf5 = \"yes\"\n", {"[run]", "hdf5", "yes", "true or false"});
+}
