@@ -10,6 +10,9 @@ namespace fabrica::layout {
 inline constexpr const char* kVersionAttr = "fabrica_version";  // marks a Fabrica file
 inline constexpr const char* kFormat = "fabrica-run-1";
 inline constexpr int kStepDigits = 12;
+// 0, 1, 2, ... (int64, at least as long as the largest snapshot): the vertex connectivity that
+// run.xmf takes a hyperslab of, so that ParaView makes one vertex cell per particle.
+inline constexpr const char* kVertexIndex = "xdmf/vertices";
 
 // The name of a snapshot group: the step, zero-padded so that name order is step order.
 inline std::string step_name(std::int64_t step) {

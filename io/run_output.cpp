@@ -174,6 +174,8 @@ void RunOutput::write_header(const Scene& scene) {
   }
   file_.create_group("snapshots");
   file_.create_group("series");
+  file_.create_group("xdmf");
+  file_.create_dataset(layout::kVertexIndex, h5::Type::I64, 0, 0, 4096).set_attr("unit", std::string("1"));
   file_.flush();
   if (rank_ == 0) write_xmf();
 }
@@ -328,6 +330,17 @@ void RunOutput::snapshot(const std::string& case_name, const Simulation& sim, co
                         [](const ContRec& r, double* d) { std::copy(r.mr, r.mr + 3, d); });
   bytes += write_column<std::uint8_t>(cg, "sliding", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.sliding; });
   bytes += write_column<std::uint8_t>(cg, "rolling", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.rolling; });
+  if (std::int64_t(np) > vertices_) {  // same on every rank: extend the XDMF connectivity
+    h5::Dataset vd = file_.open_dataset(layout::kVertexIndex);
+    vd.extend(np);
+    std::vector<std::int64_t> idx;
+    if (rank_ == 0)
+      for (std::int64_t k = vertices_; k < std::int64_t(np); ++k) idx.push_back(k);
+    std::int64_t none = 0;  // a valid pointer for the empty selections
+    vd.write_rows(h5::Type::I64, hsize_t(vertices_), idx.size(), idx.empty() ? &none : idx.data(), true);
+    bytes += double(idx.size() * sizeof(std::int64_t));
+    vertices_ = std::int64_t(np);
+  }
   bytes_ += bytes;
   xmf_.push_back({case_name, sim.step_count(), double(sim.time()), std::int64_t(np)});
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
@@ -350,12 +363,28 @@ void RunOutput::close() {
 
 void RunOutput::write_xmf() const {
   std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> e;
-  for (const XmfEntry& x : xmf_) e.emplace_back(x.case_name, x.step, x.time, x.particles);
-  write_xdmf((std::filesystem::path(outdir_) / "run.xmf").string(), "run.h5", e);
+  std::vector<std::string> cases;
+  for (const XmfEntry& x : xmf_) {
+    e.emplace_back(x.case_name, x.step, x.time, x.particles);
+    if (std::find(cases.begin(), cases.end(), x.case_name) == cases.end()) cases.push_back(x.case_name);
+  }
+  const std::filesystem::path dir(outdir_);
+  write_xdmf((dir / "run.xmf").string(), "run.h5", e, vertices_);
+  // The cases of a triaxial test overlap in time (every case of the sweep starts from the end of
+  // the consolidation): in run.xmf ParaView shows them superimposed and merges their time steps,
+  // so each case gets its own file as well.
+  if (cases.size() > 1)
+    for (const std::string& c : cases) {
+      std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> ec;
+      for (const auto& t : e)
+        if (std::get<0>(t) == c) ec.push_back(t);
+      write_xdmf((dir / ("run_" + c + ".xmf")).string(), "run.h5", ec, vertices_);
+    }
 }
 
 void write_xdmf(const std::string& path, const std::string& h5file,
-                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries) {
+                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
+                std::int64_t vertices) {
   std::ostringstream x;
   x.precision(17);
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
@@ -379,7 +408,12 @@ void write_xdmf(const std::string& path, const std::string& h5file,
       };
       x << "      <Grid Name=\"" << xml_escape(c) << "_" << layout::step_name(step) << "\" GridType=\"Uniform\">\n"
         << "        <Time Value=\"" << time << "\"/>\n"
-        << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\"/>\n"
+        << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n"
+        << "          <DataItem ItemType=\"HyperSlab\" Dimensions=\"" << n << "\" Type=\"HyperSlab\">\n"
+        << "            <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 " << n << "</DataItem>\n"
+        << "            <DataItem Dimensions=\"" << vertices << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
+        << xml_escape(h5file + ":/" + layout::kVertexIndex) << "</DataItem>\n"
+        << "          </DataItem>\n        </Topology>\n"
         << "        <Geometry GeometryType=\"XYZ\">\n          " << item("position", 3, "Float", 8) << "\n        </Geometry>\n"
         << "        <Attribute Name=\"radius\" AttributeType=\"Scalar\" Center=\"Node\">\n          "
         << item("radius", 0, "Float", 8) << "\n        </Attribute>\n"

@@ -51,7 +51,8 @@ class RunOutput {
   // snapshot of the same case and step is skipped (e.g. the end of a stage on a cadence step).
   void snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
 
-  // Appends the buffered series rows, flushes the file (H5Fflush) and rewrites run.xmf.
+  // Appends the buffered series rows, flushes the file (H5Fflush) and rewrites run.xmf (and,
+  // with several cases, run_<case>.xmf).
   void flush();
   void close();  // flush() and close the file; idempotent
 
@@ -90,10 +91,15 @@ class RunOutput {
   std::map<std::string, SeriesBuffer> series_;
   std::vector<XmfEntry> xmf_;
   double seconds_ = 0, bytes_ = 0;
+  std::int64_t vertices_ = 0;  // length of /xdmf/vertices
 };
 
-// The XDMF 3 sidecar for the snapshots of 'entries' in h5file (a name relative to the xmf).
+// The XDMF 3 sidecar for the snapshots of 'entries' (case, step, time, particles) in h5file (a
+// name relative to the xmf): one temporal collection per case, each snapshot a Polyvertex grid
+// whose connectivity is the first N values of the dataset layout::kVertexIndex (length
+// 'vertices' >= every N). Written to path.tmp, then renamed.
 void write_xdmf(const std::string& path, const std::string& h5file,
-                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries);
+                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
+                std::int64_t vertices);
 
 }  // namespace fabrica

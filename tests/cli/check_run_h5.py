@@ -5,9 +5,11 @@
                                              attribute), series: step and stage equal, the
                                              other columns within 1e-9 of the column's largest
                                              magnitude (reductions sum in rank-dependent order)
-    check_run_h5.py xdmf OUT                 run.xmf is well-formed XML, lists every snapshot
-                                             of run.h5, and every DataItem names an existing
-                                             dataset of the stated dimensions
+    check_run_h5.py xdmf OUT                 run.xmf (and run_<case>.xmf for each case if
+                                             several) is well-formed XML, lists every snapshot
+                                             of run.h5 (of the case), every DataItem names an
+                                             existing dataset of the stated dimensions, and the
+                                             connectivity is a hyperslab 0..N-1 of /xdmf/vertices
     check_run_h5.py foreign FILE             writes an HDF5 file without Fabrica's attributes
     check_run_h5.py readable FILE MIN        opens FILE and reads every dataset of every listed
                                              snapshot; prints how many; fails below MIN
@@ -89,14 +91,23 @@ def _walk(g, prefix=""):
 
 
 def xdmf(outdir):
-    xmf, h5 = os.path.join(outdir, "run.xmf"), os.path.join(outdir, "run.h5")
+    h5 = os.path.join(outdir, "run.h5")
+    f = h5py.File(h5, "r")
+    cases = sorted(f["snapshots"])
+    files = {"run.xmf": cases}
+    if len(cases) > 1:
+        files.update({f"run_{c}.xmf": [c] for c in cases})
+    for name, cs in files.items():
+        _xdmf_file(os.path.join(outdir, name), h5, f, cs)
+
+
+def _xdmf_file(xmf, h5, f, cases):
     try:
         root = ET.parse(xmf).getroot()
-    except ET.ParseError as e:
+    except (ET.ParseError, OSError) as e:
         fail(f"{xmf}: not well-formed XML: {e}")
     if root.tag != "Xdmf" or root.get("Version") != "3.0":
         fail(f"{xmf}: root is {root.tag} version {root.get('Version')}")
-    f = h5py.File(h5, "r")
     listed = set()
     items = 0
     for grid in root.iter("Grid"):
@@ -104,27 +115,45 @@ def xdmf(outdir):
             continue
         topo = grid.find("Topology")
         n = int(topo.get("NumberOfElements"))
-        if topo.get("TopologyType") != "Polyvertex":
-            fail(f"{xmf}: topology {topo.get('TopologyType')}")
+        if topo.get("TopologyType") != "Polyvertex" or topo.get("NodesPerElement") != "1":
+            fail(f"{xmf}: topology {topo.get('TopologyType')}, {topo.get('NodesPerElement')} nodes per element")
+        # The connectivity: a hyperslab (start 0, stride 1, count N) of /xdmf/vertices = 0, 1, ...
+        slab = topo.find("DataItem")
+        if slab is None or slab.get("ItemType") != "HyperSlab" or len(slab.findall("DataItem")) != 2:
+            fail(f"{xmf}: grid {grid.get('Name')}: the topology has no HyperSlab connectivity")
+        sel, src = slab.findall("DataItem")
+        if [int(v) for v in sel.text.split()] != [0, 1, n] or int(slab.get("Dimensions")) != n:
+            fail(f"{xmf}: grid {grid.get('Name')}: connectivity hyperslab {sel.text} for {n} points")
+        vpath = src.text.strip().split(":", 1)[1]
+        v = f[vpath][()] if vpath in f else None
+        if v is None or v.shape != (int(src.get("Dimensions")),) or v.shape[0] < n or \
+                not np.array_equal(v[:n], np.arange(n)):
+            fail(f"{xmf}: {vpath} is not 0, 1, ... of at least {n} values as the XDMF says")
         names = {a.get("Name") for a in grid.findall("Attribute")}
         if not {"radius", "velocity", "id"} <= names:
             fail(f"{xmf}: grid {grid.get('Name')} lacks radius/velocity/id: {names}")
         float(grid.find("Time").get("Value"))
-        for item in grid.iter("DataItem"):
-            fname, path = item.text.strip().split(":", 1)
-            if fname != "run.h5":
-                fail(f"{xmf}: DataItem refers to {fname}")
-            if path not in f:
-                fail(f"{xmf}: {path} does not exist in {h5}")
-            dims = tuple(int(x) for x in item.get("Dimensions").split())
-            if f[path].shape != dims or dims[0] != n:
-                fail(f"{xmf}: {path} has shape {f[path].shape}, the XDMF says {dims}")
-            items += 1
-            listed.add(path.split("/particles/")[0])
-    stored = {f"/snapshots/{c}/{s}" for c in f["snapshots"] for s in f["snapshots"][c]}
+        for parent in [grid.find("Geometry")] + grid.findall("Attribute"):
+            for item in parent.iter("DataItem"):
+                fname, path = item.text.strip().split(":", 1)
+                if fname != "run.h5":
+                    fail(f"{xmf}: DataItem refers to {fname}")
+                if path not in f:
+                    fail(f"{xmf}: {path} does not exist in {h5}")
+                dims = tuple(int(x) for x in item.get("Dimensions").split())
+                if f[path].shape != dims or dims[0] != n:
+                    fail(f"{xmf}: {path} has shape {f[path].shape}, the XDMF says {dims}")
+                dt = f[path].dtype
+                want = ("Float" if dt.kind == "f" else "Int" if dt.kind == "i" else "UInt", str(dt.itemsize))
+                if (item.get("NumberType"), item.get("Precision")) != want:
+                    fail(f"{xmf}: {path} is {dt}, the XDMF says NumberType {item.get('NumberType')} "
+                         f"Precision {item.get('Precision')}")
+                items += 1
+                listed.add(path.split("/particles/")[0])
+    stored = {f"/snapshots/{c}/{s}" for c in cases for s in f["snapshots"][c]}
     if listed != stored:
-        fail(f"{xmf} lists {len(listed)} snapshots, {h5} holds {len(stored)}")
-    print(f"xdmf: well-formed; {len(listed)} snapshots, {items} DataItems, all present in {h5}")
+        fail(f"{xmf} lists {len(listed)} snapshots, {h5} holds {len(stored)} of case(s) {', '.join(cases)}")
+    print(f"xdmf: {os.path.basename(xmf)} well-formed; {len(listed)} snapshots, {items} DataItems, all present in {h5}")
 
 
 def readable(path, minimum):
