@@ -17,7 +17,7 @@ void write_fabric_headers(const FabricStreams& out, int rose_bins) {
     *out.fabric << "stage,step,eps1,network,count,mean_fn,zeta,gamma,xi,phi11,phi22,phi33,phi12,"
                    "phi23,phi13,phi_1,phi_2,phi_3,dir_1,dir_2,dir_3,a_c,a_b,a_n,a_t,ac11,ac22,"
                    "ac33,an11,an22,an33,at11,at22,at33,b0,f0,p_k,q_k,s11_k,s22_k,s33_k,"
-                   "nonpositive_weights\n";
+                   "nonpositive_weights,min_weight\n";
   if (out.sff) {
     *out.sff << "stage,step,eps1,contacts,mean_fn,p,q,q_p";
     for (auto name : kPartitionNames) *out.sff << ",q_p_star_" << name;
@@ -47,7 +47,7 @@ void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::
                           n.stress(0, 0), n.stress(1, 1), n.stress(2, 2)};
       *out.fabric << label << ',' << kNetworkNames[k] << ',' << n.count;
       for (real_t x : v) *out.fabric << ',' << num(x);
-      *out.fabric << ',' << n.nonpositive_weights << '\n';
+      *out.fabric << ',' << n.nonpositive_weights << ',' << num(n.min_weight) << '\n';
     }
   }
   if (out.sff) {

@@ -211,7 +211,7 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
     NetworkFabric& nf = out.net[k];
     if (nf.count == 0) {
       nf.ab = nf.an = nf.at = Mat3::Constant(kNaN);
-      nf.a_c = nf.a_b = nf.a_n = nf.a_t = nf.gamma = kNaN;
+      nf.a_c = nf.a_b = nf.a_n = nf.a_t = nf.gamma = nf.min_weight = kNaN;
       nf.phi_principal = nf.phi_major = Vec3::Constant(kNaN);
       continue;
     }
@@ -228,6 +228,8 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
     nf.gamma = nf.mean_fn / out.mean_fn;
     const Eigen::SelfAdjointEigenSolver<Mat3> eig(nf.phi);
     nf.phi_principal = eig.eigenvalues().reverse();
+    // a^c = 15/2 dev(phi) has the eigenvectors of phi: its smallest eigenvalue from phi's.
+    nf.min_weight = 1.0 + 7.5 * (eig.eigenvalues()[0] - nf.phi.trace() / 3.0);
     Vec3 v = eig.eigenvectors().col(2);
     for (int i = 0; i < 3; ++i)
       if (v[i] != 0) {

@@ -58,6 +58,10 @@ struct NetworkFabric {
   Vec3 phi_major = Vec3::Zero();      // unit eigenvector of the largest (first nonzero component > 0)
   Mat3 stress = Mat3::Zero();         // (1/V) sum over the network of f (x) b [Pa]
   std::int64_t nonpositive_weights = 0;  // contacts with 1 + a^c:nn <= 0 (then b, f^n, f^t are not meaningful)
+  // 1 + (smallest eigenvalue of a^c): the minimum over all directions of the second-order
+  // density 4 pi E(n) = 1 + a^c:nn. Where it is <= 0 that density is negative somewhere, and the
+  // weights 1 / (1 + a^c:nn) of the contacts near such directions are huge or undefined.
+  real_t min_weight = 0;
   std::vector<std::int64_t> rose12, rose23;  // counts per bin of the normal's angle in the 1-2 / 2-3 plane
 };
 

@@ -306,6 +306,8 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
     EXPECT_EQ(nf.rose12, r12) << kNetworkNames[k];
     EXPECT_EQ(nf.rose23, r23) << kNetworkNames[k];
     EXPECT_EQ(nf.nonpositive_weights, 0);
+    // 1 + lambda_min(a^c): phi has 0 on the axes outside A (m < 3), 1/3 everywhere for m = 3.
+    EXPECT_NEAR(nf.min_weight, m == 3 ? 1.0 : 1 - 7.5 / 3, 1e-12) << kNetworkNames[k];
   }
   // xi within each partition, and the SFF prediction from the closed-form indices above.
   for (int p = 0; p < kPartitions; ++p) {
