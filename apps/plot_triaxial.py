@@ -1,11 +1,15 @@
 #!/usr/bin/python3
-"""Plots the output of a triaxial run (`fabrica run` with [triaxial]): q/p and volumetric
+"""Plots the output of triaxial runs (`fabrica run` with [triaxial]): q/p and volumetric
 strain against axial strain for every case, the lateral stresses, and the energy balance, as
-PNG files in the output directory.
+PNG files (shear.png, energy.png).
 
-    /usr/bin/python3 apps/plot_triaxial.py out/demo
+    /usr/bin/python3 apps/plot_triaxial.py out/demo [out/other ...] [-o DIR]
 
-Needs Debian's python3-numpy and python3-matplotlib (for /usr/bin/python3).
+Each run directory is read from its run.h5 (the series tables, docs/output.md) when it has one
+and h5py is installed, otherwise from its CSV files (*/series.csv). The plots go into the run
+directory when one is given, else into -o DIR (default: the current directory).
+Needs Debian's python3-numpy and python3-matplotlib, and python3-h5py for run.h5 (for
+/usr/bin/python3).
 """
 import argparse
 import glob
@@ -22,6 +26,64 @@ except ImportError as e:  # pragma: no cover
              "and run with /usr/bin/python3")
 
 
+def text(v):
+    """A string attribute (fixed-length HDF5 strings arrive as bytes)."""
+    return v.decode() if isinstance(v, bytes) else str(v)
+
+
+def load_h5(path):
+    """{case: structured array} of the shear cases of a run.h5 (every series with a q_p column
+    except the consolidation)."""
+    import h5py
+    out = {}
+    try:
+        f = h5py.File(path, "r")
+    except OSError as e:
+        sys.exit(f"plot_triaxial.py: {path}: cannot open: {e}")
+    with f:
+        if "fabrica_version" not in f.attrs or "series" not in f:
+            sys.exit(f"plot_triaxial.py: {path}: not a Fabrica run file")
+        for case, g in f["series"].items():
+            if case == "consolidation" or "q_p" not in g:
+                continue
+            cols = [c for c in text(g.attrs["columns"]).split(",") if c in g]
+            n = g["step"].shape[0]
+            if n == 0:
+                continue
+            dt = [(c, "U16" if c == "stage" else "f8") for c in cols]
+            d = np.zeros(n, dtype=dt)
+            for c in cols:
+                if c == "stage":
+                    labels = text(g["stage"].attrs["labels"]).split(",")
+                    d["stage"] = [labels[k] for k in g["stage"][()]]
+                else:
+                    d[c] = g[c][()]
+            out[case] = d
+    if not out:
+        sys.exit(f"plot_triaxial.py: {path}: no triaxial series")
+    return out
+
+
+def have_h5py():
+    try:
+        import h5py  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+def load_run(outdir):
+    """{case: rows} of one run directory, from run.h5 if possible, else from the CSV files."""
+    h5 = os.path.join(outdir, "run.h5")
+    if os.path.exists(h5) and have_h5py():
+        return load_h5(h5)
+    files = sorted(glob.glob(os.path.join(outdir, "*", "series.csv")))
+    if not files:
+        hint = " (run.h5 present but python3-h5py missing)" if os.path.exists(h5) else ""
+        sys.exit(f"plot_triaxial.py: no run.h5 or */series.csv under {outdir}{hint}")
+    return {os.path.basename(os.path.dirname(f)): load(f) for f in files}
+
+
 def load(path):
     d = np.genfromtxt(path, delimiter=",", names=True, dtype=None, encoding="utf-8")
     if d.size == 0 or "q_p" not in d.dtype.names:
@@ -31,16 +93,19 @@ def load(path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("outdir", help="output directory of a triaxial run")
+    ap.add_argument("outdir", nargs="+", help="output directories of triaxial runs")
+    ap.add_argument("-o", "--out", help="directory of the PNG files")
     a = ap.parse_args()
-    files = sorted(glob.glob(os.path.join(a.outdir, "*", "series.csv")))
-    if not files:
-        sys.exit(f"plot_triaxial.py: no */series.csv under {a.outdir}")
+    runs = {}
+    for o in a.outdir:
+        prefix = "" if len(a.outdir) == 1 else os.path.basename(os.path.normpath(o)) + ": "
+        for case, d in load_run(o).items():
+            runs[prefix + case] = d
+    dest = a.out or (a.outdir[0] if len(a.outdir) == 1 else ".")
+    os.makedirs(dest, exist_ok=True)
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
-    for f in files:
-        d = load(f)
+    for name, d in runs.items():
         s = d[d["stage"] == "shear"]
-        name = os.path.basename(os.path.dirname(f))
         ax[0].plot(s["eps1"], s["q_p"], label=name)
         ax[1].plot(s["eps1"], s["epsv"], label=name)
         ax[2].plot(s["eps1"], s["s22"] / 1e3, label=f"{name} s22")
@@ -52,18 +117,17 @@ def main():
         x.set_xlabel("axial strain eps_1")
         x.legend(fontsize=7)
     fig.tight_layout()
-    f1 = os.path.join(a.outdir, "shear.png")
+    f1 = os.path.join(dest, "shear.png")
     fig.savefig(f1, dpi=120)
 
     fig, ax = plt.subplots(figsize=(6, 4))
-    for f in files:
-        d = load(f)
-        ax.plot(d["step"], 100 * d["energy_error"], label=os.path.basename(os.path.dirname(f)))
+    for name, d in runs.items():
+        ax.plot(d["step"], 100 * d["energy_error"], label=name)
     ax.set_xlabel("step")
     ax.set_ylabel("energy balance error [% of boundary work]")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    f2 = os.path.join(a.outdir, "energy.png")
+    f2 = os.path.join(dest, "energy.png")
     fig.savefig(f2, dpi=120)
     print(f"plots written: {f1}, {f2}")
 

@@ -3,6 +3,7 @@
 #include "core/contact_snapshot.hpp"
 #include "core/fabric.hpp"
 
+#include "io/run_output.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
@@ -16,6 +17,7 @@
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <sstream>
 
 namespace fabrica {
 
@@ -67,7 +69,7 @@ real_t TriaxialRun::energy_error(const MacroState& m) const {
 }
 
 void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
-  if (!series_) return;
+  if (!series_ && !output_) return;
   static const char* names[] = {"consolidation", "equilibration", "shear"};
   const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
   const real_t inertial =
@@ -81,6 +83,15 @@ void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
                            m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
                            d.viscous, d.local, work_, energy_error(m), m.mean_overlap / d_mean_,
                            m.max_overlap_ratio};
+  if (output_) {
+    static const std::string header = [] {
+      std::ostringstream h;
+      write_series_header(h);
+      return h.str();
+    }();
+    output_->series_row(case_, header, names[int(stage)], sim_.step_count(), values);
+  }
+  if (!series_) return;
   *series_ << names[int(stage)] << ',' << sim_.step_count();
   for (real_t v : values) *series_ << fmt::format(",{:.10g}", v);
   *series_ << '\n';
@@ -125,6 +136,7 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
     const Vec3 rate = sim_.cell().strain_rate();
     sim_.step(measure);
     work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
+    if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
     if (!measure) continue;
     const MacroState& m = sim_.macro();
     last_stress_ = m.stress;
@@ -162,6 +174,7 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
       res.strain = eps;
       if (!out) row(stage, m, eps);
       if ((!out && stage == Stage::Shear) || stage == Stage::Consolidation) fabric_row(stage, eps);
+      if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
       return res;
     }
   }
@@ -230,7 +243,8 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
   return std::make_unique<MpiDomain>(mpi.comm(), o);
 }
 
-int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir) {
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
+                 RunOutput* output) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   const bool root = mpi.rank() == 0;
@@ -271,6 +285,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
   FabricFiles cons_fabric(root && scene.fabric.enabled, fs::path(outdir), "consolidation_",
                           int(scene.fabric.rose_bins));
   prep.set_fabric_output(cons_fabric.streams());
+  prep.set_output(output, "consolidation");
   const StageResult c = prep.consolidate();
   const double t_cons = std::chrono::duration<double>(clock::now() - t0).count();
   if (log)
@@ -298,6 +313,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     FabricFiles fabric(root && scene.fabric.enabled, fs::path(outdir) / tc.name, "",
                        int(scene.fabric.rose_bins));
     run.set_fabric_output(fabric.streams());
+    run.set_output(output, tc.name);
     if (log) *log << fmt::format("case {}: mu_s = {}, mu_r = {}\n", tc.name, scene.law.friction, tc.rolling_friction);
     const StageResult e = run.equilibrate(tc.rolling_friction);
     const StageResult sh = run.shear();

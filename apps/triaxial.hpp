@@ -16,6 +16,8 @@
 
 namespace fabrica {
 
+class RunOutput;
+
 // The servo: a PI controller per axis. For the axes in 'servo', with e_k = (sigma_kk - target)
 // / target (compression-positive stress), edot_k = gain e_k + integral_gain I_k, capped at
 // +-cap (extension positive: a specimen above the target stress expands); I_k integrates e_k
@@ -70,6 +72,12 @@ class TriaxialRun {
   // null or nothing). Wall seconds spent in it (records, analysis, output) so far:
   void set_fabric_output(const FabricStreams* out) { fabric_out_ = out; }
   double fabric_seconds() const { return fabric_seconds_; }
+  // Optional HDF5 output (io/run_output.hpp): the series rows and the snapshots (every
+  // [run] snapshot_every steps and at the end of each stage) go to case 'case_name' of 'out'.
+  void set_output(RunOutput* out, std::string case_name) {
+    output_ = out;
+    case_ = std::move(case_name);
+  }
 
  private:
   enum class Stage { Consolidation, Equilibration, Shear };
@@ -93,6 +101,8 @@ class TriaxialRun {
   Mat3 last_stress_ = Mat3::Zero();
   const FabricStreams* fabric_out_ = nullptr;
   double fabric_seconds_ = 0;
+  RunOutput* output_ = nullptr;
+  std::string case_;
 };
 
 void write_series_header(std::ostream& out);
@@ -114,7 +124,10 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 
 // The whole test for a scene with [triaxial]: one consolidation, then for each case of the sweep
 // (or the single [contact] rolling_friction) a branch of the consolidated state that is
-// re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0).
-int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir);
+// re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0), and
+// with 'output' the same series and the snapshots into run.h5 (cases "consolidation" and each
+// case's name).
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
+                 RunOutput* output = nullptr);
 
 }  // namespace fabrica

@@ -263,6 +263,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   sc.local_damping = R.number("local_damping", sc.local_damping);
   require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
           "must lie in [0, 1)");
+  if (auto k = R.integer("snapshot_every")) sc.snapshot_every = *k;
+  if (sc.snapshot_every <= 0)
+    R.fail("snapshot_every", std::to_string(sc.snapshot_every), "must be positive");
+  sc.hdf5 = R.boolean("hdf5").value_or(sc.hdf5);
   R.reject_unknown();
 
   Section T(table("triaxial"), path, "triaxial");

@@ -94,6 +94,8 @@ struct Scene {
   std::int64_t output_every = 100;
   Vec3 gravity = Vec3::Zero();    // m/s^2
   real_t max_overlap = 1.0;       // stop when an overlap exceeds this fraction of the smaller radius
+  std::int64_t snapshot_every = 10000;  // steps between HDF5 snapshots (docs/output.md)
+  bool hdf5 = true;               // write OUT/run.h5 and OUT/run.xmf
   TriaxialSpec triaxial;
   ParallelSpec parallel;
   FabricSpec fabric;

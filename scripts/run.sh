@@ -31,8 +31,8 @@ cmake --build build -j"$jobs"
 if [ "$mode" = demo ]; then
   out=out/demo
   echo "== running the built-in demo scene (examples/demo.toml) on 2 MPI ranks into $out"
-  mpirun --oversubscribe -np 2 build/apps/fabrica run -o "$out"
-  /usr/bin/python3 apps/plot_triaxial.py "$out"
+  mpirun --oversubscribe -np 2 build/apps/fabrica run -o "$out" --overwrite
+  /usr/bin/python3 apps/plot_triaxial.py "$out"   # from out/demo/run.h5 (CSV without h5py)
   if compgen -G "$out/*/fabric.csv" >/dev/null; then /usr/bin/python3 apps/plot_fabric.py "$out"; fi
 else
   echo "== running the test suite"

@@ -149,3 +149,15 @@ TEST(Scene, FabricTableIsValidated) {
   expect_error("[fabric]\nenabled = 1\n", {"[fabric] enabled", "true or false"});
   expect_error("[fabric]\nbins = 3\n", {"[fabric] bins", "unknown key"});
 }
+
+TEST(Scene, OutputKeys) {
+  const Scene d = parse_scene("", "empty.toml");
+  EXPECT_EQ(d.snapshot_every, 10000);
+  EXPECT_TRUE(d.hdf5);
+  const Scene s = parse_scene("[run]\nsnapshot_every = 250\nhdf5 = false\n", "out.toml");
+  EXPECT_EQ(s.snapshot_every, 250);
+  EXPECT_FALSE(s.hdf5);
+  expect_error("[run]\nsnapshot_every = 0\n", {"[run]", "snapshot_every", "0", "positive"});
+  expect_error("[run]\nsnapshot_every = 1.5\n", {"snapshot_every", "1.5", "integer"});
+  expect_error("[run]\nhdf5 = \"yes\"\n", {"[run]", "hdf5", "yes", "true or false"});
+}

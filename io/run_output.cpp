@@ -1,0 +1,392 @@
+#include "io/run_output.hpp"
+
+#include "core/contact_snapshot.hpp"
+#include "io/layout.hpp"
+#include "io/version.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <limits>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <tuple>
+#include <type_traits>
+
+namespace fabrica {
+namespace {
+
+using clock_type = std::chrono::steady_clock;
+
+// The unit of a series column (docs/output.md): stresses in Pa, energies in J, time in s,
+// everything else (strains, ratios, counts, coordination numbers) dimensionless "1".
+std::string series_unit(const std::string& c) {
+  if (c == "time") return "s";
+  if (c == "p" || c == "q" || (c.size() == 3 && c[0] == 's' && std::isdigit(c[1]) && std::isdigit(c[2])))
+    return "Pa";
+  if (c == "kinetic" || c.starts_with("e_") || c.starts_with("diss_") || c == "boundary_work") return "J";
+  return "1";
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> r;
+  std::istringstream s(line);
+  for (std::string c; std::getline(s, c, ',');) {
+    while (!c.empty() && (c.back() == '\n' || c.back() == '\r' || c.back() == ' ')) c.pop_back();
+    r.push_back(c);
+  }
+  return r;
+}
+
+// Plain records for the MPI exchange (Eigen vectors are not trivially copyable).
+struct PartRec {
+  std::int64_t id;
+  double x[3], v[3], w[3], r;
+};
+struct ContRec {
+  std::int64_t id1, id2;
+  double normal[3], branch[3], overlap, fn, ft[3], mr[3];
+  std::uint8_t sliding, rolling;
+};
+
+void put(double* d, const Vec3& v) { d[0] = v[0], d[1] = v[1], d[2] = v[2]; }
+
+// Sends each record to the rank that owns its key's slice of [lo, hi] (one MPI_Alltoallv of
+// bytes). Before: any distribution. After: this rank holds every record whose key falls in
+// its slice, in no particular order.
+template <class Rec, class Key>
+std::vector<Rec> redistribute(MPI_Comm comm, int size, const std::vector<Rec>& recs, std::int64_t lo,
+                              std::int64_t hi, Key key) {
+  const double span = double(hi - lo + 1);
+  auto dest = [&](std::int64_t k) {
+    return std::min(size - 1, int(double(k - lo) * size / span));
+  };
+  std::vector<int> scount(size, 0), rcount(size), sdisp(size, 0), rdisp(size, 0);
+  for (const Rec& r : recs) scount[dest(key(r))] += int(sizeof(Rec));
+  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
+  for (int k = 1; k < size; ++k) {
+    sdisp[k] = sdisp[k - 1] + scount[k - 1];
+    rdisp[k] = rdisp[k - 1] + rcount[k - 1];
+  }
+  std::vector<Rec> send(recs.size());
+  std::vector<int> fill = sdisp;
+  for (const Rec& r : recs) {
+    const int d = dest(key(r));
+    std::memcpy(reinterpret_cast<char*>(send.data()) + fill[d], &r, sizeof(Rec));
+    fill[d] += int(sizeof(Rec));
+  }
+  std::vector<Rec> recv(std::size_t(rdisp[size - 1] + rcount[size - 1]) / sizeof(Rec));
+  MPI_Alltoallv(send.data(), scount.data(), sdisp.data(), MPI_BYTE, recv.data(), rcount.data(),
+                rdisp.data(), MPI_BYTE, comm);
+  return recv;
+}
+
+// This rank's first row and the total number of rows, for 'n' rows here (ranks in order).
+std::pair<hsize_t, hsize_t> slab(MPI_Comm comm, std::size_t n) {
+  long long mine = (long long)n, before = 0, total = 0;
+  MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  if (rank == 0) before = 0;  // MPI_Exscan leaves rank 0's result undefined
+  MPI_Allreduce(&mine, &total, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  return {hsize_t(before), hsize_t(total)};
+}
+
+// Writes one column of records (rows [row0, row0 + n) of 'total') as a new dataset of T.
+template <class T>
+h5::Type type_of() {
+  if constexpr (std::is_same_v<T, double>) return h5::Type::F64;
+  else if constexpr (std::is_same_v<T, std::int64_t>) return h5::Type::I64;
+  else return h5::Type::U8;
+}
+template <class T, class Rec, class Get>
+double write_column(const h5::Group& g, const std::string& name, const std::string& unit, hsize_t cols,
+                    const std::vector<Rec>& recs, hsize_t row0, hsize_t total, Get get) {
+  h5::Dataset d = g.create_dataset(name, type_of<T>(), total, cols);
+  d.set_attr("unit", unit);
+  const std::size_t w = std::max<hsize_t>(cols, 1);
+  std::vector<T> buf(recs.size() * w);
+  for (std::size_t i = 0; i < recs.size(); ++i) get(recs[i], &buf[i * w]);
+  if (total > 0) d.write_rows(type_of<T>(), row0, recs.size(), buf.data(), true);  // same on all ranks
+  return double(total * w * sizeof(T));
+}
+
+std::string xml_escape(const std::string& s) {
+  std::string r;
+  for (char c : s) {
+    if (c == '&') r += "&amp;";
+    else if (c == '<') r += "&lt;";
+    else if (c == '>') r += "&gt;";
+    else if (c == '"') r += "&quot;";
+    else r += c;
+  }
+  return r;
+}
+
+}  // namespace
+
+std::string RunOutput::file_name(const std::string& outdir) {
+  return (std::filesystem::path(outdir) / "run.h5").string();
+}
+
+RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, bool overwrite)
+    : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every) {
+  const auto t0 = clock_type::now();
+  MPI_Comm_rank(comm, &rank_);
+  MPI_Comm_size(comm, &size_);
+  int exists = 0;
+  if (rank_ == 0) {
+    std::filesystem::create_directories(outdir);
+    exists = std::filesystem::exists(path_) ? 1 : 0;
+  }
+  MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
+  if (exists && !overwrite)
+    throw InputError(path_ + ": the output file exists already; give --overwrite to replace it "
+                     "or choose another output directory");
+  file_ = h5::File::create_parallel(path_, comm, overwrite);
+  file_.set_attr(layout::kVersionAttr, std::string(kFabricaVersion));
+  file_.set_attr("git_describe", std::string(kFabricaGitDescribe));
+  file_.set_attr("format", std::string(layout::kFormat));
+  file_.set_attr("mpi_ranks", std::int64_t(size_));
+  unsigned maj = 0, min = 0, rel = 0;
+  H5get_libversion(&maj, &min, &rel);
+  file_.set_attr("hdf5_version", std::to_string(maj) + "." + std::to_string(min) + "." + std::to_string(rel));
+  file_.write_string("scene", scene.text, rank_ == 0);
+  {
+    h5::Dataset s = file_.open_dataset("scene");
+    s.set_attr("path", scene.path);
+    s.set_attr("unit", std::string("text"));
+  }
+  file_.create_group("snapshots");
+  file_.create_group("series");
+  file_.flush();
+  if (rank_ == 0) write_xmf();
+  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+
+RunOutput::~RunOutput() {
+  try {
+    close();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "fabrica: error closing %s: %s\n", path_.c_str(), e.what());
+  }
+}
+
+void RunOutput::series_row(const std::string& case_name, const std::string& csv_header,
+                           const std::string& stage, std::int64_t step, std::span<const double> values) {
+  SeriesBuffer& b = series_[case_name];
+  if (b.header.empty()) {
+    for (const std::string& c : split_csv(csv_header)) {
+      b.header += (b.header.empty() ? "" : ",") + c;
+      if (c == "stage") b.has_stage = true;
+      else if (c != "step") b.columns.push_back(c);
+    }
+    b.values.resize(b.columns.size());
+  }
+  if (values.size() != b.columns.size())
+    throw std::logic_error("RunOutput::series_row: " + std::to_string(values.size()) +
+                           " values for " + std::to_string(b.columns.size()) + " columns");
+  b.step.push_back(step);
+  if (b.has_stage) {
+    auto it = std::find(b.labels.begin(), b.labels.end(), stage);
+    if (it == b.labels.end()) b.labels.push_back(stage), it = b.labels.end() - 1;
+    b.stage.push_back(std::uint8_t(it - b.labels.begin()));
+  }
+  for (std::size_t c = 0; c < values.size(); ++c) b.values[c].push_back(values[c]);
+  if (b.step.size() >= 256) {  // every rank has the same count: the flush is collective
+    const auto t0 = clock_type::now();
+    flush_series();
+    seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+  }
+}
+
+void RunOutput::flush_series() {
+  // Collective: every rank extends every dataset; rank 0 alone selects rows to write.
+  const bool w = rank_ == 0;
+  for (auto& [name, b] : series_) {
+    const hsize_t n = b.step.size();
+    if (n == 0) continue;
+    const std::string gp = "series/" + name;
+    h5::Group g = b.created ? file_.open_group(gp) : file_.create_group(gp);
+    if (!b.created) {
+      g.set_attr("columns", b.header);
+      g.create_dataset("step", h5::Type::I64, 0, 0, 256).set_attr("unit", std::string("1"));
+      if (b.has_stage) g.create_dataset("stage", h5::Type::U8, 0, 0, 256).set_attr("unit", std::string("code"));
+      for (const std::string& c : b.columns)
+        g.create_dataset(c, h5::Type::F64, 0, 0, 256).set_attr("unit", series_unit(c));
+      b.created = true;
+    }
+    const hsize_t rows = b.written + n;
+    auto append = [&](const std::string& c, h5::Type t, const void* data) {
+      h5::Dataset d = g.open_dataset(c);
+      d.extend(rows);
+      d.write_rows(t, b.written, w ? n : 0, data, true);
+    };
+    append("step", h5::Type::I64, b.step.data());
+    if (b.has_stage) {
+      append("stage", h5::Type::U8, b.stage.data());
+      std::string labels;
+      for (const std::string& l : b.labels) labels += (labels.empty() ? "" : ",") + l;
+      g.open_dataset("stage").set_attr("labels", labels);
+    }
+    for (std::size_t c = 0; c < b.columns.size(); ++c) append(b.columns[c], h5::Type::F64, b.values[c].data());
+    bytes_ += double(n) * (8.0 * double(b.columns.size() + 1) + (b.has_stage ? 1 : 0));
+    b.written = rows;
+    b.step.clear(), b.stage.clear();
+    for (auto& v : b.values) v.clear();
+  }
+}
+
+void RunOutput::snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain) {
+  const auto t0 = clock_type::now();
+  const std::string gp = layout::snapshot_path(case_name, sim.step_count());
+  if (file_.exists(gp)) return;  // same answer on every rank
+  const Particles& p = sim.particles();
+  std::vector<PartRec> parts(p.n_owned());
+  std::int64_t lo = std::numeric_limits<std::int64_t>::max(), hi = std::numeric_limits<std::int64_t>::min();
+  for (std::size_t i = 0; i < p.n_owned(); ++i) {
+    PartRec& r = parts[i];
+    r.id = p.id[i];
+    put(r.x, p.x[i]), put(r.v, p.v[i]), put(r.w, p.w[i]);
+    r.r = p.radius[i];
+    lo = std::min(lo, r.id), hi = std::max(hi, r.id);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_INT64_T, MPI_MIN, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_INT64_T, MPI_MAX, comm_);
+  if (hi < lo) lo = hi = 0;  // no particles at all
+  std::vector<ContRec> conts;
+  for (const ContactRecord& c : contact_records(p, sim.cell(), sim.params().law, sim.pairs())) {
+    ContRec r{};
+    r.id1 = c.id1, r.id2 = c.id2;
+    put(r.normal, c.normal), put(r.branch, c.branch), put(r.ft, c.ft), put(r.mr, c.mr);
+    r.overlap = c.overlap, r.fn = c.fn;
+    r.sliding = c.sliding, r.rolling = c.rolling;
+    conts.push_back(r);
+  }
+  if (size_ > 1) {
+    parts = redistribute(comm_, size_, parts, lo, hi, [](const PartRec& r) { return r.id; });
+    conts = redistribute(comm_, size_, conts, lo, hi, [](const ContRec& r) { return r.id1; });
+  }
+  std::sort(parts.begin(), parts.end(), [](const PartRec& a, const PartRec& b) { return a.id < b.id; });
+  std::sort(conts.begin(), conts.end(), [](const ContRec& a, const ContRec& b) {
+    return a.id1 != b.id1 ? a.id1 < b.id1 : a.id2 < b.id2;
+  });
+
+  h5::Group g = file_.create_group(gp);
+  const auto [p0, np] = slab(comm_, parts.size());
+  const auto [c0, nc] = slab(comm_, conts.size());
+  const Vec3 L = sim.cell().lengths();
+  const double Ld[3] = {L[0], L[1], L[2]}, ed[3] = {strain[0], strain[1], strain[2]};
+  g.set_attr("step", std::int64_t(sim.step_count()));
+  g.set_attr("time", double(sim.time()));
+  g.set_attr("cell_lengths", std::span<const double>(Ld, 3));
+  g.set_attr("strain", std::span<const double>(ed, 3));
+  g.set_attr("particles", std::int64_t(np));
+  g.set_attr("contacts", std::int64_t(nc));
+
+  h5::Group pg = g.create_group("particles");
+  double bytes = 0;
+  bytes += write_column<std::int64_t>(pg, "id", "1", 0, parts, p0, np, [](const PartRec& r, std::int64_t* d) { *d = r.id; });
+  bytes += write_column<double>(pg, "position", "m", 3, parts, p0, np,
+                        [](const PartRec& r, double* d) { std::copy(r.x, r.x + 3, d); });
+  bytes += write_column<double>(pg, "velocity", "m/s", 3, parts, p0, np,
+                        [](const PartRec& r, double* d) { std::copy(r.v, r.v + 3, d); });
+  bytes += write_column<double>(pg, "spin", "rad/s", 3, parts, p0, np,
+                        [](const PartRec& r, double* d) { std::copy(r.w, r.w + 3, d); });
+  bytes += write_column<double>(pg, "radius", "m", 0, parts, p0, np, [](const PartRec& r, double* d) { *d = r.r; });
+
+  h5::Group cg = g.create_group("contacts");
+  bytes += write_column<std::int64_t>(cg, "id1", "1", 0, conts, c0, nc, [](const ContRec& r, std::int64_t* d) { *d = r.id1; });
+  bytes += write_column<std::int64_t>(cg, "id2", "1", 0, conts, c0, nc, [](const ContRec& r, std::int64_t* d) { *d = r.id2; });
+  bytes += write_column<double>(cg, "normal", "1", 3, conts, c0, nc,
+                        [](const ContRec& r, double* d) { std::copy(r.normal, r.normal + 3, d); });
+  bytes += write_column<double>(cg, "branch", "m", 3, conts, c0, nc,
+                        [](const ContRec& r, double* d) { std::copy(r.branch, r.branch + 3, d); });
+  bytes += write_column<double>(cg, "overlap", "m", 0, conts, c0, nc, [](const ContRec& r, double* d) { *d = r.overlap; });
+  bytes += write_column<double>(cg, "fn", "N", 0, conts, c0, nc, [](const ContRec& r, double* d) { *d = r.fn; });
+  bytes += write_column<double>(cg, "ft", "N", 3, conts, c0, nc,
+                        [](const ContRec& r, double* d) { std::copy(r.ft, r.ft + 3, d); });
+  bytes += write_column<double>(cg, "mr", "N m", 3, conts, c0, nc,
+                        [](const ContRec& r, double* d) { std::copy(r.mr, r.mr + 3, d); });
+  bytes += write_column<std::uint8_t>(cg, "sliding", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.sliding; });
+  bytes += write_column<std::uint8_t>(cg, "rolling", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.rolling; });
+  bytes_ += bytes;
+  xmf_.push_back({case_name, sim.step_count(), double(sim.time()), std::int64_t(np)});
+  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+  flush();
+}
+
+void RunOutput::flush() {
+  const auto t0 = clock_type::now();
+  flush_series();
+  file_.flush();
+  if (rank_ == 0) write_xmf();
+  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+
+void RunOutput::close() {
+  if (!file_.valid()) return;
+  flush();
+  file_.close();
+}
+
+void RunOutput::write_xmf() const {
+  std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> e;
+  for (const XmfEntry& x : xmf_) e.emplace_back(x.case_name, x.step, x.time, x.particles);
+  write_xdmf((std::filesystem::path(outdir_) / "run.xmf").string(), "run.h5", e);
+}
+
+void write_xdmf(const std::string& path, const std::string& h5file,
+                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries) {
+  std::ostringstream x;
+  x.precision(17);
+  x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+       "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+       "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n  <Domain>\n";
+  std::vector<std::string> cases;
+  for (const auto& e : entries)
+    if (std::find(cases.begin(), cases.end(), std::get<0>(e)) == cases.end()) cases.push_back(std::get<0>(e));
+  for (const std::string& c : cases) {
+    x << "    <Grid Name=\"" << xml_escape(c) << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    for (const auto& [cn, step, time, n] : entries) {
+      if (cn != c) continue;
+      const std::string base = h5file + ":/" + layout::snapshot_path(cn, step) + "/particles/";
+      auto item = [&](const std::string& ds, int cols, const char* type, int prec) {
+        std::ostringstream d;
+        d << "<DataItem Dimensions=\"" << n;
+        if (cols) d << ' ' << cols;
+        d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">"
+          << xml_escape(base + ds) << "</DataItem>";
+        return d.str();
+      };
+      x << "      <Grid Name=\"" << xml_escape(c) << "_" << layout::step_name(step) << "\" GridType=\"Uniform\">\n"
+        << "        <Time Value=\"" << time << "\"/>\n"
+        << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\"/>\n"
+        << "        <Geometry GeometryType=\"XYZ\">\n          " << item("position", 3, "Float", 8) << "\n        </Geometry>\n"
+        << "        <Attribute Name=\"radius\" AttributeType=\"Scalar\" Center=\"Node\">\n          "
+        << item("radius", 0, "Float", 8) << "\n        </Attribute>\n"
+        << "        <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n          "
+        << item("velocity", 3, "Float", 8) << "\n        </Attribute>\n"
+        << "        <Attribute Name=\"spin\" AttributeType=\"Vector\" Center=\"Node\">\n          "
+        << item("spin", 3, "Float", 8) << "\n        </Attribute>\n"
+        << "        <Attribute Name=\"id\" AttributeType=\"Scalar\" Center=\"Node\">\n          "
+        << item("id", 0, "Int", 8) << "\n        </Attribute>\n"
+        << "      </Grid>\n";
+    }
+    x << "    </Grid>\n";
+  }
+  x << "  </Domain>\n</Xdmf>\n";
+  // Written to a temporary file and renamed: a reader (or a crash) never sees half a file.
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f << x.str();
+    if (!f) throw std::runtime_error(tmp + ": cannot write the XDMF sidecar");
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace fabrica

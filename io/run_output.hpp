@@ -1,0 +1,94 @@
+// The run's output file OUT/run.h5, written collectively by every rank with MPI-IO, and its
+// XDMF sidecar OUT/run.xmf (layout, units and guarantees in docs/output.md):
+//   /scene                           the scene text; attribute path
+//   /snapshots/<case>/<step>/particles/{id,position,velocity,spin,radius}
+//   /snapshots/<case>/<step>/contacts/{id1,id2,normal,branch,overlap,fn,ft,mr,sliding,rolling}
+//   /series/<case>/<column>          the macro series, one extendible dataset per CSV column
+// Snapshots are stored in global id order whatever the number of ranks: each rank sends its
+// particles (and the contacts whose id1 it owns) to the rank owning that slice of the id range
+// (one MPI_Alltoallv), sorts them and writes one contiguous hyperslab; nothing is gathered on
+// one rank. Every member function is collective: every rank calls it with the same arguments.
+#pragma once
+#include "core/simulation.hpp"
+#include "io/h5.hpp"
+#include "io/scene.hpp"
+
+#include <mpi.h>
+
+#include <cstdint>
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace fabrica {
+
+class RunOutput {
+ public:
+  // Creates OUT/run.h5 (and OUT); an existing file is refused with an InputError unless
+  // 'overwrite'. Writes the version attributes and the scene.
+  RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, bool overwrite);
+  ~RunOutput();  // closes the file if close() was not called (errors then only printed)
+  RunOutput(const RunOutput&) = delete;
+  RunOutput& operator=(const RunOutput&) = delete;
+
+  static std::string file_name(const std::string& outdir);  // OUT/run.h5
+
+  // One row of the series of 'case_name'. 'csv_header' is the CSV header line of that series
+  // (its columns name the datasets; "stage" and "step" are stored apart); 'stage' is the
+  // row's value of the stage column ("" if the header has none); 'values' are the remaining
+  // columns in header order. Rows are buffered and appended at the next snapshot or flush().
+  void series_row(const std::string& case_name, const std::string& csv_header,
+                  const std::string& stage, std::int64_t step, std::span<const double> values);
+
+  std::int64_t snapshot_every() const { return every_; }
+  bool snapshot_due(std::int64_t step) const { return step % every_ == 0; }
+  // The particles and contacts of 'sim' now, with the strain eps_i = ln(l_i0 / l_i). A second
+  // snapshot of the same case and step is skipped (e.g. the end of a stage on a cadence step).
+  void snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
+
+  // Appends the buffered series rows, flushes the file (H5Fflush) and rewrites run.xmf.
+  void flush();
+  void close();  // flush() and close the file; idempotent
+
+  double seconds() const { return seconds_; }    // wall time spent in output so far
+  double bytes() const { return bytes_; }        // bytes of data written so far (all ranks)
+  std::int64_t snapshots() const { return std::int64_t(xmf_.size()); }
+  const std::string& path() const { return path_; }
+
+ private:
+  struct SeriesBuffer {
+    std::vector<std::string> columns;  // value columns
+    bool has_stage = false;
+    std::vector<std::string> labels;   // stage names, code = index
+    std::vector<std::int64_t> step;
+    std::vector<std::uint8_t> stage;
+    std::vector<std::vector<double>> values;  // per column, pending rows
+    std::string header;
+    hsize_t written = 0;
+    bool created = false;
+  };
+  struct XmfEntry {
+    std::string case_name;
+    std::int64_t step;
+    double time;
+    std::int64_t particles;
+  };
+  void flush_series();
+  void write_xmf() const;
+
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  std::string outdir_, path_;
+  std::int64_t every_;
+  h5::File file_;
+  std::map<std::string, SeriesBuffer> series_;
+  std::vector<XmfEntry> xmf_;
+  double seconds_ = 0, bytes_ = 0;
+};
+
+// The XDMF 3 sidecar for the snapshots of 'entries' in h5file (a name relative to the xmf).
+void write_xdmf(const std::string& path, const std::string& h5file,
+                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries);
+
+}  // namespace fabrica

@@ -1,0 +1,165 @@
+#!/usr/bin/python3
+"""Independent checks of a run's output (OUT/run.h5, OUT/run.xmf) with h5py, for ctest.
+
+    check_run_h5.py same A/run.h5 B/run.h5   snapshots equal bit for bit (every dataset and
+                                             attribute), series: step and stage equal, the
+                                             other columns within 1e-9 of the column's largest
+                                             magnitude (reductions sum in rank-dependent order)
+    check_run_h5.py xdmf OUT                 run.xmf is well-formed XML, lists every snapshot
+                                             of run.h5, and every DataItem names an existing
+                                             dataset of the stated dimensions
+    check_run_h5.py foreign FILE             writes an HDF5 file without Fabrica's attributes
+    check_run_h5.py readable FILE MIN        opens FILE and reads every dataset of every listed
+                                             snapshot; prints how many; fails below MIN
+
+Exits 77 (ctest: skipped) with a message when /usr/bin/python3 lacks h5py or numpy.
+"""
+import os
+import sys
+import xml.etree.ElementTree as ET
+
+try:
+    import h5py
+    import numpy as np
+except ImportError as e:
+    print(f"check_run_h5.py: skipped: {e} (install python3-h5py and python3-numpy)")
+    sys.exit(77)
+
+
+def fail(msg):
+    print(f"check_run_h5.py: FAIL: {msg}")
+    sys.exit(1)
+
+
+def same(pa, pb):
+    a, b = h5py.File(pa, "r"), h5py.File(pb, "r")
+    snaps = 0
+
+    def cmp_snap(name, x):
+        nonlocal snaps
+        y = b.get("snapshots/" + name)
+        if y is None:
+            fail(f"{pb}: no /snapshots/{name}")
+        for k, v in x.attrs.items():
+            if not np.array_equal(v, y.attrs[k]):
+                fail(f"/snapshots/{name} attribute {k}: {v} != {y.attrs[k]}")
+        if isinstance(x, h5py.Dataset):
+            u, w = x[()], y[()]
+            if u.shape != w.shape or u.dtype != w.dtype or u.tobytes() != w.tobytes():
+                fail(f"/snapshots/{name}: differs")
+            snaps += 1
+
+    a["snapshots"].visititems(cmp_snap)
+    if sorted(_walk(a["snapshots"])) != sorted(_walk(b["snapshots"])):
+        fail("the two files hold different snapshots")
+    rows = 0
+    worst = 0.0
+    if sorted(a["series"]) != sorted(b["series"]):
+        fail(f"series cases differ: {sorted(a['series'])} vs {sorted(b['series'])}")
+    for c in a["series"]:
+        ga, gb = a["series"][c], b["series"][c]
+        if sorted(ga) != sorted(gb):
+            fail(f"series {c}: columns differ")
+        for k in ga:
+            u, w = ga[k][()], gb[k][()]
+            if u.shape != w.shape:
+                fail(f"series {c}/{k}: {u.shape} rows vs {w.shape}")
+            if k in ("step", "stage", "time"):
+                if not np.array_equal(u, w):
+                    fail(f"series {c}/{k} differs")
+            else:
+                scale = max(np.abs(u).max(initial=0), 1e-300)
+                err = np.abs(u - w).max(initial=0) / scale
+                worst = max(worst, err)
+                if err > 1e-9:
+                    fail(f"series {c}/{k}: relative difference {err:.3e} > 1e-9")
+        rows += ga["step"].shape[0]
+    print(f"same: {snaps} snapshot datasets bit for bit; {rows} series rows, largest relative "
+          f"difference {worst:.2e} (tolerance 1e-9)")
+
+
+def _walk(g, prefix=""):
+    out = []
+    for k, v in g.items():
+        p = prefix + "/" + k
+        out.append(p)
+        if isinstance(v, h5py.Group):
+            out += _walk(v, p)
+    return out
+
+
+def xdmf(outdir):
+    xmf, h5 = os.path.join(outdir, "run.xmf"), os.path.join(outdir, "run.h5")
+    try:
+        root = ET.parse(xmf).getroot()
+    except ET.ParseError as e:
+        fail(f"{xmf}: not well-formed XML: {e}")
+    if root.tag != "Xdmf" or root.get("Version") != "3.0":
+        fail(f"{xmf}: root is {root.tag} version {root.get('Version')}")
+    f = h5py.File(h5, "r")
+    listed = set()
+    items = 0
+    for grid in root.iter("Grid"):
+        if grid.get("GridType") != "Uniform":
+            continue
+        topo = grid.find("Topology")
+        n = int(topo.get("NumberOfElements"))
+        if topo.get("TopologyType") != "Polyvertex":
+            fail(f"{xmf}: topology {topo.get('TopologyType')}")
+        names = {a.get("Name") for a in grid.findall("Attribute")}
+        if not {"radius", "velocity", "id"} <= names:
+            fail(f"{xmf}: grid {grid.get('Name')} lacks radius/velocity/id: {names}")
+        float(grid.find("Time").get("Value"))
+        for item in grid.iter("DataItem"):
+            fname, path = item.text.strip().split(":", 1)
+            if fname != "run.h5":
+                fail(f"{xmf}: DataItem refers to {fname}")
+            if path not in f:
+                fail(f"{xmf}: {path} does not exist in {h5}")
+            dims = tuple(int(x) for x in item.get("Dimensions").split())
+            if f[path].shape != dims or dims[0] != n:
+                fail(f"{xmf}: {path} has shape {f[path].shape}, the XDMF says {dims}")
+            items += 1
+            listed.add(path.split("/particles/")[0])
+    stored = {f"/snapshots/{c}/{s}" for c in f["snapshots"] for s in f["snapshots"][c]}
+    if listed != stored:
+        fail(f"{xmf} lists {len(listed)} snapshots, {h5} holds {len(stored)}")
+    print(f"xdmf: well-formed; {len(listed)} snapshots, {items} DataItems, all present in {h5}")
+
+
+def readable(path, minimum):
+    f = h5py.File(path, "r")
+    if "fabrica_version" not in f.attrs:
+        fail(f"{path}: no fabrica_version")
+    n = 0
+    for c in f["snapshots"]:
+        for s in f["snapshots"][c]:
+            g = f["snapshots"][c][s]
+            for sub in ("particles", "contacts"):
+                for k in g[sub]:
+                    g[sub][k][()]
+            n += 1
+    print(f"readable: {n} snapshots of {path} read completely")
+    if n < minimum:
+        fail(f"only {n} snapshots readable, expected at least {minimum}")
+
+
+def main():
+    if len(sys.argv) < 3:
+        sys.exit(__doc__)
+    cmd = sys.argv[1]
+    if cmd == "same":
+        same(sys.argv[2], sys.argv[3])
+    elif cmd == "xdmf":
+        xdmf(sys.argv[2])
+    elif cmd == "foreign":
+        with h5py.File(sys.argv[2], "w") as f:
+            f["data"] = np.arange(10)
+    elif cmd == "readable":
+        readable(sys.argv[2], int(sys.argv[3]))
+    else:
+        sys.exit(__doc__)
+
+
+if __name__ == "__main__":
+    main()

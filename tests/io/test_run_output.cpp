@@ -1,0 +1,234 @@
+// Round trip of OUT/run.h5 (io/run_output -> io/snapshot), run through mpiexec at 1 and 2 ranks:
+// a compressed polydisperse packing with sliding and rolling contacts is written collectively,
+// then every rank reads the file back serially and finds each of its own particles and contact
+// records with every value equal bit for bit (tolerance 0: the file stores IEEE doubles as they
+// are), the totals equal the reduced counts, ids in increasing order; the series rows and the
+// scene text come back exactly; a second RunOutput on the same directory is refused unless
+// overwrite; the reader refuses missing, foreign and truncated files naming the file.
+#include "core/contact_snapshot.hpp"
+#include "core/generate.hpp"
+#include "core/timestep.hpp"
+#include "io/h5.hpp"
+#include "io/run_output.hpp"
+#include "io/snapshot.hpp"
+#include "parallel/mpi_domain.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numbers>
+
+namespace fabrica {
+namespace {
+
+namespace fs = std::filesystem;
+
+int rank() {
+  int r = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
+int size() {
+  int s = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &s);
+  return s;
+}
+
+// A directory shared by the ranks (named by rank 0), empty at the start.
+std::string fresh_dir(const std::string& name) {
+  const std::string d = (fs::temp_directory_path() / ("fabrica-" + name + "-np" + std::to_string(size()))).string();
+  if (rank() == 0) {
+    fs::remove_all(d);
+    fs::create_directories(d);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  return d;
+}
+
+struct Packing {
+  std::unique_ptr<MpiDomain> domain;
+  std::unique_ptr<Simulation> sim;
+};
+
+Packing compressed_packing() {
+  Random rng(7);
+  std::vector<real_t> d = fractal_diameters(300, 1.9, 0.01, 0.05, rng);
+  real_t vs = 0;
+  for (real_t x : d) vs += std::numbers::pi / 6 * x * x * x;
+  const PeriodicCell cell(Vec3::Constant(std::cbrt(vs / 0.35)));
+  Particles p = random_packing(d, 2650.0, cell, rng);
+  SimulationParams sp;
+  sp.law.youngs_modulus = 50e6;
+  sp.law.friction = 0.3;
+  sp.law.rolling_friction = 0.1;
+  sp.skin = 0.002;
+  sp.dt = 0.3 * critical_time_step(p, sp.law, true);
+  sp.local_damping = 0.2;
+  Packing k;
+  if (size() > 1) k.domain = std::make_unique<MpiDomain>(MPI_COMM_WORLD, MpiDomainOptions{});
+  k.sim = std::make_unique<Simulation>(std::move(p), cell, sp, k.domain.get());
+  const int n = 2500;
+  k.sim->cell().set_strain_rate(Vec3::Constant(std::log(0.8) / (n * sp.dt)));
+  for (int s = 0; s < n; ++s) k.sim->step(s == n - 1);
+  return k;
+}
+
+Scene test_scene() {
+  Scene sc;
+  sc.path = "memory/test.toml";
+  sc.text = "# a scene text with \"quotes\", <xml> & newlines\n[run]\nsnapshot_every = 7\n";
+  sc.snapshot_every = 7;
+  return sc;
+}
+
+TEST(RunOutput, RoundTripOfEveryDataset) {
+  const std::string dir = fresh_dir("roundtrip");
+  Packing k = compressed_packing();
+  const Simulation& sim = *k.sim;
+  const Scene sc = test_scene();
+  const std::string header = "stage,step,time,p,q,Z\n";
+  const Vec3 strain(0.01, -0.02, 0.03);
+  {
+    RunOutput out(MPI_COMM_WORLD, sc, dir, false);
+    for (int r = 0; r < 300; ++r) {  // more than one buffer of rows
+      const double v[] = {r * 1e-3, 1e5 + r, 2e4 / (r + 1), 4.5 + r * 1e-7};
+      out.series_row("case_a", header, r < 100 ? "consolidation" : "shear", 10 * r, v);
+    }
+    out.snapshot("case_a", sim, strain);
+    out.snapshot("case_a", sim, strain);  // the same step again: skipped
+    out.close();
+    EXPECT_EQ(out.snapshots(), 1);
+  }
+  // Each rank checks its own particles and contacts against the file.
+  const std::string file = RunOutput::file_name(dir);
+  const ParticleSnapshot ps = read_particle_snapshot(file, "case_a", sim.step_count());
+  const Particles& p = sim.particles();
+  long long owned = (long long)p.n_owned(), total = 0;
+  MPI_Allreduce(&owned, &total, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  ASSERT_EQ((long long)ps.id.size(), total);
+  EXPECT_EQ(ps.info.step, sim.step_count());
+  EXPECT_EQ(ps.info.time, sim.time());
+  EXPECT_EQ(ps.info.cell_lengths, sim.cell().lengths());
+  EXPECT_EQ(ps.info.strain, strain);
+  for (std::size_t i = 1; i < ps.id.size(); ++i) ASSERT_LT(ps.id[i - 1], ps.id[i]);
+  std::map<GlobalId, std::size_t> at;
+  for (std::size_t i = 0; i < ps.id.size(); ++i) at[ps.id[i]] = i;
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    ASSERT_TRUE(at.count(p.id[a]));
+    const std::size_t i = at[p.id[a]];
+    ASSERT_EQ(ps.position[i], p.x[a]);
+    ASSERT_EQ(ps.velocity[i], p.v[a]);
+    ASSERT_EQ(ps.spin[i], p.w[a]);
+    ASSERT_EQ(ps.radius[i], p.radius[a]);
+  }
+
+  const ContactSnapshot cs = read_contact_snapshot(file, "case_a", sim.step_count());
+  const auto mine = contact_records(p, sim.cell(), sim.params().law, sim.pairs());
+  long long nmine = (long long)mine.size(), ntotal = 0, nroll = 0, nslide = 0;
+  for (const auto& c : mine) nroll += c.rolling && c.mr.norm() > 0, nslide += c.sliding;
+  MPI_Allreduce(MPI_IN_PLACE, &nroll, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &nslide, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(&nmine, &ntotal, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  ASSERT_EQ((long long)cs.contacts.size(), ntotal);
+  ASSERT_GT(ntotal, 300);
+  EXPECT_GT(nroll, 0);   // the test covers non-trivial rolling moments and flags
+  EXPECT_GT(nslide, 0);
+  EXPECT_EQ(cs.info.contacts, ntotal);
+  std::map<std::pair<GlobalId, GlobalId>, std::size_t> cat;
+  for (std::size_t i = 0; i < cs.contacts.size(); ++i) {
+    if (i > 0) {
+      const auto& a = cs.contacts[i - 1];
+      const auto& b = cs.contacts[i];
+      ASSERT_TRUE(a.id1 < b.id1 || (a.id1 == b.id1 && a.id2 < b.id2));
+    }
+    cat[{cs.contacts[i].id1, cs.contacts[i].id2}] = i;
+  }
+  for (const ContactRecord& c : mine) {
+    ASSERT_TRUE(cat.count({c.id1, c.id2}));
+    const ContactRecord& r = cs.contacts[cat[{c.id1, c.id2}]];
+    ASSERT_EQ(r.normal, c.normal);
+    ASSERT_EQ(r.branch, c.branch);
+    ASSERT_EQ(r.overlap, c.overlap);
+    ASSERT_EQ(r.fn, c.fn);
+    ASSERT_EQ(r.ft, c.ft);
+    ASSERT_EQ(r.mr, c.mr);
+    ASSERT_EQ(r.sliding, c.sliding);
+    ASSERT_EQ(r.rolling, c.rolling);
+  }
+
+  const Series s = read_series(file, "case_a");
+  ASSERT_EQ(s.rows(), 300u);
+  ASSERT_EQ(s.columns, (std::vector<std::string>{"time", "p", "q", "Z"}));
+  for (int r = 0; r < 300; ++r) {
+    EXPECT_EQ(s.step[r], 10 * r);
+    EXPECT_EQ(s.stage[r], r < 100 ? "consolidation" : "shear");
+    EXPECT_EQ(s.column("time")[r], r * 1e-3);
+    EXPECT_EQ(s.column("p")[r], 1e5 + r);
+    EXPECT_EQ(s.column("q")[r], 2e4 / (r + 1));
+    EXPECT_EQ(s.column("Z")[r], 4.5 + r * 1e-7);
+  }
+  const std::vector<SnapshotInfo> list = list_snapshots(file);
+  ASSERT_EQ(list.size(), 1u);
+  EXPECT_EQ(list[0].case_name, "case_a");
+  EXPECT_EQ(list[0].step, sim.step_count());
+  EXPECT_EQ(list[0].time, sim.time());
+  const RunFileInfo info = read_run_info(file);
+  EXPECT_EQ(info.scene_text, sc.text);
+  EXPECT_EQ(info.scene_path, sc.path);
+  EXPECT_EQ(info.ranks, size());
+  EXPECT_FALSE(info.version.empty());
+  EXPECT_EQ(list_series(file), std::vector<std::string>{"case_a"});
+
+  // A second run into the same directory is refused, naming the file; with overwrite it is not.
+  try {
+    RunOutput again(MPI_COMM_WORLD, sc, dir, false);
+    ADD_FAILURE() << "an existing run.h5 was overwritten";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(file + ": the output file exists already"), std::string::npos) << e.what();
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  { RunOutput again(MPI_COMM_WORLD, sc, dir, true); }
+  EXPECT_TRUE(list_snapshots(file).empty());
+  EXPECT_THROW(read_contact_snapshot(file, "case_a", sim.step_count()), InputError);
+}
+
+void expect_input_error(const std::function<void()>& f, const std::string& needle) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected " << needle;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
+}
+
+TEST(RunOutput, ReaderRefusesBadFiles) {
+  const std::string dir = fresh_dir("badfiles");
+  const std::string missing = dir + "/missing.h5", foreign = dir + "/foreign.h5",
+                    truncated = dir + "/truncated.h5", other = dir + "/other.h5";
+  // A good file to truncate, a text file and an HDF5 file that Fabrica did not write.
+  { RunOutput out(MPI_COMM_WORLD, test_scene(), dir + "/good", false); }
+  if (rank() == 0) {
+    std::ifstream in(RunOutput::file_name(dir + "/good"), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    std::ofstream(truncated, std::ios::binary) << bytes.substr(0, 1000);
+    std::ofstream(foreign) << "step,time\n1,2\n";
+  }
+  {
+    h5::File f = h5::File::create_parallel(other, MPI_COMM_WORLD, true);
+    f.create_group("data");
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  expect_input_error([&] { list_snapshots(missing); }, missing + ": no such file");
+  expect_input_error([&] { list_snapshots(foreign); }, foreign + ": not an HDF5 file");
+  expect_input_error([&] { read_series(truncated, "x"); }, truncated + ": cannot open the HDF5 file");
+  expect_input_error([&] { read_run_info(other); }, other + ": not a Fabrica output file");
+  const std::string good = RunOutput::file_name(dir + "/good");
+  expect_input_error([&] { read_contact_snapshot(good, "nope", 5); }, "no snapshot of case 'nope' at step 5");
+  expect_input_error([&] { read_series(good, "nope"); }, "no series of case 'nope'");
+}
+
+}  // namespace
+}  // namespace fabrica
