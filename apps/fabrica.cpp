@@ -77,8 +77,17 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   if (mpi.rank() != 0 && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5) out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, overwrite);
-  const int rc = scene.triaxial.enabled ? run_triaxial(mpi, scene, outdir, out.get())
-                                        : run_plain(mpi, scene, outdir, out.get());
+  int rc = 0;
+  try {
+    rc = scene.triaxial.enabled ? run_triaxial(mpi, scene, outdir, out.get())
+                                : run_plain(mpi, scene, outdir, out.get());
+  } catch (const CollectiveError&) {  // met by every rank: the file can be closed (collective)
+    if (out) out->close();
+    throw;
+  } catch (const InputError&) {
+    if (out) out->close();
+    throw;
+  }
   if (out) {
     out->close();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

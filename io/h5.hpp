@@ -135,7 +135,11 @@ class File : public Group {
   // Opens 'path' read-only, serially (the reader and `fabrica info`).
   static File open_read(const std::string& path);
   void flush() const;  // H5Fflush of the whole file (collective under MPI-IO)
-  void close();        // closes every object of the file first; idempotent
+  void close();        // closes the file; idempotent
+  // Forgets the file without closing it: for a rank that unwinds from an error the other ranks
+  // do not share (closing is collective under MPI-IO and would wait for them forever); the
+  // process then ends through MPI_Abort (parallel/guard.hpp).
+  void abandon() { h_.release(); }
 
  private:
   using Group::Group;

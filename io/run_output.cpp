@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -25,7 +26,8 @@ using clock_type = std::chrono::steady_clock;
 // everything else (strains, ratios, counts, coordination numbers) dimensionless "1".
 std::string series_unit(const std::string& c) {
   if (c == "time") return "s";
-  if (c == "p" || c == "q" || (c.size() == 3 && c[0] == 's' && std::isdigit(c[1]) && std::isdigit(c[2])))
+  if (c == "p" || c == "q" || (c.size() == 3 && c[0] == 's' && std::isdigit(static_cast<unsigned char>(c[1])) &&
+                                std::isdigit(static_cast<unsigned char>(c[2]))))
     return "Pa";
   if (c == "kinetic" || c.starts_with("e_") || c.starts_with("diss_") || c == "boundary_work") return "J";
   return "1";
@@ -147,6 +149,16 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
     throw InputError(path_ + ": the output file exists already; give --overwrite to replace it "
                      "or choose another output directory");
   file_ = h5::File::create_parallel(path_, comm, overwrite);
+  try {
+    write_header(scene);
+  } catch (...) {
+    if (size_ > 1) file_.abandon();  // perhaps this rank's error alone: no collective close
+    throw;
+  }
+  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+
+void RunOutput::write_header(const Scene& scene) {
   file_.set_attr(layout::kVersionAttr, std::string(kFabricaVersion));
   file_.set_attr("git_describe", std::string(kFabricaGitDescribe));
   file_.set_attr("format", std::string(layout::kFormat));
@@ -164,10 +176,13 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
   file_.create_group("series");
   file_.flush();
   if (rank_ == 0) write_xmf();
-  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
 }
 
 RunOutput::~RunOutput() {
+  if (std::uncaught_exceptions() > 0 && size_ > 1) {
+    file_.abandon();
+    return;
+  }
   try {
     close();
   } catch (const std::exception& e) {

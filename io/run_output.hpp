@@ -28,7 +28,11 @@ class RunOutput {
   // Creates OUT/run.h5 (and OUT); an existing file is refused with an InputError unless
   // 'overwrite'. Writes the version attributes and the scene.
   RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, bool overwrite);
-  ~RunOutput();  // closes the file if close() was not called (errors then only printed)
+  // Closes the file if close() was not called (errors then only printed) - except while an
+  // exception unwinds on several ranks: it may be this rank's alone, and closing is collective,
+  // so the file is abandoned instead (flushed at the last snapshot). Callers close() explicitly
+  // on errors that every rank meets (CollectiveError, InputError).
+  ~RunOutput();
   RunOutput(const RunOutput&) = delete;
   RunOutput& operator=(const RunOutput&) = delete;
 
@@ -74,6 +78,7 @@ class RunOutput {
     double time;
     std::int64_t particles;
   };
+  void write_header(const Scene& scene);  // version attributes, /scene, empty groups
   void flush_series();
   void write_xmf() const;
 
