@@ -21,6 +21,7 @@ void write_fabric_headers(const FabricStreams& out, int rose_bins) {
   if (out.sff) {
     *out.sff << "stage,step,eps1,contacts,mean_fn,p,q,q_p";
     for (auto name : kPartitionNames) *out.sff << ",q_p_star_" << name;
+    for (auto name : kPartitionNames) *out.sff << ",q_p_tensor_" << name;
     *out.sff << '\n';
   }
   if (out.rose) {
@@ -54,6 +55,7 @@ void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::
     *out.sff << label << ',' << r.contacts << ',' << num(r.mean_fn) << ',' << num(r.p) << ','
              << num(r.q) << ',' << num(r.q_p);
     for (real_t x : r.q_p_star) *out.sff << ',' << num(x);
+    for (real_t x : r.q_p_star_tensor) *out.sff << ',' << num(x);
     *out.sff << '\n';
   }
   if (out.rose) {

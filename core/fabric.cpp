@@ -242,12 +242,16 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
     real_t norm = 0;
     for (int k : partition_networks(p)) norm += out.net[k].zeta * (out.net[k].count ? out.net[k].gamma : 0.0);
     real_t sum = 0;
+    Mat3 D = Mat3::Zero();
     for (int k : partition_networks(p)) {
       NetworkFabric& nf = out.net[k];
       nf.xi = nf.count > 0 && norm > 0 ? nf.zeta * nf.gamma / norm : 0.0;
-      if (nf.count > 0) sum += nf.xi * (nf.a_c + nf.a_b + nf.a_n + 1.5 * nf.a_t);
+      if (nf.count == 0) continue;
+      sum += nf.xi * (nf.a_c + nf.a_b + nf.a_n + 1.5 * nf.a_t);
+      D += 0.4 * nf.xi * (nf.ac + nf.ab + nf.an + 1.5 * nf.at);
     }
     out.q_p_star[p] = 0.4 * sum;
+    out.q_p_star_tensor[p] = std::sqrt(1.5 * D.cwiseProduct(D).sum());
   }
   return out;
 }

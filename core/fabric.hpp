@@ -73,6 +73,10 @@ struct FabricResult {
   Mat3 stress = Mat3::Zero();       // Pa: (1/V) sum f (x) b over all contacts
   real_t p = 0, q = 0, q_p = 0;     // of 'stress' (q_p = 0 if p <= 0)
   std::array<real_t, kPartitions> q_p_star{};  // (2/5) sum_k xi_k (a_c + a_b + a_n + 3/2 a_t)
+  // Not in the spec: the same sum taken over the tensors before the invariant,
+  // sqrt(3/2 D:D) with D = (2/5) sum_k xi_k (a^c + a^b + a^n + 3/2 a^t) - the first-order
+  // prediction without the assumption that the tensors are coaxial with the stress.
+  std::array<real_t, kPartitions> q_p_star_tensor{};
   int rose_bins = 0;
   int reductions = 0;               // collective sums made (3)
 };

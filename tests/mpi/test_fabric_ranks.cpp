@@ -50,6 +50,7 @@ std::vector<double> flatten(const FabricResult& r) {
   auto put = [&](const auto& m) { v.insert(v.end(), m.data(), m.data() + m.size()); };
   put(r.stress);
   for (double x : r.q_p_star) v.push_back(x);
+  for (double x : r.q_p_star_tensor) v.push_back(x);
   for (const NetworkFabric& n : r.net) {
     v.insert(v.end(), {double(n.count), n.mean_fn, n.a_c, n.a_b, n.a_n, n.a_t, n.zeta, n.gamma,
                        n.xi, double(n.nonpositive_weights), n.min_weight});

@@ -26,6 +26,7 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -595,7 +596,13 @@ TEST(Triaxial, HigherConsolidationFrictionGivesLooserSpecimen) {
 // partition stays within 5 % at every row, not even the global relation (largest deviations
 // 10-16 %, single rows at small strain or during stress drops); what holds is the mean over
 // the shear rows of the global relation ('all'), below 5 % for both mu_r: that is asserted.
-// The sub-network partitions are reported, not asserted (docs/fabric.md gives the numbers).
+// The scalar form of the sub-network partitions is reported, not asserted (docs/fabric.md gives
+// the numbers and the reason: the signed scalar indices assume tensors coaxial with the stress,
+// which the small networks are not). The tensor form (q_p_tensor_*: the same first-order sum
+// over the tensors, then the invariant) has no such assumption: its mean deviation must be
+// below 5 % for every partition none of whose networks has min_weight <= 0 at any row (the
+// weights 1 / (1 + a^c:nn) are only meaningful for a non-negative second-order density; at
+// mu_r = 0.2, ns-sf breaks this and its partition is reported only).
 TEST(Triaxial, StressForceFabricPrediction) {
   Study& st = study();
   for (const auto& b : st.serial.branches) {
@@ -607,23 +614,49 @@ TEST(Triaxial, StressForceFabricPrediction) {
       ASSERT_EQ(step[k], step_s[k]);
       EXPECT_NEAR(q[k], q_s[k], 1e-8 * q_s[k]) << "row " << k;
     }
+    // Networks whose second-order density 1 + a^c:nn is negative in some direction at some row
+    // (min_weight <= 0, the last column of fabric.csv): their weighted tensors are unreliable.
+    std::set<std::string> ill;
+    {
+      std::istringstream in(b->fabric);
+      std::string line;
+      std::getline(in, line);
+      while (std::getline(in, line)) {
+        std::vector<std::string> c;
+        std::istringstream r(line);
+        for (std::string x; std::getline(r, x, ',');) c.push_back(x);
+        if (c[0] == "shear" && c.back() != "nan" && std::stod(c.back()) <= 0) ill.insert(c[3]);
+      }
+    }
     for (int p = 0; p < kPartitions; ++p) {
-      const auto star = sff.of("q_p_star_" + std::string(kPartitionNames[p]), "shear");
-      double mean = 0, worst = 0, within = 0;
-      for (std::size_t k = 0; k < q.size(); ++k) {
-        const double d = std::abs(star[k] - q[k]) / q[k];
-        mean += d / double(q.size());
-        worst = std::max(worst, d);
-        within += d < 0.05;
+      const std::string name(kPartitionNames[p]);
+      bool conditioned = true;
+      for (int k : partition_networks(p)) conditioned = conditioned && !ill.count(std::string(kNetworkNames[k]));
+      // The spec's scalar form (asserted for 'all'), then the tensor form (reported only).
+      for (const std::string prefix : {"q_p_star_", "q_p_tensor_"}) {
+        const auto star = sff.of(prefix + name, "shear");
+        double mean = 0, worst = 0, within = 0;
+        for (std::size_t k = 0; k < q.size(); ++k) {
+          const double d = std::abs(star[k] - q[k]) / q[k];
+          mean += d / double(q.size());
+          worst = std::max(worst, d);
+          within += d < 0.05;
+        }
+        const bool scalar = prefix == "q_p_star_";
+        if (scalar && p == kPartAll) {
+          EXPECT_LT(mean, 0.05) << "mu_r = " << b->mu_r;
+        }
+        if (!scalar && conditioned) {
+          EXPECT_LT(mean, 0.05) << "tensor form, partition " << name << ", mu_r = " << b->mu_r;
+        }
+        if (root())
+          std::printf("[7] mu_r = %.1f, %-6s SFF partition %-11s: |(q/p)* - q/p| / (q/p) mean "
+                      "%5.2f %%, max %6.2f %%, %3.0f %% of %zu rows within 5 %%%s\n", b->mu_r,
+                      scalar ? "scalar" : "tensor", name.c_str(), 100 * mean, 100 * worst,
+                      100 * within / double(q.size()), q.size(),
+                      (scalar && p == kPartAll) || (!scalar && conditioned) ? " (asserted)"
+                      : !conditioned ? " (a network with min_weight <= 0)" : "");
       }
-      if (p == kPartAll) {
-        EXPECT_LT(mean, 0.05) << "mu_r = " << b->mu_r;
-      }
-      if (root())
-        std::printf("[7] mu_r = %.1f, SFF partition %-11s: |(q/p)* - q/p| / (q/p) mean %5.2f %%, "
-                    "max %6.2f %%, %3.0f %% of %zu rows within 5 %%\n", b->mu_r,
-                    std::string(kPartitionNames[p]).c_str(), 100 * mean, 100 * worst,
-                    100 * within / double(q.size()), q.size());
     }
     if (root())
       std::printf("[7] mu_r = %.1f: fabric analysis %.3f s of the case's %.1f s (%.2f %%)\n",

@@ -249,6 +249,7 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
   const Mat3 sdev = sig_all - sig_all.trace() / 3 * Mat3::Identity();
   double worst = 0;
   double zg[kNetworks];
+  Mat3 want_ac[kNetworks], want_ab[kNetworks], want_an[kNetworks], want_at[kNetworks];
   for (int k = 0; k < kNetworks; ++k) {
     const NetworkFabric& nf = r.net[k];
     const int m = __builtin_popcount(axes[k]);
@@ -275,6 +276,7 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
     auto devi = [](const Mat3& x) { return Mat3(x - x.trace() / 3 * Mat3::Identity()); };
     const Mat3 ab = 7.5 / b.trace() * devi(b), an = 7.5 / fn.trace() * devi(fn);
     const Mat3 at = 5.0 / fn.trace() * devi(0.5 * (ft + ft.transpose()));
+    want_ac[k] = ac, want_ab[k] = ab, want_an[k] = an, want_at[k] = at;
     worst = std::max({worst, close(nf.phi, phi, "phi", k), close(nf.ac, ac, "a^c", k),
                       close(nf.branch, b, "b", k), close(nf.normal_force, fn, "f^n", k),
                       close(nf.stress, sig, "stress", k), close(nf.an, an, "a^n", k),
@@ -316,6 +318,18 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
     for (int k : partition_networks(p)) EXPECT_NEAR(r.net[k].xi, zg[k] / norm, 1e-12) << kNetworkNames[k];
   }
   EXPECT_NEAR(r.q_p_star[kPartAll], 0.4 * (r.net[kAll].a_c + r.net[kAll].a_b + r.net[kAll].a_n + 1.5 * r.net[kAll].a_t), 1e-15);
+  // The tensor form from the closed-form tensors of each partition's networks.
+  for (int p = 0; p < kPartitions; ++p) {
+    Mat3 D = Mat3::Zero();
+    double norm = 0;
+    for (int k : partition_networks(p)) norm += zg[k];
+    for (int k : partition_networks(p)) {
+      if (zg[k] == 0) continue;
+      D += 0.4 * (zg[k] / norm) * (want_ac[k] + want_ab[k] + want_an[k] + 1.5 * want_at[k]);
+    }
+    EXPECT_NEAR(r.q_p_star_tensor[p], std::sqrt(1.5 * D.cwiseProduct(D).sum()), 1e-12)
+        << kPartitionNames[p];
+  }
   std::printf("[fabric] simple cubic lattice: largest relative error of any tensor of any network "
               "%.2e\n", worst);
 }
