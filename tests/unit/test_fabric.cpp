@@ -382,3 +382,23 @@ TEST(Fabric, PartitionsAddUpToTheWhole) {
 
 }  // namespace
 }  // namespace fabrica
+
+namespace fabrica {
+namespace {
+// No contacts at all (a loose cloud): every collective is still made, counts are 0, means nan,
+// and the prediction 0.
+TEST(Fabric, NoContacts) {
+  Domain serial;
+  const FabricResult r = analyse_fabric({}, 1.0, FabricOptions{}, serial);
+  EXPECT_EQ(r.reductions, 3);
+  EXPECT_EQ(r.contacts, 0);
+  EXPECT_EQ(r.q_p, 0.0);
+  for (const NetworkFabric& n : r.net) {
+    EXPECT_EQ(n.count, 0);
+    EXPECT_TRUE(std::isnan(n.mean_fn));
+    EXPECT_EQ(n.xi, 0.0);
+  }
+  for (int p = 0; p < kPartitions; ++p) EXPECT_EQ(r.q_p_star[p], 0.0);
+}
+}  // namespace
+}  // namespace fabrica
