@@ -13,6 +13,7 @@
 // A slot takes 2^30 additions between normalizations (done automatically); the sum over ranks
 // of normalized digits fits as long as there are fewer than 2^31 ranks.
 #pragma once
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <span>
@@ -33,12 +34,14 @@ class ExactSums {
   std::size_t slots() const { return d_.size() / kDigits; }
 
   void add(std::size_t slot, double x) {
-    if (x == 0) return;
-    if (!std::isfinite(x)) throw std::domain_error("ExactSums: non-finite term");
-    int e = 0;
-    const double m = std::frexp(x, &e);  // x = m 2^e, 0.5 <= |m| < 1
-    std::int64_t mant = std::int64_t(std::ldexp(std::abs(m), 53));  // exact, < 2^53
-    int pos = e - 53 - kLowExp;  // x = mant 2^(pos + kLowExp)
+    // IEEE 754 binary64: x = (-1)^sign mant 2^(field - 1075), mant with the hidden bit (normal
+    // numbers; subnormals lie far below the grid and are dropped).
+    const std::uint64_t bits = std::bit_cast<std::uint64_t>(x);
+    const int field = int((bits >> 52) & 0x7ff);
+    if (field == 0x7ff) throw std::domain_error("ExactSums: non-finite term");
+    if (field == 0) return;  // zero or subnormal (< 2^-1022)
+    std::int64_t mant = std::int64_t((bits & ((std::uint64_t(1) << 52) - 1)) | (std::uint64_t(1) << 52));
+    int pos = field - 1075 - kLowExp;  // |x| = mant 2^(pos + kLowExp)
     if (pos < 0) {
       if (pos <= -53) return;
       mant >>= -pos;  // towards zero
@@ -50,7 +53,7 @@ class ExactSums {
     const std::int64_t c0 = std::int64_t(v & 0xffffffffu), c1 = std::int64_t((v >> 32) & 0xffffffffu),
                        c2 = std::int64_t(v >> 64);
     std::int64_t* d = d_.data() + slot * kDigits;
-    if (x > 0) d[k] += c0, d[k + 1] += c1, d[k + 2] += c2;
+    if (!(bits >> 63)) d[k] += c0, d[k + 1] += c1, d[k + 2] += c2;
     else d[k] -= c0, d[k + 1] -= c1, d[k + 2] -= c2;
     if (++adds_ >= (std::int64_t(1) << 30)) normalize();
   }
