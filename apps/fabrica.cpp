@@ -1,6 +1,8 @@
 // fabrica: runs a scene (the built-in demo scene when none is given), or describes an output file.
 //   fabrica run [scene.toml] [--output DIR] [--overwrite]
 //   fabrica info OUT/run.h5
+//   fabrica fabric OUT/run.h5 [--case C] [--step S | --all] [--strong-ratio R] [--bins B] [-o DIR]
+#include "apps/fabric_offline.hpp"
 #include "apps/triaxial.hpp"
 #include "core/simulation.hpp"
 #include "io/run_output.hpp"
@@ -213,6 +215,15 @@ int main(int argc, char** argv) {
   std::string info_path;
   CLI::App* infoc = app.add_subcommand("info", "describe an output file (OUT/run.h5)");
   infoc->add_option("file", info_path, "run.h5 of a run")->required();
+  FabricOfflineArgs fab;
+  CLI::App* fabc = app.add_subcommand("fabric", "fabric analysis of contact snapshots in OUT/run.h5 (docs/fabric.md)");
+  fabc->add_option("file", fab.file, "run.h5 of a run")->required();
+  fabc->add_option("--case", fab.case_name, "case (default: every case)");
+  auto* stepo = fabc->add_option("--step", fab.step, "step of the snapshot (default: the last of each case)");
+  fabc->add_flag("--all", fab.all, "every snapshot")->excludes(stepo);
+  fabc->add_option("--strong-ratio", fab.strong_ratio, "strong: f_n > R x mean f_n (default 1)");
+  fabc->add_option("--bins", fab.bins, "rose diagram bins over [0, pi) (default 36)");
+  fabc->add_option("-o,--output", fab.outdir, "output directory (default: <dir of file>/fabric)");
   return run_guarded(mpi, [&]() -> int {
     try {
       app.parse(argc, argv);
@@ -220,6 +231,7 @@ int main(int argc, char** argv) {
       return mpi.rank() == 0 ? app.exit(e) : e.get_exit_code();
     }
     if (*infoc) return info(mpi, info_path);
+    if (*fabc) return fabric_offline(mpi, fab);
     return run(mpi, scene_path, outdir, overwrite);
   });
 }

@@ -1,5 +1,8 @@
 #include "apps/triaxial.hpp"
 
+#include "core/contact_snapshot.hpp"
+#include "core/fabric.hpp"
+
 #include "io/run_output.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
@@ -94,6 +97,17 @@ void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
   *series_ << '\n';
 }
 
+void TriaxialRun::fabric_row(Stage stage, const Vec3& eps) {
+  if (!scene_.fabric.enabled) return;
+  static const char* names[] = {"consolidation", "equilibration", "shear"};
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto records = contact_records(sim_.particles(), sim_.cell(), sim_.params().law, sim_.pairs());
+  const FabricOptions opt{scene_.fabric.strong_ratio, int(scene_.fabric.rose_bins)};
+  const FabricResult r = analyse_fabric(records, sim_.cell().volume(), opt, sim_.domain());
+  if (fabric_out_) write_fabric_rows(*fabric_out_, names[int(stage)], sim_.step_count(), eps[0], r);
+  fabric_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
                                    const std::function<bool(const MacroState&, const Vec3&)>& done) {
   using clock = std::chrono::steady_clock;
@@ -139,6 +153,7 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
             std::max(res.max_lateral_error, std::abs(m.stress(a, a) - target) / target);
     }
     if (out) row(stage, m, eps);
+    if (out && stage == Stage::Shear) fabric_row(stage, eps);
     sim_.cell().set_strain_rate(servo.update(m.stress, sim_.time() - last_servo));
     last_servo = sim_.time();
     const auto now = clock::now();
@@ -158,6 +173,7 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
       res.steps = k;
       res.strain = eps;
       if (!out) row(stage, m, eps);
+      if ((!out && stage == Stage::Shear) || stage == Stage::Consolidation) fabric_row(stage, eps);
       if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
       return res;
     }
@@ -203,6 +219,18 @@ StageResult TriaxialRun::shear() {
   l0_ = sim_.cell().lengths();  // strains of the shear stage are measured from here
   return run_stage(Stage::Shear, make_servo({false, true, true}, Vec3(-tx_.axial_strain_rate, 0, 0)),
                    [&](const MacroState&, const Vec3& eps) { return eps[0] >= tx_.axial_strain; });
+}
+
+// The fabric files of one directory (rank 0 only; 'open' false: no files, null streams).
+FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix,
+                         int rose_bins) {
+  if (!open) return;
+  std::filesystem::create_directories(dir);
+  fabric_.open(dir / (prefix + "fabric.csv"));
+  sff_.open(dir / (prefix + "sff.csv"));
+  rose_.open(dir / (prefix + "rose.csv"));
+  streams_ = {&fabric_, &sff_, &rose_};
+  write_fabric_headers(streams_, rose_bins);
 }
 
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
@@ -254,6 +282,9 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     write_series_header(cons_series);
   }
   TriaxialRun prep(scene, prepared, d_mean, density, root ? &cons_series : nullptr, log);
+  FabricFiles cons_fabric(root && scene.fabric.enabled, fs::path(outdir), "consolidation_",
+                          int(scene.fabric.rose_bins));
+  prep.set_fabric_output(cons_fabric.streams());
   prep.set_output(output, "consolidation");
   const StageResult c = prep.consolidate();
   const double t_cons = std::chrono::duration<double>(clock::now() - t0).count();
@@ -279,6 +310,9 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
       write_series_header(series);
     }
     TriaxialRun run(scene, sim, d_mean, density, root ? &series : nullptr, log, &prep);
+    FabricFiles fabric(root && scene.fabric.enabled, fs::path(outdir) / tc.name, "",
+                       int(scene.fabric.rose_bins));
+    run.set_fabric_output(fabric.streams());
     run.set_output(output, tc.name);
     if (log) *log << fmt::format("case {}: mu_s = {}, mu_r = {}\n", tc.name, scene.law.friction, tc.rolling_friction);
     const StageResult e = run.equilibrate(tc.rolling_friction);
@@ -295,6 +329,9 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                           tc.name, e.steps, sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
                           qp_end, sh.strain.sum(), 100 * sh.max_lateral_error,
                           100 * std::max(e.max_energy_error, sh.max_energy_error), inertial);
+    if (log && scene.fabric.enabled)
+      *log << fmt::format("case {}: fabric analysis {:.2f} s ({:.2f} % of the case's {:.1f} s)\n",
+                          tc.name, run.fabric_seconds(), 100 * run.fabric_seconds() / secs, secs);
     if (root)
       summary << fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.3e},{:.1f}\n",
                              tc.name, tc.rolling_friction, c.state.void_ratio, sh.peak_q_p,

@@ -4,9 +4,11 @@
 // stresses held by the servo. Every rank runs the same control flow; every decision is taken
 // from reduced (identical) values.
 #pragma once
+#include "apps/fabric_output.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <memory>
@@ -65,6 +67,11 @@ class TriaxialRun {
 
   real_t boundary_work() const { return work_; }
 
+  // Fabric analysis ([fabric] enabled): at the output rows of the shear stage and at the end of
+  // consolidation, on every rank (collective); rows go to 'out' (rank 0's streams; others pass
+  // null or nothing). Wall seconds spent in it (records, analysis, output) so far:
+  void set_fabric_output(const FabricStreams* out) { fabric_out_ = out; }
+  double fabric_seconds() const { return fabric_seconds_; }
   // Optional HDF5 output (io/run_output.hpp): the series rows and the snapshots (every
   // [run] snapshot_every steps and at the end of each stage) go to case 'case_name' of 'out'.
   void set_output(RunOutput* out, std::string case_name) {
@@ -78,6 +85,7 @@ class TriaxialRun {
   StageResult run_stage(Stage stage, Servo servo,
                         const std::function<bool(const MacroState&, const Vec3&)>& done);
   void row(Stage stage, const MacroState& m, const Vec3& eps);
+  void fabric_row(Stage stage, const Vec3& eps);
   Servo make_servo(std::array<bool, 3> axes, Vec3 fixed) const;
   real_t energy_error(const MacroState& m) const;
 
@@ -91,11 +99,24 @@ class TriaxialRun {
   real_t work_ = 0;  // boundary work done on the specimen since the start [J]
   real_t e0_ = 0;    // kinetic + elastic energy at the start [J]
   Mat3 last_stress_ = Mat3::Zero();
+  const FabricStreams* fabric_out_ = nullptr;
+  double fabric_seconds_ = 0;
   RunOutput* output_ = nullptr;
   std::string case_;
 };
 
 void write_series_header(std::ostream& out);
+
+// DIR/<prefix>fabric.csv, sff.csv, rose.csv with their headers (when 'open'; rank 0).
+class FabricFiles {
+ public:
+  FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins);
+  const FabricStreams* streams() const { return streams_.fabric ? &streams_ : nullptr; }
+
+ private:
+  std::ofstream fabric_, sff_, rose_;
+  FabricStreams streams_;
+};
 
 class MpiContext;
 // The scene's MPI domain ([parallel]) on several ranks; null (serial) on one.

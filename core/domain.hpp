@@ -8,6 +8,7 @@
 #include "core/history_map.hpp"
 #include "core/particles.hpp"
 
+#include <cstdint>
 #include <memory>
 #include <span>
 
@@ -28,6 +29,10 @@ class Domain {
 
   // Element-wise sum over all ranks, in place.
   virtual void sum_all(std::span<double> values) { (void)values; }
+
+  // Element-wise sum of integers over all ranks, in place: exact, so the same on any number of
+  // ranks (with core/exact_sum.hpp, exact sums of doubles; used by core/fabric.cpp).
+  virtual void sum_all(std::span<std::int64_t> values) { (void)values; }
 
   // At start-up. Before: every rank holds the same complete set of particles, as read or
   // generated, wrapped into the cell. After: each rank keeps only the particles of its

@@ -129,13 +129,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     throw InputError(m.str());
   }
   static const std::set<std::string> tables = {"particles", "cell", "contact", "compress", "run",
-                                               "triaxial", "parallel"};
+                                               "triaxial", "parallel", "fabric"};
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
                        ": unknown top-level entry (expected one of the tables [particles], "
-                       "[cell], [contact], [compress], [run], [triaxial], [parallel])");
+                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric])");
   }
   auto table = [&](const char* name) { return root[name].as_table(); };
 
@@ -329,6 +329,16 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (ps.rebalance_interval <= 0)
     M.fail("rebalance_interval", std::to_string(ps.rebalance_interval), "must be positive");
   M.reject_unknown();
+
+  Section F(table("fabric"), path, "fabric");
+  FabricSpec& fs = sc.fabric;
+  fs.enabled = F.boolean("enabled").value_or(fs.enabled);
+  fs.strong_ratio = F.number("strong_ratio", fs.strong_ratio);
+  require(F, "strong_ratio", fs.strong_ratio, fs.strong_ratio > 0, "must be positive");
+  if (auto b = F.integer("rose_bins")) fs.rose_bins = *b;
+  if (fs.rose_bins < 1 || fs.rose_bins > 3600)
+    F.fail("rose_bins", std::to_string(fs.rose_bins), "must lie in [1, 3600]");
+  F.reject_unknown();
   return sc;
 }
 

@@ -67,6 +67,14 @@ struct ParallelSpec {
   std::int64_t rebalance_interval = 10;     // neighbour rebuilds between imbalance checks
 };
 
+// Fabric analysis of the contact sub-networks (core/fabric.hpp, docs/fabric.md) at the output
+// rows of a triaxial test's shear stage and at the end of consolidation.
+struct FabricSpec {
+  bool enabled = true;       // used by [triaxial] scenes only
+  real_t strong_ratio = 1.0; // strong contact: f_n > strong_ratio * mean f_n (> 0)
+  std::int64_t rose_bins = 36;  // rose diagram bins over [0, pi) (1 .. 3600)
+};
+
 struct Scene {
   std::string path;               // the scene file ("<built-in demo>" for the default)
   std::string text;               // the scene file's text, kept for the output
@@ -90,6 +98,7 @@ struct Scene {
   bool hdf5 = true;               // write OUT/run.h5 and OUT/run.xmf
   TriaxialSpec triaxial;
   ParallelSpec parallel;
+  FabricSpec fabric;
 };
 
 Scene load_scene(const std::string& path);

@@ -53,6 +53,10 @@ void MpiDomain::sum_all(std::span<double> values) {
   MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_DOUBLE, MPI_SUM, comm_);
 }
 
+void MpiDomain::sum_all(std::span<std::int64_t> values) {
+  MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_INT64_T, MPI_SUM, comm_);
+}
+
 double MpiDomain::load_imbalance(const Particles& p) {
   double n = double(p.n_owned()), mx = 0, sum = 0;
   MPI_Allreduce(&n, &mx, 1, MPI_DOUBLE, MPI_MAX, comm_);

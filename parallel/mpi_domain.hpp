@@ -44,6 +44,7 @@ class MpiDomain final : public Domain {
   real_t max_all(real_t local) override;
   void max_all(std::span<double> values) override;
   void sum_all(std::span<double> values) override;
+  void sum_all(std::span<std::int64_t> values) override;
   void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;

@@ -134,6 +134,22 @@ TEST(Scene, TriaxialTableIsValidated) {
   expect_error("[triaxial]\n[run]\nsteps = 10\n", {"[run] steps", "not used with [triaxial]"});
 }
 
+TEST(Scene, FabricTableIsValidated) {
+  const Scene d = parse_scene("[triaxial]\n", "ok.toml");
+  EXPECT_TRUE(d.fabric.enabled);
+  EXPECT_EQ(d.fabric.strong_ratio, 1.0);
+  EXPECT_EQ(d.fabric.rose_bins, 36);
+  const Scene s = parse_scene("[triaxial]\n[fabric]\nenabled = false\nstrong_ratio = 1.5\nrose_bins = 18\n", "ok.toml");
+  EXPECT_FALSE(s.fabric.enabled);
+  EXPECT_EQ(s.fabric.strong_ratio, 1.5);
+  EXPECT_EQ(s.fabric.rose_bins, 18);
+  expect_error("[fabric]\nstrong_ratio = 0\n", {"[fabric] strong_ratio = 0", "must be positive"});
+  expect_error("[fabric]\nrose_bins = 0\n", {"[fabric] rose_bins = 0", "[1, 3600]"});
+  expect_error("[fabric]\nrose_bins = 2.5\n", {"[fabric] rose_bins", "must be an integer"});
+  expect_error("[fabric]\nenabled = 1\n", {"[fabric] enabled", "true or false"});
+  expect_error("[fabric]\nbins = 3\n", {"[fabric] bins", "unknown key"});
+}
+
 TEST(Scene, OutputKeys) {
   const Scene d = parse_scene("", "empty.toml");
   EXPECT_EQ(d.snapshot_every, 10000);

@@ -26,6 +26,7 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -172,7 +173,8 @@ struct Branch {
   std::unique_ptr<TriaxialRun> run;
   StageResult eq, sh;
   std::string series;  // with the header
-  double seconds = 0;
+  std::string fabric, sff;  // fabric.csv and sff.csv of the shear stage (docs/fabric.md)
+  double seconds = 0, fabric_seconds = 0;
 };
 
 // A consolidated specimen and its branches.
@@ -217,11 +219,16 @@ struct Study {
     prepare(parallel, true, {kRollingCases[0]});
     seconds = since(t0);
     if (root()) std::printf("[study] %.1f s of wall time on %d rank(s)\n", seconds, comm_size());
-    // FABRICA_REGRESSION_OUT=DIR: the series go to DIR/consolidation.csv, DIR/mur_<mu_r>.csv.
+    // FABRICA_REGRESSION_OUT=DIR: the series go to DIR/consolidation.csv, DIR/mur_<mu_r>.csv
+    // (and the fabric analysis to DIR/mur_<mu_r>_fabric.csv, DIR/mur_<mu_r>_sff.csv).
     if (const char* dir = std::getenv("FABRICA_REGRESSION_OUT"); dir && root()) {
       std::ofstream(std::string(dir) + "/consolidation.csv") << serial.cons_series;
-      for (const auto& b : serial.branches)
-        std::ofstream(std::string(dir) + "/mur_" + std::to_string(b->mu_r) + ".csv") << b->series;
+      for (const auto& b : serial.branches) {
+        const std::string base = std::string(dir) + "/mur_" + std::to_string(b->mu_r);
+        std::ofstream(base + ".csv") << b->series;
+        std::ofstream(base + "_fabric.csv") << b->fabric;
+        std::ofstream(base + "_sff.csv") << b->sff;
+      }
     }
   }
 
@@ -244,9 +251,17 @@ struct Study {
         b->sim = std::make_unique<Simulation>(*s.sim, b->domain.get());
         b->run = std::make_unique<TriaxialRun>(scene, *b->sim, d_mean, density, &rows, nullptr,
                                                s.prep.get());
+        std::ostringstream fabric, sff;
+        const FabricStreams fs{&fabric, &sff, nullptr};
+        write_fabric_headers(fs, int(scene.fabric.rose_bins));
+        b->run->set_fabric_output(&fs);
         b->eq = b->run->equilibrate(b->mu_r);
         b->sh = b->run->shear();
         b->series = with_header(rows.str());
+        b->fabric = fabric.str();
+        b->sff = sff.str();
+        b->fabric_seconds = b->run->fabric_seconds();
+        b->run->set_fabric_output(nullptr);
         b->seconds = since(t0);
       }
       s.branches.push_back(std::move(b));
@@ -255,7 +270,10 @@ struct Study {
       bcast(b->eq, b->owner);
       bcast(b->sh, b->owner);
       bcast(b->series, b->owner);
+      bcast(b->fabric, b->owner);
+      bcast(b->sff, b->owner);
       MPI_Bcast(&b->seconds, 1, MPI_DOUBLE, b->owner, MPI_COMM_WORLD);
+      MPI_Bcast(&b->fabric_seconds, 1, MPI_DOUBLE, b->owner, MPI_COMM_WORLD);
       if (root())
         std::printf("[study] %s mu_r = %.2f (rank %d): consolidation %lld steps (%.1f s), "
                     "equilibration %lld steps, shear %lld steps (%.1f s for both)\n",
@@ -566,4 +584,96 @@ TEST(Triaxial, HigherConsolidationFrictionGivesLooserSpecimen) {
   }
   for (std::size_t k = 1; k < e.size(); ++k)
     EXPECT_GT(e[k], e[k - 1]) << "mu_s " << mus[k - 1] << " -> " << mus[k];
+}
+
+// 7. The stress-force-fabric relation (docs/fabric.md, docs/verification.md "Fabric analysis"):
+// at every output row of the shear stage (serial runs, mu_r = 0 and 0.2) the prediction
+// (q/p)* = (2/5) sum_k xi_k (a_c^k + a_b^k + a_n^k + 3/2 a_t^k) of each partition against the
+// measured q/p. The measured q/p of the analysis (from the contact records) must be the series'
+// q/p (1e-8 relative; both are printed to 10 digits). Deviations |(q/p)* - q/p| / (q/p) are
+// printed for every partition (mean over the rows, largest, share of rows within 5 %).
+// On this 1000-sphere specimen (about 1500 contacts, a few dozen in the smallest networks) no
+// partition stays within 5 % at every row, not even the global relation (largest deviations
+// 10-16 %, single rows at small strain or during stress drops); what holds is the mean over
+// the shear rows of the global relation ('all'), below 5 % for both mu_r: that is asserted.
+// The scalar form of the sub-network partitions is reported, not asserted (docs/fabric.md gives
+// the numbers and the reason: the signed scalar indices assume tensors coaxial with the stress,
+// which the small networks are not). The tensor form (q_p_tensor_*: the same first-order sum
+// over the tensors, then the invariant) has no such assumption: its mean deviation must be
+// below 5 % for every partition none of whose networks has min_weight <= 0 at any row (the
+// weights 1 / (1 + a^c:nn) are only meaningful for a non-negative second-order density; at
+// mu_r = 0.2, ns-sf breaks this and its partition is reported only).
+TEST(Triaxial, StressForceFabricPrediction) {
+  Study& st = study();
+  for (const auto& b : st.serial.branches) {
+    const Series ser(b->series), sff(b->sff);
+    const auto q_s = ser.of("q_p", "shear"), step_s = ser.of("step", "shear");
+    const auto q = sff.of("q_p", "shear"), step = sff.of("step", "shear");
+    ASSERT_EQ(q.size(), q_s.size()) << "a fabric row per series row of the shear stage";
+    for (std::size_t k = 0; k < q.size(); ++k) {
+      ASSERT_EQ(step[k], step_s[k]);
+      EXPECT_NEAR(q[k], q_s[k], 1e-8 * q_s[k]) << "row " << k;
+    }
+    // Networks whose second-order density 1 + a^c:nn is negative in some direction at some row
+    // (min_weight <= 0, the last column of fabric.csv): their weighted tensors are unreliable.
+    std::set<std::string> ill;
+    {
+      std::istringstream in(b->fabric);
+      std::string line;
+      std::getline(in, line);
+      while (std::getline(in, line)) {
+        std::vector<std::string> c;
+        std::istringstream r(line);
+        for (std::string x; std::getline(r, x, ',');) c.push_back(x);
+        if (c[0] == "shear" && c.back() != "nan" && std::stod(c.back()) <= 0) ill.insert(c[3]);
+      }
+    }
+    for (int p = 0; p < kPartitions; ++p) {
+      const std::string name(kPartitionNames[p]);
+      bool conditioned = true;
+      for (int k : partition_networks(p)) conditioned = conditioned && !ill.count(std::string(kNetworkNames[k]));
+      // The spec's scalar form (asserted for 'all'), then the tensor form (reported only).
+      for (const std::string prefix : {"q_p_star_", "q_p_tensor_"}) {
+        const auto star = sff.of(prefix + name, "shear");
+        double mean = 0, worst = 0, within = 0;
+        for (std::size_t k = 0; k < q.size(); ++k) {
+          const double d = std::abs(star[k] - q[k]) / q[k];
+          mean += d / double(q.size());
+          worst = std::max(worst, d);
+          within += d < 0.05;
+        }
+        const bool scalar = prefix == "q_p_star_";
+        if (scalar && p == kPartAll) {
+          EXPECT_LT(mean, 0.05) << "mu_r = " << b->mu_r;
+        }
+        if (!scalar && conditioned) {
+          EXPECT_LT(mean, 0.05) << "tensor form, partition " << name << ", mu_r = " << b->mu_r;
+        }
+        if (root())
+          std::printf("[7] mu_r = %.1f, %-6s SFF partition %-11s: |(q/p)* - q/p| / (q/p) mean "
+                      "%5.2f %%, max %6.2f %%, %3.0f %% of %zu rows within 5 %%%s\n", b->mu_r,
+                      scalar ? "scalar" : "tensor", name.c_str(), 100 * mean, 100 * worst,
+                      100 * within / double(q.size()), q.size(),
+                      (scalar && p == kPartAll) || (!scalar && conditioned) ? " (asserted)"
+                      : !conditioned ? " (a network with min_weight <= 0)" : "");
+      }
+    }
+    if (root())
+      std::printf("[7] mu_r = %.1f: fabric analysis %.3f s of the case's %.1f s (%.2f %%)\n",
+                  b->mu_r, b->fabric_seconds, b->seconds, 100 * b->fabric_seconds / b->seconds);
+  }
+}
+
+// 8. The fabric analysis of the parallel run (MpiDomain over every rank, mu_r = 0) equals that
+// of the serial run, to the last printed digit (the trajectories are the same and the fabric
+// sums are exact, core/exact_sum.hpp), at every output row of the shear stage.
+TEST(Triaxial, SameFabricOnOneAndManyRanks) {
+  Study& st = study();
+  const std::string& a = st.serial.branches[0]->fabric;
+  const std::string& b = st.parallel.branches[0]->fabric;
+  EXPECT_GT(std::count(a.begin(), a.end(), '\n'), 15 * 50);
+  EXPECT_TRUE(a == b) << "the fabric.csv of the parallel run differs from the serial one";
+  if (root())
+    std::printf("[8] fabric.csv of %d rank(s) vs serial, mu_r = 0: %s (%zu bytes)\n", comm_size(),
+                a == b ? "identical" : "DIFFERENT", a.size());
 }
