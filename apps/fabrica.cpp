@@ -42,8 +42,8 @@ void print_row(const Simulation& sim, const MacroState& m, std::ofstream* csv) {
 }
 
 // Stops the run, on every rank, with a diagnostic if the state is no longer physical.
-void check_sane(const Simulation& sim, const MacroState& m, real_t max_overlap) {
-  const std::string msg = diagnose(m, sim.step_count(), max_overlap);
+void check_sane(const Simulation& sim, const MacroState& m, const Scene& scene) {
+  const std::string msg = diagnose(m, sim.step_count(), scene.max_overlap, scene.kinetic_runaway);
   if (!msg.empty()) throw CollectiveError(msg);
 }
 
@@ -89,7 +89,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
       sim.step(measure);
       if (!measure) continue;
       const MacroState m = sim.macro();
-      check_sane(sim, m, scene.max_overlap);
+      check_sane(sim, m, scene);
       if (k % (50 * 40) == 0) print_row(sim, m, nullptr);
       if (m.p >= scene.compress.target_pressure) break;
     }
@@ -109,7 +109,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     sim.step(measure);
     if (!measure) continue;
     const MacroState m = sim.macro();
-    check_sane(sim, m, scene.max_overlap);
+    check_sane(sim, m, scene);
     print_row(sim, m, root ? &csv : nullptr);
   }
   steps_done += scene.steps;
