@@ -85,12 +85,12 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     fmt::print("-- compression at {} 1/s to p = {} Pa\n", rate, scene.compress.target_pressure);
     std::int64_t k = 0;
     for (; k < scene.compress.max_steps; ++k) {
-      const bool measure = k % 50 == 0;
+      const bool measure = k % 10 == 0;
       sim.step(measure);
       if (!measure) continue;
       const MacroState m = sim.macro();
       check_sane(sim, m, scene);
-      if (k % (50 * 40) == 0) print_row(sim, m, nullptr);
+      if (k % 2000 == 0) print_row(sim, m, nullptr);
       if (m.p >= scene.compress.target_pressure) break;
     }
     steps_done += k;

@@ -86,7 +86,7 @@ struct Scene {
   std::int64_t output_every = 100;
   Vec3 gravity = Vec3::Zero();    // m/s^2
   real_t max_overlap = 1.0;       // stop when an overlap exceeds this fraction of the smaller radius
-  real_t kinetic_runaway = 2.0;   // stop when kinetic energy > this x the energy put in (>= 1)
+  real_t kinetic_runaway = 1.5;   // stop when kinetic (or stored + dissipated) energy > this x the energy put in (>= 1)
   real_t max_initial_overlap = 0.2;  // refuse an initial overlap above this fraction of the smaller radius
   real_t density_scaling = 1.0;   // masses and moments of inertia multiplied by this (> 0)
   TriaxialSpec triaxial;
