@@ -90,7 +90,7 @@ def plot_impact(imp, dst):
     ax.loglog(fr, [max(abs(num(r, "rebound_error")), 1e-9) for r in el], "s-", label="elastic: rebound speed")
     ax.loglog([num(r, "fraction") for r in vi], [abs(num(r, "rebound_error")) for r in vi], "^-",
               label="viscous beta 0.2: restitution")
-    ref = [(math.pi ** 2 / 2) * f * f / 24 * 2 for f in fr]  # (w dt)^2 / 24, w dt = sqrt(2) f
+    ref = [f * f / 12 for f in fr]  # (w dt)^2 / 24 with w dt = sqrt(2) f (two equal spheres)
     ax.loglog(fr, ref, "k--", lw=0.8, label="(w dt)^2 / 24 (Verlet period shift)")
     ax.set_xlabel("time step / critical estimate")
     ax.set_ylabel("relative error")
