@@ -8,7 +8,7 @@
 //                                      Verlet list, no integration; the springs are restored
 //                                      between iterations outside the timer
 //
-//   bare_forces                         a comparison kernel written here without the optional
+//   bare_forces[_inlined|_external_call] a comparison kernel written here without the optional
 //                                      features at all: no rolling, no dashpot, no measurement,
 //                                      no wall loop, no dispatch table; otherwise the pair loop
 //                                      of forces.cpp line for line (prefetch, friction and
@@ -17,7 +17,11 @@
 //                                      compute_forces with mu_r = 0, no dashpots, no walls and no
 //                                      measurement before any timing. Against
 //                                      compute_forces/rolling=0/viscous=0 it shows what the
-//                                      unused features cost when they are off.
+//                                      unused features cost when they are off. It calls the law
+//                                      out of line through a local wrapper; _inlined inlines it;
+//                                      _external_call calls the template instance through a
+//                                      pointer, with the full calling convention, as
+//                                      compute_forces does (GCC keeps it out of line there).
 //
 // The state is the one bench_dense ends with: the scene run for its 2000 steps, so springs and
 // velocities are those of a real run. Counters (time per item, CPU time): per_contact (touching
@@ -178,7 +182,25 @@ void BM_ComputeForces(benchmark::State& state) {
 }
 
 
+// contact_law<false, false> called out of line, as GCC 12 compiles it in core/forces.cpp (two
+// calls per contact in the disassembly of pair_forces<false, false, false>); in this file it
+// would inline it, which is a different program.
+ContactResult (*volatile law_pointer)(const ContactLawParams&, const PairConstants&,
+                                      const ContactKinematics&, ContactHistory&,
+                                      real_t) = &contact_law<false, false>;
+
+[[gnu::noinline]] ContactResult law_out_of_line(const ContactLawParams& p, const PairConstants& c,
+                                                const ContactKinematics& k, ContactHistory& h,
+                                                real_t dt) {
+  return contact_law<false, false>(p, c, k, h, dt);
+}
+
 // The pair loop of core/forces.cpp with the optional features removed (see the header).
+// Mode 0: the law out of line through a local wrapper (GCC may specialise its calling
+// convention); 1: inlined; 2: called through a pointer to the external template instance, i.e.
+// with the full C++ calling convention (the 96-byte ContactResult returned through memory), as
+// compute_forces calls it.
+template <int Mode>
 void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams& law, real_t dt,
                  PairList& pl, Dissipation& diss) {
   const std::size_t n = P.size();
@@ -238,7 +260,10 @@ void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams&
     const PairConstants c = pair_constants<false, false>(law, R[i], R[j], m[i], m[j]);
     ContactHistory h;
     h.fs = fs[q];
-    const ContactResult r = contact_law<false, false>(law, c, k, h, dt);
+    ContactResult r;
+    if constexpr (Mode == 1) r = contact_law<false, false>(law, c, k, h, dt);
+    else if constexpr (Mode == 0) r = law_out_of_line(law, c, k, h, dt);
+    else r = law_pointer(law, c, k, h, dt);
     fs[q] = h.fs;
     const Vec3 F = r.fn * k.n + r.fs;
     const Vec3 nxfs = k.n.cross(r.fs);
@@ -263,14 +288,23 @@ void check_bare_equals_engine(const Dense& d) {
   const std::vector<Wall> no_walls;
   const ForceContext ctx{law, no_walls, Vec3::Zero(), d.par.dt};
   compute_forces(p1, d.cell, ctx, l1, walls, d1, nullptr);
-  bare_forces(p2, d.cell, law, d.par.dt, l2, d2);
+  bare_forces<0>(p2, d.cell, law, d.par.dt, l2, d2);
   const bool same = p1.f == p2.f && p1.t == p2.t && l1.fs == l2.fs && l1.touching == l2.touching &&
                     d1.friction == d2.friction;
   std::fprintf(stderr, "bare_forces against compute_forces (mu_r = 0, no dashpots, no walls, no "
                        "measurement): %s\n", same ? "bitwise identical" : "DIFFERENT");
   if (!same) std::exit(1);
+  Particles p3 = d.p;
+  PairList l3 = d.pairs;
+  l3.mr.clear();
+  Dissipation d3;
+  bare_forces<1>(p3, d.cell, law, d.par.dt, l3, d3);
+  const bool same3 = p1.f == p3.f && p1.t == p3.t && l1.fs == l3.fs && d1.friction == d3.friction;
+  std::fprintf(stderr, "bare_forces_inlined against compute_forces: %s\n",
+               same3 ? "bitwise identical" : "different in the last bits (FMA contraction)");
 }
 
+template <int Mode>
 void BM_BareForces(benchmark::State& state) {
   const Dense& d = dense();
   const ContactLawParams law = variant_law(d.par.law, false, false);
@@ -279,7 +313,7 @@ void BM_BareForces(benchmark::State& state) {
   pairs.mr.clear();
   Dissipation diss;
   for (auto _ : state) {
-    bare_forces(p, d.cell, law, d.par.dt, pairs, diss);
+    bare_forces<Mode>(p, d.cell, law, d.par.dt, pairs, diss);
     benchmark::ClobberMemory();
     state.PauseTiming();
     std::copy(d.pairs.fs.begin(), d.pairs.fs.end(), pairs.fs.begin());
@@ -311,7 +345,9 @@ int main(int argc, char** argv) {
   add("compute_forces/rolling=0/viscous=1", BM_ComputeForces<false, true>);
   add("compute_forces/rolling=1/viscous=0", BM_ComputeForces<true, false>);
   add("compute_forces/rolling=1/viscous=1", BM_ComputeForces<true, true>);
-  add("bare_forces", BM_BareForces);
+  add("bare_forces", BM_BareForces<0>);
+  add("bare_forces_inlined", BM_BareForces<1>);
+  add("bare_forces_external_call", BM_BareForces<2>);
   // Defaults, before the user's flags (a later flag wins): 10 repetitions, aggregates only.
   std::vector<char*> args{argv[0]};
   char reps[] = "--benchmark_repetitions=10";

@@ -8,11 +8,8 @@
 namespace fabrica {
 namespace {
 
-// flatten: GCC 12 otherwise keeps contact_law out of line here, and the call costs about 17 %
-// of the loop (benchmarks/README.md, "Zero cost of unused features"). Inlined, the compiler
-// contracts some products into FMAs differently, so results change in the last bits.
 template <bool Rolling, bool Viscous, bool Measure>
-[[gnu::flatten]] void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
+void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                  Dissipation& diss, ContactSums* sums) {
   const Vec3& L = cell.lengths();
   const Vec3& edot = cell.strain_rate();
