@@ -59,8 +59,8 @@ void print_row(const Simulation& sim, const MacroState& m, std::ofstream* csv, R
 }
 
 // Stops the run, on every rank, with a diagnostic if the state is no longer physical.
-void check_sane(const Simulation& sim, const MacroState& m, real_t max_overlap) {
-  const std::string msg = diagnose(m, sim.step_count(), max_overlap);
+void check_sane(const Simulation& sim, const MacroState& m, const Scene& scene) {
+  const std::string msg = diagnose(m, sim.step_count(), scene.max_overlap, scene.kinetic_runaway);
   if (!msg.empty()) throw CollectiveError(msg);
 }
 
@@ -139,13 +139,13 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
     fmt::print("-- compression at {} 1/s to p = {} Pa\n", rate, scene.compress.target_pressure);
     std::int64_t k = 0;
     for (; k < scene.compress.max_steps; ++k) {
-      const bool measure = k % 50 == 0;
+      const bool measure = k % 10 == 0;
       sim.step(measure);
       snapshot(false);
       if (!measure) continue;
       const MacroState m = sim.macro();
-      check_sane(sim, m, scene.max_overlap);
-      if (k % (50 * 40) == 0) print_row(sim, m, nullptr, nullptr);
+      check_sane(sim, m, scene);
+      if (k % 2000 == 0) print_row(sim, m, nullptr, nullptr);
       if (m.p >= scene.compress.target_pressure) break;
     }
     steps_done += k;
@@ -166,7 +166,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
     snapshot(false);
     if (!measure) continue;
     const MacroState m = sim.macro();
-    check_sane(sim, m, scene.max_overlap);
+    check_sane(sim, m, scene);
     print_row(sim, m, root ? &csv : nullptr, out);
   }
   snapshot(true);

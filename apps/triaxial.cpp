@@ -141,7 +141,7 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
     const MacroState& m = sim_.macro();
     last_stress_ = m.stress;
     res.state = m;
-    const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap);
+    const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap, scene_.kinetic_runaway);
     if (!bad.empty()) throw CollectiveError(bad);
     const Vec3 eps = strain();
     res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));

@@ -8,6 +8,21 @@
 //                                      Verlet list, no integration; the springs are restored
 //                                      between iterations outside the timer
 //
+//   bare_forces[_inlined|_external_call] a comparison kernel written here without the optional
+//                                      features at all: no rolling, no dashpot, no measurement,
+//                                      no wall loop, no dispatch table; otherwise the pair loop
+//                                      of forces.cpp line for line (prefetch, friction and
+//                                      contact-opening energy included). Its forces, torques,
+//                                      springs and dissipation are checked to be bitwise equal to
+//                                      compute_forces with mu_r = 0, no dashpots, no walls and no
+//                                      measurement before any timing. Against
+//                                      compute_forces/rolling=0/viscous=0 it shows what the
+//                                      unused features cost when they are off. It calls the law
+//                                      out of line through a local wrapper; _inlined inlines it;
+//                                      _external_call calls the template instance through a
+//                                      pointer, with the full calling convention, as
+//                                      compute_forces does (GCC keeps it out of line there).
+//
 // The state is the one bench_dense ends with: the scene run for its 2000 steps, so springs and
 // velocities are those of a real run. Counters (time per item, CPU time): per_contact (touching
 // contacts), per_particle_step (time / N, i.e. this part's share of one step), and for
@@ -25,6 +40,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -155,7 +171,153 @@ void BM_ComputeForces(benchmark::State& state) {
     benchmark::ClobberMemory();
     state.PauseTiming();
     std::copy(d.pairs.fs.begin(), d.pairs.fs.end(), pairs.fs.begin());
+    std::copy(d.pairs.touching.begin(), d.pairs.touching.end(), pairs.touching.begin());
     if (Rolling) std::copy(d.pairs.mr.begin(), d.pairs.mr.end(), pairs.mr.begin());
+    state.ResumeTiming();
+  }
+  benchmark::DoNotOptimize(p.f.data());
+  state.counters["per_contact"] = per_item(double(d.kin.size()));
+  state.counters["per_pair"] = per_item(double(d.pairs.size()));
+  state.counters["per_particle_step"] = per_item(double(d.p.n_owned()));
+}
+
+
+// contact_law<false, false> called out of line, as GCC 12 compiles it in core/forces.cpp (two
+// calls per contact in the disassembly of pair_forces<false, false, false>); in this file it
+// would inline it, which is a different program.
+ContactResult (*volatile law_pointer)(const ContactLawParams&, const PairConstants&,
+                                      const ContactKinematics&, ContactHistory&,
+                                      real_t) = &contact_law<false, false>;
+
+[[gnu::noinline]] ContactResult law_out_of_line(const ContactLawParams& p, const PairConstants& c,
+                                                const ContactKinematics& k, ContactHistory& h,
+                                                real_t dt) {
+  return contact_law<false, false>(p, c, k, h, dt);
+}
+
+// The pair loop of core/forces.cpp with the optional features removed (see the header).
+// Mode 0: the law out of line through a local wrapper (GCC may specialise its calling
+// convention); 1: inlined; 2: called through a pointer to the external template instance, i.e.
+// with the full C++ calling convention (the 96-byte ContactResult returned through memory), as
+// compute_forces calls it.
+template <int Mode>
+void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams& law, real_t dt,
+                 PairList& pl, Dissipation& diss) {
+  const std::size_t n = P.size();
+  for (std::size_t a = 0; a < n; ++a) P.f[a].setZero();
+  for (std::size_t a = 0; a < n; ++a) P.t[a].setZero();
+  const Vec3& L = cell.lengths();
+  const Vec3& edot = cell.strain_rate();
+  std::array<Vec3, 27> shift;
+  for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, L);
+  const Vec3* x = P.x.data();
+  const Vec3* v = P.v.data();
+  const Vec3* w = P.w.data();
+  const real_t* R = P.radius.data();
+  const real_t* m = P.mass.data();
+  Vec3* f = P.f.data();
+  Vec3* t = P.t.data();
+  const Index* pi = pl.i.data();
+  const Index* pj = pl.j.data();
+  const std::uint8_t* img = pl.image.data();
+  std::uint8_t* touching = pl.touching.data();
+  Vec3* fs = pl.fs.data();
+  real_t e_fric = 0;
+  const std::size_t np = pl.size();
+  const std::size_t n_owned = P.n_owned();
+  constexpr std::size_t kAhead = 8;
+  for (std::size_t q = 0; q < np; ++q) {
+    if (q + kAhead < np) {
+      const Index ia = pi[q + kAhead], ja = pj[q + kAhead];
+      __builtin_prefetch(&x[ia]);
+      __builtin_prefetch(&x[ja]);
+      __builtin_prefetch(&R[ia]);
+      __builtin_prefetch(&R[ja]);
+    }
+    const Index i = pi[q], j = pj[q];
+    const Vec3 d = x[j] + shift[img[q]] - x[i];
+    const real_t sum_r = R[i] + R[j];
+    const real_t r2 = d.squaredNorm();
+    if (r2 >= sum_r * sum_r) {
+      if (touching[q]) {
+        touching[q] = 0;
+        const PairConstants c = pair_constants<false, false>(law, R[i], R[j], m[i], m[j]);
+        const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+        e_fric += own_i * 0.5 * fs[q].squaredNorm() / c.ks;
+        fs[q].setZero();
+      }
+      continue;
+    }
+    touching[q] = 1;
+    const real_t dist = std::sqrt(r2);
+    ContactKinematics k;
+    k.n = d / dist;
+    k.un = sum_r - dist;
+    const real_t a1 = R[i] - 0.5 * k.un, a2 = R[j] - 0.5 * k.un;
+    k.w1 = w[i];
+    k.w2 = w[j];
+    k.vrel = v[j] - v[i] + edot.cwiseProduct(d) - (a2 * w[j] + a1 * w[i]).cross(k.n);
+    const PairConstants c = pair_constants<false, false>(law, R[i], R[j], m[i], m[j]);
+    ContactHistory h;
+    h.fs = fs[q];
+    ContactResult r;
+    if constexpr (Mode == 1) r = contact_law<false, false>(law, c, k, h, dt);
+    else if constexpr (Mode == 0) r = law_out_of_line(law, c, k, h, dt);
+    else r = law_pointer(law, c, k, h, dt);
+    fs[q] = h.fs;
+    const Vec3 F = r.fn * k.n + r.fs;
+    const Vec3 nxfs = k.n.cross(r.fs);
+    f[j] += F;
+    f[i] -= F;
+    t[j] -= a2 * nxfs;
+    t[i] -= a1 * nxfs;
+    const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+    e_fric += own_i * r.e_friction;
+  }
+  diss.friction += e_fric;
+}
+
+// bare_forces and compute_forces (features off) from the same state: bitwise the same result.
+void check_bare_equals_engine(const Dense& d) {
+  const ContactLawParams law = variant_law(d.par.law, false, false);
+  Particles p1 = d.p, p2 = d.p;
+  PairList l1 = d.pairs, l2 = d.pairs;
+  l1.mr.clear(), l2.mr.clear();
+  WallContactList walls;  // none
+  Dissipation d1, d2;
+  const std::vector<Wall> no_walls;
+  const ForceContext ctx{law, no_walls, Vec3::Zero(), d.par.dt};
+  compute_forces(p1, d.cell, ctx, l1, walls, d1, nullptr);
+  bare_forces<0>(p2, d.cell, law, d.par.dt, l2, d2);
+  const bool same = p1.f == p2.f && p1.t == p2.t && l1.fs == l2.fs && l1.touching == l2.touching &&
+                    d1.friction == d2.friction;
+  std::fprintf(stderr, "bare_forces against compute_forces (mu_r = 0, no dashpots, no walls, no "
+                       "measurement): %s\n", same ? "bitwise identical" : "DIFFERENT");
+  if (!same) std::exit(1);
+  Particles p3 = d.p;
+  PairList l3 = d.pairs;
+  l3.mr.clear();
+  Dissipation d3;
+  bare_forces<1>(p3, d.cell, law, d.par.dt, l3, d3);
+  const bool same3 = p1.f == p3.f && p1.t == p3.t && l1.fs == l3.fs && d1.friction == d3.friction;
+  std::fprintf(stderr, "bare_forces_inlined against compute_forces: %s\n",
+               same3 ? "bitwise identical" : "different in the last bits (FMA contraction)");
+}
+
+template <int Mode>
+void BM_BareForces(benchmark::State& state) {
+  const Dense& d = dense();
+  const ContactLawParams law = variant_law(d.par.law, false, false);
+  Particles p = d.p;
+  PairList pairs = d.pairs;
+  pairs.mr.clear();
+  Dissipation diss;
+  for (auto _ : state) {
+    bare_forces<Mode>(p, d.cell, law, d.par.dt, pairs, diss);
+    benchmark::ClobberMemory();
+    state.PauseTiming();
+    std::copy(d.pairs.fs.begin(), d.pairs.fs.end(), pairs.fs.begin());
+    std::copy(d.pairs.touching.begin(), d.pairs.touching.end(), pairs.touching.begin());
     state.ResumeTiming();
   }
   benchmark::DoNotOptimize(p.f.data());
@@ -183,6 +345,9 @@ int main(int argc, char** argv) {
   add("compute_forces/rolling=0/viscous=1", BM_ComputeForces<false, true>);
   add("compute_forces/rolling=1/viscous=0", BM_ComputeForces<true, false>);
   add("compute_forces/rolling=1/viscous=1", BM_ComputeForces<true, true>);
+  add("bare_forces", BM_BareForces<0>);
+  add("bare_forces_inlined", BM_BareForces<1>);
+  add("bare_forces_external_call", BM_BareForces<2>);
   // Defaults, before the user's flags (a later flag wins): 10 repetitions, aggregates only.
   std::vector<char*> args{argv[0]};
   char reps[] = "--benchmark_repetitions=10";
@@ -194,7 +359,7 @@ int main(int argc, char** argv) {
   argv = args.data();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  dense();  // prepare the state before any timing
+  check_bare_equals_engine(dense());  // prepares the state before any timing
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

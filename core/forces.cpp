@@ -52,10 +52,16 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
     const real_t sum_r = R[i] + R[j];
     const real_t r2 = d.squaredNorm();
     if (r2 >= sum_r * sum_r) {
-      if (touching[q]) {
+      if (touching[q]) {  // the contact opens: the energy left in its springs is lost
         touching[q] = 0;
+        const PairConstants c = pair_constants<Rolling, false>(law, R[i], R[j], m[i], m[j]);
+        const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+        e_fric += own_i * 0.5 * fs[q].squaredNorm() / c.ks;
         fs[q].setZero();
-        if constexpr (Rolling) mr[q].setZero();
+        if constexpr (Rolling) {
+          e_roll += own_i * 0.5 * mr[q].squaredNorm() / c.kr;
+          mr[q].setZero();
+        }
       }
       continue;
     }
@@ -131,10 +137,15 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     const real_t dist = (P.x[i] - W.point).dot(W.normal);
     const real_t R = P.radius[i];
     if (dist >= R) {
-      if (wl.touching[q]) {
+      if (wl.touching[q]) {  // the contact opens: the energy left in its springs is lost
         wl.touching[q] = 0;
+        const PairConstants c = pair_constants<Rolling, false>(ctx.law, R, inf, P.mass[i], inf);
+        diss.friction += 0.5 * wl.fs[q].squaredNorm() / c.ks;
         wl.fs[q].setZero();
-        if constexpr (Rolling) wl.mr[q].setZero();
+        if constexpr (Rolling) {
+          diss.rolling += 0.5 * wl.mr[q].squaredNorm() / c.kr;
+          wl.mr[q].setZero();
+        }
       }
       continue;
     }

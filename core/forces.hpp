@@ -26,6 +26,8 @@ struct ContactSums {
   real_t sum_overlap = 0;        // sum of u_n over particle-particle contacts [m]
   real_t max_overlap_ratio = 0;  // largest u_n / min(R_i, R_j) (walls: u_n / R_i)
   GlobalId max_overlap_a = -1, max_overlap_b = -1;  // its bodies (b = -1 - wall for walls)
+  real_t work_gravity = 0;       // J, cumulative work of gravity on this rank's particles (set
+                                 // by Simulation before the reduction)
 };
 
 // Energy dissipated since the start of the run [J] (local to this rank).

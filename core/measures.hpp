@@ -29,12 +29,33 @@ struct MacroState {
   real_t max_overlap_ratio = 0;
   GlobalId max_overlap_a = -1, max_overlap_b = -1;
   GlobalId first_nonfinite = -1;
+  // The fastest particle (largest |v|, fluctuating velocity; ties: the largest id) and its
+  // velocity and spin, for the kinetic-energy runaway guard.
+  GlobalId fastest = -1;
+  Vec3 fastest_v = Vec3::Zero(), fastest_w = Vec3::Zero();  // m/s, rad/s
+  // Energy put into the system since the simulation was built [J]: the stored energy at
+  // construction (kinetic + elastic) + boundary work of the deforming cell + work of gravity
+  // (filled by Simulation; see Simulation::energy_input).
+  real_t energy_input = 0;
+  real_t gravity_work = 0;  // J, cumulative work of gravity (reduced)
 };
 
-// A message naming the step, the particle ids and the values if the state is not physical
-// (non-finite values, or an overlap above max_overlap_ratio of the smaller radius); empty if
-// the state is sane. The same on every rank (it reads reduced values only).
-std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio);
+// A message naming the step, the particle ids and the values if the state is not physical;
+// empty if the state is sane. The same on every rank (it reads reduced values only). Checked:
+//  - non-finite positions, velocities or spins;
+//  - an overlap above max_overlap_ratio of the smaller radius;
+//  - kinetic energy, or stored + dissipated energy (energy_books), above kinetic_runaway *
+//    m.energy_input (when kinetic_runaway > 0). Energy conservation gives
+//    kinetic <= kinetic + elastic + dissipated = input, since the elastic energy and the
+//    dissipation are never negative; an unstable integration creates energy from nothing, which
+//    shows as kinetic energy, or, once friction has absorbed it, as excess dissipation. The
+//    factor covers the known errors of the energy account (docs/verification.md, section 15).
+// Kinetic + elastic energy + cumulative dissipation [J]; equals m.energy_input without
+// numerical error.
+real_t energy_books(const MacroState& m);
+
+std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio,
+                     real_t kinetic_runaway = 0);
 
 real_t kinetic_energy(const Particles& p);
 void deviatoric_invariants(const Mat3& sigma, real_t& p, real_t& q);

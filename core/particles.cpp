@@ -82,4 +82,13 @@ real_t Particles::solid_volume() const {
   return 4.0 / 3.0 * std::numbers::pi * s;
 }
 
+void Particles::scale_density(real_t f) {
+  for (std::size_t a = 0; a < size(); ++a) {
+    mass[a] *= f;
+    inertia[a] *= f;
+    inv_mass[a] = 1.0 / mass[a];
+    inv_inertia[a] = 1.0 / inertia[a];
+  }
+}
+
 }  // namespace fabrica

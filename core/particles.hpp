@@ -45,6 +45,9 @@ class Particles {
   std::size_t append_owned(std::size_t n);
   std::size_t append_ghosts(std::size_t n);
   void reserve(std::size_t n);
+  // Density scaling: every mass and moment of inertia (ghosts included) times f, inverses
+  // recomputed.
+  void scale_density(real_t f);
 
   real_t max_radius() const;
   real_t min_radius() const;

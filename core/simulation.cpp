@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 namespace fabrica {
 
@@ -20,6 +21,8 @@ Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams 
   rebuild();
   compute(true, 0.0);  // initial forces: no time passes, so the springs must not advance
   measure_and_reduce();
+  e0_ = macro_.kinetic + macro_.e_normal + macro_.e_shear + macro_.e_rolling;
+  macro_.energy_input = e0_ + macro_.gravity_work;
 }
 
 namespace {
@@ -51,7 +54,14 @@ void Simulation::step(bool measure) {
   const real_t dt = par_.dt;
   PhaseClock clk(timing_ ? &times_ : nullptr);
   half_kick(p_, dt);
+  if (!par_.gravity.isZero()) {  // work of gravity over the drift, with the drift's velocity
+    real_t gv = 0;
+    for (std::size_t a = 0; a < p_.n_owned(); ++a) gv += p_.mass[a] * par_.gravity.dot(p_.v[a]);
+    gravity_work_local_ += gv * dt;
+  }
+  const Vec3 rate = cell_.strain_rate();
   drift_and_deform(p_, cell_, dt);
+  if (!rate.isZero()) vol_strain_ += cell_.volume() * dt * rate;
   clk.lap(&PhaseTimes::integrate);
   domain_->update_ghosts(p_);
   clk.lap(&PhaseTimes::ghost);
@@ -83,7 +93,24 @@ void Simulation::compute(bool measure, real_t dt) {
 }
 
 void Simulation::measure_and_reduce() {
+  sums_.work_gravity = gravity_work_local_;
   macro_ = reduce_macro_state(p_, cell_, sums_, diss_, *domain_);
+  work_ -= 0.5 * (stress_prev_.diagonal() + macro_.stress.diagonal()).dot(vol_strain_);
+  vol_strain_.setZero();
+  stress_prev_ = macro_.stress;
+  macro_.energy_input = e0_ + work_ + macro_.gravity_work;
+}
+
+void Simulation::set_skin(real_t skin) {
+  const real_t two_rmax = cutoff_max_ - par_.skin;  // global (a rank may not hold the largest)
+  const real_t cutoff = two_rmax + skin;
+  if (domain_->size() > 1 && cutoff > cutoff_max_)
+    throw std::invalid_argument("Simulation::set_skin: on several ranks the cutoff 2 Rmax + skin "
+                                "cannot grow beyond the one the domain was built with");
+  check_cell_size(cell_, 0.5 * two_rmax, skin);
+  par_.skin = skin;
+  cutoff_max_ = cutoff;
+  rebuild();
 }
 
 void Simulation::set_law(const ContactLawParams& law) {

@@ -63,6 +63,19 @@ class Simulation {
   const SimulationParams& params() const { return par_; }
   void set_law(const ContactLawParams& law);  // e.g. switching mu_s / mu_r between stages
   void set_local_damping(real_t alpha) { par_.local_damping = alpha; }
+  // A new time step (s) from the next step on (e.g. a branch run at another step size).
+  void set_time_step(real_t dt) { par_.dt = dt; }
+  // A new Verlet skin (m); rebuilds the lists. Throws std::invalid_argument if the cell is too
+  // small, or on several ranks if the cutoff grows beyond the one the domain was built for.
+  void set_skin(real_t skin);
+
+  // Energy put into the system since construction [J]: the kinetic and elastic energy at
+  // construction, plus the boundary work of the deforming cell, plus the work of gravity.
+  // The boundary work is integrated between measuring steps as
+  //   W += -sum_k (sigma_kk(previous) + sigma_kk(now)) / 2 * sum_steps V edot_k dt
+  // (trapezoid in the two measured stresses), so it lags the true work at most by the change
+  // of stress over one measuring interval. Updated at measuring steps (macro().energy_input).
+  real_t boundary_work() const { return work_; }
   Domain& domain() { return *domain_; }
   const PairList& pairs() const { return pairs_; }
   const WallContactList& wall_contacts() const { return walls_; }
@@ -106,6 +119,12 @@ class Simulation {
   real_t cutoff_max_ = 0;    // 2 Rmax + skin
   std::int64_t step_ = 0, rebuilds_ = 0;
   real_t time_ = 0;
+  // Energy account (see energy_input above).
+  real_t e0_ = 0;                       // kinetic + elastic energy at construction [J]
+  real_t work_ = 0;                     // boundary work up to the last measuring step [J]
+  Vec3 vol_strain_ = Vec3::Zero();      // sum of V edot_k dt since the last measuring step [m^3]
+  Mat3 stress_prev_ = Mat3::Zero();     // stress of the last measuring step [Pa]
+  real_t gravity_work_local_ = 0;       // work of gravity on the owned particles [J]
   bool timing_ = false;
   double last_migrate_seconds_ = 0;  // communication time of the last rebuild (when timing)
   PhaseTimes times_;

@@ -260,6 +260,15 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   sc.max_overlap = R.number("max_overlap", sc.max_overlap);
   require(R, "max_overlap", sc.max_overlap, sc.max_overlap > 0 && sc.max_overlap <= 1,
           "must lie in (0, 1] (fraction of the smaller radius)");
+  sc.kinetic_runaway = R.number("kinetic_runaway", sc.kinetic_runaway);
+  require(R, "kinetic_runaway", sc.kinetic_runaway, sc.kinetic_runaway >= 1,
+          "must be >= 1 (a multiple of the energy put into the system)");
+  sc.max_initial_overlap = R.number("max_initial_overlap", sc.max_initial_overlap);
+  require(R, "max_initial_overlap", sc.max_initial_overlap,
+          sc.max_initial_overlap > 0 && sc.max_initial_overlap <= 1,
+          "must lie in (0, 1] (fraction of the smaller radius)");
+  sc.density_scaling = R.number("density_scaling", sc.density_scaling);
+  require(R, "density_scaling", sc.density_scaling, sc.density_scaling > 0, "must be positive");
   sc.local_damping = R.number("local_damping", sc.local_damping);
   require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
           "must lie in [0, 1)");

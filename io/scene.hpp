@@ -96,6 +96,9 @@ struct Scene {
   real_t max_overlap = 1.0;       // stop when an overlap exceeds this fraction of the smaller radius
   std::int64_t snapshot_every = 10000;  // steps between HDF5 snapshots (docs/output.md)
   bool hdf5 = true;               // write OUT/run.h5 and OUT/run.xmf
+  real_t kinetic_runaway = 1.5;   // stop when kinetic (or stored + dissipated) energy > this x the energy put in (>= 1)
+  real_t max_initial_overlap = 0.2;  // refuse an initial overlap above this fraction of the smaller radius
+  real_t density_scaling = 1.0;   // masses and moments of inertia multiplied by this (> 0)
   TriaxialSpec triaxial;
   ParallelSpec parallel;
   FabricSpec fabric;

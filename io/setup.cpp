@@ -5,6 +5,7 @@
 #include "core/timestep.hpp"
 #include "io/lammps_data.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -34,6 +35,25 @@ real_t scene_time_step(const Scene& sc, real_t critical_dt) {
                      " is above 1 (critical estimate " + num(critical_dt) +
                      " s); lower it or set force_time_step = true");
   return sc.time_step_fraction * critical_dt;
+}
+
+OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell) {
+  Particles w = p;  // the search needs positions in [0, L)
+  w.clear_ghosts();
+  for (std::size_t a = 0; a < w.n_owned(); ++a) w.x[a] = cell.wrap(w.x[a]);
+  NeighborSearch search;
+  PairList pairs;
+  search.build(w, cell, 0.0, pairs);
+  OverlapReport r;
+  const Vec3& L = cell.lengths();
+  for (std::size_t q = 0; q < pairs.size(); ++q) {
+    const Index i = pairs.i[q], j = pairs.j[q];
+    const real_t un = w.radius[i] + w.radius[j] -
+                      (w.x[j] + image_offset(pairs.image[q], L) - w.x[i]).norm();
+    const real_t ratio = un / std::min(w.radius[i], w.radius[j]);
+    if (un > 0 && ratio > r.ratio) r = {ratio, un, w.id[i], w.id[j]};
+  }
+  return r;
 }
 
 Setup make_setup(const Scene& sc) {
@@ -77,6 +97,19 @@ Setup make_setup(const Scene& sc) {
   } catch (const std::exception& e) {
     throw InputError(sc.path + ": [cell] " + e.what());
   }
+  const OverlapReport ov = largest_overlap(s.particles, s.cell);
+  if (ov.ratio > sc.max_initial_overlap) {
+    const std::string from = sc.source == ParticleSource::File
+                                 ? sc.data_file
+                                 : sc.path + ": [particles] (generated, seed " +
+                                       std::to_string(sc.generate.seed) + ")";
+    throw InputError(from + ": particles " + std::to_string(ov.a) + " and " +
+                     std::to_string(ov.b) + " overlap by " + num(ov.ratio) +
+                     " of the smaller radius (" + num(ov.overlap) + " m), above " + sc.path +
+                     ": [run] max_initial_overlap = " + num(sc.max_initial_overlap) +
+                     "; fix the specimen (a bad generation or data file) or raise the limit");
+  }
+  if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
   s.params.law = sc.law;
   s.params.skin = sc.skin;
   s.params.gravity = sc.gravity;

@@ -14,8 +14,18 @@ struct Setup {
 };
 
 // Throws InputError (file, field, value) for a particle outside the cell, a cell too small for
-// the largest sphere, or a time step above the critical estimate without force_time_step.
+// the largest sphere, two particles overlapping by more than [run] max_initial_overlap of the
+// smaller radius, or a time step above the critical estimate without force_time_step.
+// [run] density_scaling multiplies every mass and moment of inertia (before the estimate).
 Setup make_setup(const Scene& scene);
+
+// The pair with the largest overlap relative to the smaller radius (periodic), or ratio 0 and
+// ids -1 if no two spheres overlap.
+struct OverlapReport {
+  real_t ratio = 0, overlap = 0;  // -, m
+  GlobalId a = -1, b = -1;
+};
+OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell);
 
 // The time step the scene asks for, validated against the estimate (used again when the
 // contact parameters change between stages).
