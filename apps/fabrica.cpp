@@ -1,7 +1,9 @@
 // fabrica: runs a scene (the built-in demo scene when none is given).
-//   fabrica run [scene.toml] [--output DIR]
+//   fabrica run [scene.toml] [--output DIR] [--restart CKPT]
+//   fabrica checkpoint-info CKPT
 #include "apps/triaxial.hpp"
 #include "core/simulation.hpp"
+#include "io/checkpoint.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
 #include "parallel/guard.hpp"
@@ -10,6 +12,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <memory>
+#include <optional>
 
 #include <chrono>
 #include <cmath>
@@ -44,14 +47,36 @@ void print_row(const Simulation& sim, const MacroState& m, std::ofstream* csv) {
 // Stops the run, on every rank, with a diagnostic if the state is no longer physical.
 void check_sane(const Simulation& sim, const MacroState& m, real_t max_overlap) {
   const std::string msg = diagnose(m, sim.step_count(), max_overlap);
-  if (!msg.empty()) throw CollectiveError(msg);
+  if (!msg.empty()) throw BlowUpError(msg);
 }
 
-int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir) {
+// Where a plain run is: phase 0 compression, 1 the [run] steps; k the last finished iteration.
+struct Cursor {
+  std::int32_t phase = 0;
+  std::int64_t k = 0;
+};
+
+int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir,
+        const std::string& restart) {
+  namespace fs = std::filesystem;
   const bool root = mpi.rank() == 0;
   const Scene scene = scene_path.empty() ? default_scene() : load_scene(scene_path);
+  // A restart reads and checks the whole checkpoint before anything is written.
+  std::optional<Checkpoint> ckpt;
+  if (!restart.empty()) {
+    Checkpoint::Expect ex;
+    ex.scene_text = &scene.text;
+    ex.app = scene.triaxial.enabled ? "triaxial" : "run";
+    ckpt = Checkpoint::read(mpi.comm(), restart, ex);
+  }
   if (!root && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
-  if (scene.triaxial.enabled) return run_triaxial(mpi, scene, outdir);
+  if (scene.triaxial.enabled) return run_triaxial(mpi, scene, outdir, ckpt ? &*ckpt : nullptr);
+  Cursor at;
+  if (ckpt) {
+    BytesIn in(ckpt->section("app"), restart + ": section app");
+    at.phase = in.get<std::int32_t>();
+    at.k = in.get<std::int64_t>();
+  }
   Setup s = make_setup(scene);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
@@ -61,64 +86,106 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   fmt::print("{} MPI rank(s){}\n", mpi.size(),
              mpi.size() > 1 ? ", " + scene.parallel.decomposition + " decomposition" : "");
   std::ofstream csv;
+  const fs::path series_path = fs::path(outdir) / "series.csv";
   if (root) {
-    std::filesystem::create_directories(outdir);
-    csv.open(std::filesystem::path(outdir) / "series.csv");
+    fs::create_directories(outdir);
+    // On a restart the rows after the checkpoint's step go (the run writes them again).
+    if (ckpt && keep_series_through(series_path.string(), 0, ckpt->header().step))
+      csv.open(series_path, std::ios::app);
+    else
+      csv.open(series_path);
   }
-  csv << "step,time,s11,s22,s33,s12,s23,s13,p,q,Z,contacts,sliding,rolling,kinetic,e_normal,"
-         "e_shear,e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,void_ratio\n";
+  MPI_Barrier(mpi.comm());  // the output directory exists before any rank writes to it
+  if (csv.tellp() == 0)
+    csv << "step,time,s11,s22,s33,s12,s23,s13,p,q,Z,contacts,sliding,rolling,kinetic,e_normal,"
+           "e_shear,e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,void_ratio\n";
 
   const ContactLawParams law = scene.law;
   const auto t0 = std::chrono::steady_clock::now();
-  std::int64_t steps_done = 0;
   if (scene.compress.enabled) {
     ContactLawParams prep = law;
     prep.friction = scene.compress.friction;
     prep.rolling_friction = 0;
     s.params.law = prep;
   }
-  Simulation sim(std::move(s.particles), s.cell, s.params, domain.get());
-  print_header();
-  if (scene.compress.enabled) {
-    const real_t rate = scene.compress.strain_rate;
-    sim.cell().set_strain_rate(Vec3::Constant(rate));
-    fmt::print("-- compression at {} 1/s to p = {} Pa\n", rate, scene.compress.target_pressure);
-    std::int64_t k = 0;
-    for (; k < scene.compress.max_steps; ++k) {
-      const bool measure = k % 50 == 0;
-      sim.step(measure);
-      if (!measure) continue;
+  std::unique_ptr<Simulation> simp =
+      ckpt ? std::make_unique<Simulation>(ckpt->simulation("sim", mpi.comm()), domain.get())
+           : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get());
+  Simulation& sim = *simp;
+  const std::int64_t first_step = sim.step_count();
+  if (ckpt)
+    fmt::print("-- restarted from {} at step {} (written on {} rank(s))\n", restart,
+               sim.step_count(), ckpt->header().ranks);
+  const std::uint64_t fingerprint = scene_fingerprint(scene.text);
+  const std::string ckpt_path = (fs::path(outdir) / "checkpoint.ckpt").string();
+  CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
+                              sim.step_count());
+  auto save = [&](std::int32_t phase, std::int64_t k, bool blowup = false) {
+    if (root) csv.flush();
+    const auto t = std::chrono::steady_clock::now();
+    CheckpointWriter w(mpi.comm(), fingerprint, "run", blowup);
+    w.add_simulation("sim", sim);
+    w.add_global("app", Bytes().put(phase).put(k).str());
+    const std::string path = blowup ? (fs::path(outdir) / "blowup.ckpt").string() : ckpt_path;
+    const std::uint64_t bytes = w.write(path);
+    schedule.taken(sim.step_count());
+    fmt::print("-- {} at step {}: {} ({:.1f} MB in {:.2f} s)\n",
+               blowup ? "state at the blow-up" : "checkpoint", sim.step_count(), path,
+               double(bytes) / 1e6,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
+    std::fflush(stdout);
+    return path;
+  };
+  try {
+    print_header();
+    if (scene.compress.enabled && at.phase == 0) {
+      const real_t rate = scene.compress.strain_rate;
+      if (!ckpt) sim.cell().set_strain_rate(Vec3::Constant(rate));
+      fmt::print("-- compression at {} 1/s to p = {} Pa\n", rate, scene.compress.target_pressure);
+      std::int64_t k = ckpt ? at.k + 1 : 0;
+      for (; k < scene.compress.max_steps; ++k) {
+        const bool measure = k % 50 == 0;
+        sim.step(measure);
+        if (measure) {
+          const MacroState m = sim.macro();
+          check_sane(sim, m, scene.max_overlap);
+          if (k % (50 * 40) == 0) print_row(sim, m, nullptr);
+          if (m.p >= scene.compress.target_pressure) break;
+        }
+        if (schedule.due(sim)) save(0, k);
+      }
+      if (k == scene.compress.max_steps)
+        throw std::runtime_error(fmt::format("{}: [compress] max_steps = {} reached before p = {} Pa",
+                                             scene.path, scene.compress.max_steps,
+                                             scene.compress.target_pressure));
+      sim.cell().set_strain_rate(Vec3::Zero());
+      sim.set_law(law);
       const MacroState m = sim.macro();
-      check_sane(sim, m, scene.max_overlap);
-      if (k % (50 * 40) == 0) print_row(sim, m, nullptr);
-      if (m.p >= scene.compress.target_pressure) break;
+      fmt::print("-- compressed: void ratio {:.4f}, solid fraction {:.4f}; now mu_s = {}, mu_r = {}\n",
+                 m.void_ratio, 1.0 / (1.0 + m.void_ratio), law.friction, law.rolling_friction);
     }
-    steps_done += k;
-    if (k == scene.compress.max_steps)
-      throw std::runtime_error(fmt::format("{}: [compress] max_steps = {} reached before p = {} Pa",
-                                           scene.path, scene.compress.max_steps,
-                                           scene.compress.target_pressure));
-    sim.cell().set_strain_rate(Vec3::Zero());
-    sim.set_law(law);
-    const MacroState m = sim.macro();
-    fmt::print("-- compressed: void ratio {:.4f}, solid fraction {:.4f}; now mu_s = {}, mu_r = {}\n",
-               m.void_ratio, 1.0 / (1.0 + m.void_ratio), law.friction, law.rolling_friction);
+    for (std::int64_t k = at.phase == 1 ? at.k + 1 : 1; k <= scene.steps; ++k) {
+      const bool measure = k % scene.output_every == 0 || k == scene.steps;
+      sim.step(measure);
+      if (measure) {
+        const MacroState m = sim.macro();
+        check_sane(sim, m, scene.max_overlap);
+        print_row(sim, m, root ? &csv : nullptr);
+      }
+      if (k < scene.steps && schedule.due(sim)) save(1, k);
+    }
+  } catch (const BlowUpError& e) {  // every rank is here (the diagnosis is collective)
+    const std::string path = save(0, 0, true);
+    throw CollectiveError(std::string(e.what()) + "; the state at detection is saved in " + path +
+                          " (for post-mortem: a run cannot restart from it)");
   }
-  for (std::int64_t k = 1; k <= scene.steps; ++k) {
-    const bool measure = k % scene.output_every == 0 || k == scene.steps;
-    sim.step(measure);
-    if (!measure) continue;
-    const MacroState m = sim.macro();
-    check_sane(sim, m, scene.max_overlap);
-    print_row(sim, m, root ? &csv : nullptr);
-  }
-  steps_done += scene.steps;
+  const std::int64_t steps_done = sim.step_count() - first_step;
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double n_total = double(sim.macro().particles);
   fmt::print("{} steps in {:.2f} s: {:.4f} us per particle-step on {} rank(s), {} neighbour rebuilds\n",
              steps_done, secs, secs * 1e6 / (double(steps_done) * n_total), mpi.size(),
              sim.rebuild_count());
-  fmt::print("series written to {}\n", (std::filesystem::path(outdir) / "series.csv").string());
+  fmt::print("series written to {}\n", series_path.string());
   return 0;
 }
 
@@ -132,12 +199,24 @@ int main(int argc, char** argv) {
   CLI::App* runc = app.add_subcommand("run", "run a scene (default: the built-in demo scene)");
   runc->add_option("scene", scene_path, "scene file (TOML)")->check(CLI::ExistingFile);
   runc->add_option("-o,--output", outdir, "output directory");
+  std::string restart, info_path;
+  runc->add_option("--restart", restart,
+                   "continue from this checkpoint (written by a run of the same scene)");
+  CLI::App* infoc = app.add_subcommand("checkpoint-info", "print the header of a checkpoint");
+  infoc->add_option("checkpoint", info_path, "checkpoint file")->required();
   return run_guarded(mpi, [&]() -> int {
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
       return mpi.rank() == 0 ? app.exit(e) : e.get_exit_code();
     }
-    return run(mpi, scene_path, outdir);
+    if (infoc->parsed()) {
+      Checkpoint::Expect any;
+      any.allow_blowup = true;
+      const Checkpoint c = Checkpoint::read(mpi.comm(), info_path, any);
+      if (mpi.rank() == 0) fmt::print("{}", describe(c.header(), info_path));
+      return 0;
+    }
+    return run(mpi, scene_path, outdir, restart);
   });
 }

@@ -25,6 +25,8 @@ class Servo {
       : target_(target), kp_(gain), ki_(integral_gain), cap_(cap), axes_(axes), fixed_(fixed) {}
   // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one.
   Vec3 update(const Mat3& stress, real_t elapsed);
+  const Vec3& integral() const { return integral_; }    // for checkpoints
+  void set_integral(const Vec3& i) { integral_ = i; }
 
  private:
   real_t target_, kp_, ki_, cap_;
@@ -50,6 +52,21 @@ struct StageResult {
   real_t max_energy_error = 0;   // over the stage, relative to the boundary work
 };
 
+enum class TriaxialStage : std::int32_t { Consolidation, Equilibration, Shear };
+
+// Where a run is inside a stage, with the run's own account: what a checkpoint saves to resume
+// the stage bit for bit (plain values only: it is stored as bytes).
+struct StageCursor {
+  TriaxialStage stage = TriaxialStage::Consolidation;
+  std::int64_t k = 0;            // steps of the stage done
+  Vec3 servo_integral = Vec3::Zero();
+  real_t last_servo = 0;         // s, time of the last servo update
+  StageResult result;            // so far
+  Vec3 l0 = Vec3::Zero();        // the run's strain reference, boundary work, initial energy
+  real_t work = 0, e0 = 0;
+  Mat3 last_stress = Mat3::Zero();
+};
+
 // One run of the protocol: the series rows go to 'series' (rank 0's stream; others pass null).
 class TriaxialRun {
  public:
@@ -60,14 +77,21 @@ class TriaxialRun {
   StageResult consolidate();
   StageResult equilibrate(real_t rolling_friction);
   StageResult shear();
+  // Continues the stage a checkpoint was taken in (the simulation restored from it).
+  StageResult resume(const StageCursor& at);
+  // Called at the end of every step of a stage that does not end there (to take checkpoints).
+  void on_step(std::function<void(const StageCursor&)> hook) { hook_ = std::move(hook); }
 
   real_t boundary_work() const { return work_; }
+  // The run's account (strain reference, boundary work, initial energy, last stress) in the
+  // fields of a cursor, and its restoration (the parent of the cases, on a restart).
+  StageCursor account() const;
+  void set_account(const StageCursor& a);
 
  private:
-  enum class Stage { Consolidation, Equilibration, Shear };
-  // Steps until done() (checked at servo steps) returns true; the servo updates the rates.
-  StageResult run_stage(Stage stage, Servo servo,
-                        const std::function<bool(const MacroState&, const Vec3&)>& done);
+  using Stage = TriaxialStage;
+  // Steps until the stage is done (checked at servo steps); the servo updates the rates.
+  StageResult run_stage(Stage stage, const StageCursor* resume = nullptr);
   void row(Stage stage, const MacroState& m, const Vec3& eps);
   Servo make_servo(std::array<bool, 3> axes, Vec3 fixed) const;
   real_t energy_error(const MacroState& m) const;
@@ -82,17 +106,22 @@ class TriaxialRun {
   real_t work_ = 0;  // boundary work done on the specimen since the start [J]
   real_t e0_ = 0;    // kinetic + elastic energy at the start [J]
   Mat3 last_stress_ = Mat3::Zero();
+  std::function<void(const StageCursor&)> hook_;
 };
 
 void write_series_header(std::ostream& out);
 
 class MpiContext;
+class Checkpoint;
 // The scene's MPI domain ([parallel]) on several ranks; null (serial) on one.
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 
 // The whole test for a scene with [triaxial]: one consolidation, then for each case of the sweep
 // (or the single [contact] rolling_friction) a branch of the consolidated state that is
 // re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0).
-int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir);
+// Checkpoints ([run] checkpoint_every / checkpoint_seconds) go to OUT/checkpoint.ckpt; with
+// 'restart' the test continues from one (docs/checkpoint.md).
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
+                 const Checkpoint* restart = nullptr);
 
 }  // namespace fabrica

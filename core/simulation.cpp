@@ -70,7 +70,7 @@ void Simulation::step(bool measure) {
   domain_->update_ghosts(p_);
   clk.lap(&PhaseTimes::ghost);
   const bool rebuild_now = needs_rebuild();
-  rebuilt_last_ = rebuild_now;
+  rebuilt_last_ = false;  // set by rebuild_lists()
   clk.lap(&PhaseTimes::check);
   if (rebuild_now) {
     rebuild();
@@ -186,6 +186,7 @@ void Simulation::rebuild_lists() {
   for (std::size_t a = 0; a < p_.n_owned(); ++a) s_ref_[a] = p_.x[a].cwiseQuotient(L);
   L_ref_ = L;
   ++rebuilds_;
+  rebuilt_last_ = true;
 }
 
 }  // namespace fabrica

@@ -488,6 +488,42 @@ std::string describe(const CheckpointHeader& h, const std::string& path) {
   return s.str();
 }
 
+bool keep_series_through(const std::string& path, int step_column, std::int64_t step) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream all;
+  all << in.rdbuf();
+  const std::string text = all.str();
+  std::string kept;
+  std::size_t pos = 0;
+  for (bool header = true; pos < text.size(); header = false) {
+    const std::size_t end = text.find('\n', pos);
+    if (end == std::string::npos) break;  // cut short: dropped
+    const std::string line = text.substr(pos, end + 1 - pos);
+    pos = end + 1;
+    if (!header) {
+      std::size_t at = 0;
+      for (int c = 0; c < step_column && at != std::string::npos; ++c) {
+        at = line.find(',', at);
+        if (at != std::string::npos) ++at;
+      }
+      if (at == std::string::npos) continue;
+      char* stop = nullptr;
+      const long long s = std::strtoll(line.c_str() + at, &stop, 10);
+      if (stop == line.c_str() + at || s > step) continue;
+    }
+    kept += line;
+  }
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << kept;
+    if (!out) throw std::runtime_error(tmp + ": cannot write");
+  }
+  std::filesystem::rename(tmp, path);
+  return true;
+}
+
 // ------------------------------------------------------------------------------- scheduling
 
 namespace {

@@ -263,6 +263,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   sc.local_damping = R.number("local_damping", sc.local_damping);
   require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
           "must lie in [0, 1)");
+  if (auto c = R.integer("checkpoint_every")) sc.checkpoint_every = *c;
+  if (sc.checkpoint_every < 0)
+    R.fail("checkpoint_every", std::to_string(sc.checkpoint_every), "must be >= 0 (0 = off)");
+  sc.checkpoint_seconds = R.number("checkpoint_seconds", sc.checkpoint_seconds);
+  require(R, "checkpoint_seconds", sc.checkpoint_seconds, sc.checkpoint_seconds >= 0,
+          "must be >= 0 (0 = off)");
   R.reject_unknown();
 
   Section T(table("triaxial"), path, "triaxial");

@@ -86,6 +86,8 @@ struct Scene {
   std::int64_t output_every = 100;
   Vec3 gravity = Vec3::Zero();    // m/s^2
   real_t max_overlap = 1.0;       // stop when an overlap exceeds this fraction of the smaller radius
+  std::int64_t checkpoint_every = 0;  // steps between checkpoints (0 = none by count)
+  real_t checkpoint_seconds = 600;    // s of wall-clock time between checkpoints (0 = none by time)
   TriaxialSpec triaxial;
   ParallelSpec parallel;
 };

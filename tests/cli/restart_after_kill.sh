@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# restart_after_kill.sh WORKDIR PATTERN SCENE CMD...: the checkpoint/restart acceptance test.
+#   1. CMD run SCENE -o WORKDIR/full            (uninterrupted reference)
+#   2. CMD run SCENE -o WORKDIR/killed, killed with SIGKILL (every process of it) as soon as
+#      its output matches PATTERN (a checkpoint line); the last complete checkpoint remains
+#   3. CMD run SCENE -o WORKDIR/killed --restart WORKDIR/killed/checkpoint.ckpt
+#   4. every CSV file of the reference equals the restarted run's (summary.csv: every column
+#      but the last, the wall-clock seconds).
+# CMD is the executable, optionally behind a launcher (mpiexec -np 2 .../fabrica).
+set -u
+work=$1 pattern=$2 scene=$3; shift 3
+rm -rf "$work"; mkdir -p "$work"
+"$@" run "$scene" -o "$work/full" >"$work/full.log" 2>&1 || { echo "reference run failed"; cat "$work/full.log"; exit 1; }
+
+"$@" run "$scene" -o "$work/killed" >"$work/killed.log" 2>&1 &
+pid=$!
+# The processes of the run: the launcher and its descendants (Open MPI puts each rank in a
+# process group of its own, so the ranks are found by parent).
+descendants() { local c; for c in $(pgrep -P "$1"); do descendants "$c"; echo "$c"; done; }
+for _ in $(seq 1 1200); do
+  grep -Eq -- "$pattern" "$work/killed.log" && break
+  kill -0 $pid 2>/dev/null || break
+  sleep 0.05
+done
+if kill -0 $pid 2>/dev/null; then
+  pids="$(descendants $pid) $pid"
+  kill -KILL $pids 2>/dev/null; wait $pid 2>/dev/null
+  for p in $pids; do while kill -0 "$p" 2>/dev/null; do sleep 0.05; done; done
+  echo "killed with SIGKILL after: $(grep -E -- "$pattern" "$work/killed.log" | tail -1)"
+else
+  wait $pid; echo "the run ended before the kill (still restarting from its last checkpoint)"
+fi
+grep -Eq -- "$pattern" "$work/killed.log" || { echo "no checkpoint matching '$pattern' was written"; cat "$work/killed.log"; exit 1; }
+"$@" checkpoint-info "$work/killed/checkpoint.ckpt" || exit 1
+"$@" run "$scene" -o "$work/killed" --restart "$work/killed/checkpoint.ckpt" >"$work/restart.log" 2>&1 \
+  || { echo "restart failed"; cat "$work/restart.log"; exit 1; }
+grep -E "restarted|resumed" "$work/restart.log"
+
+status=0
+cd "$work/full"
+for f in $(find . -name '*.csv' | sort); do
+  if [ "$(basename "$f")" = summary.csv ]; then
+    diff <(sed 's/,[^,]*$//' "$f") <(sed 's/,[^,]*$//' "../killed/$f") >/dev/null || { echo "DIFFERS: $f"; status=1; }
+  else
+    cmp -s "$f" "../killed/$f" || { echo "DIFFERS: $f"; diff "$f" "../killed/$f" | head -5; status=1; }
+  fi
+  [ $status -eq 0 ] && echo "same: $f ($(wc -l <"$f") lines)"
+done
+exit $status
