@@ -329,12 +329,15 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     const std::string path = (out / (blowup ? "blowup.ckpt" : "checkpoint.ckpt")).string();
     const std::uint64_t bytes = w.write(path);
     schedule.taken(current->step_count());
-    if (log)
+    const double secs = std::chrono::duration<double>(clock::now() - t).count();
+    if (log && blowup)
+      *log << fmt::format("  state at the blow-up, step {}: {} ({:.1f} MB in {:.2f} s)\n",
+                          current->step_count(), path, double(bytes) / 1e6, secs);
+    else if (log)
       *log << fmt::format("  checkpoint at step {} ({}, {}): {} ({:.1f} MB in {:.2f} s)\n",
                           current->step_count(),
                           current_case < 0 ? std::string("consolidation") : cases[current_case].name,
-                          kStageNames[int(cur.stage)], path, double(bytes) / 1e6,
-                          std::chrono::duration<double>(clock::now() - t).count())
+                          kStageNames[int(cur.stage)], path, double(bytes) / 1e6, secs)
            << std::flush;
     return path;
   };
