@@ -76,6 +76,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     BytesIn in(ckpt->section("app"), restart + ": section app");
     at.phase = in.get<std::int32_t>();
     at.k = in.get<std::int64_t>();
+    if (!in.done()) throw InputError(restart + ": section app: unexpected extra bytes");
   }
   Setup s = make_setup(scene);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);

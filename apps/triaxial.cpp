@@ -283,9 +283,10 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     e_saved = in.get<StageResult>();
     t_cons = in.get<double>();
     summary_rows = in.get_string();
-    if (current_case < -1 || current_case >= std::int32_t(cases.size()))
+    if (!in.done() || current_case < -1 || current_case >= std::int32_t(cases.size()))
       throw InputError(restart->path() + ": section app: case " + std::to_string(current_case) +
-                       " of a sweep of " + std::to_string(cases.size()) + " (corrupted?)");
+                       " of a sweep of " + std::to_string(cases.size()) +
+                       ": not the state of this build's triaxial application");
   }
   const std::int32_t start_case = current_case;
   std::unique_ptr<Simulation> prepared =

@@ -193,6 +193,7 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   const SimulationParams& par = sim.params();
   Bytes g;
   g.put(std::uint64_t(particle_record_bytes())).put(std::uint64_t(sizeof(ContactRecord)));
+  g.put(std::uint64_t(sizeof(ContactLawParams))).put(std::uint64_t(sizeof(MacroState)));
   g.put(sim.cell().lengths()).put(sim.cell().strain_rate());
   g.put(par.law).put(par.dt).put(par.skin).put(par.gravity).put(par.local_damping);
   g.put(std::uint64_t(par.walls.size()));
@@ -280,12 +281,17 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
     check_mpi(MPI_File_write_at_all(fh, MPI_Offset(offset), b.data(), int(b.size()), MPI_BYTE, &st),
               comm_, "write " + what, path);
   };
-  check_mpi(MPI_File_set_size(fh, 0), comm_, "truncate " + tmp, path);
-  write_at(0, header, rank_ == 0, "header");
-  for (std::size_t s = 0; s < ns; ++s)
-    write_at(my_offset[s], staged_[s].local, staged_[s].collective || rank_ == 0, staged_[s].name);
-  write_at(at, trailer, rank_ == 0, "trailer");
-  check_mpi(MPI_File_sync(fh), comm_, "sync " + tmp, path);
+  try {
+    check_mpi(MPI_File_set_size(fh, 0), comm_, "truncate " + tmp, path);
+    write_at(0, header, rank_ == 0, "header");
+    for (std::size_t s = 0; s < ns; ++s)
+      write_at(my_offset[s], staged_[s].local, staged_[s].collective || rank_ == 0, staged_[s].name);
+    write_at(at, trailer, rank_ == 0, "trailer");
+    check_mpi(MPI_File_sync(fh), comm_, "sync " + tmp, path);
+  } catch (const CollectiveError&) {  // every rank is here: close, keep the last checkpoint
+    MPI_File_close(&fh);
+    throw;
+  }
   check_mpi(MPI_File_close(&fh), comm_, "close " + tmp, path);
   MPI_Barrier(comm_);
   // Rank 0 replaces the previous checkpoint (atomic rename) and syncs the directory entry.
@@ -395,11 +401,17 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   const std::string where = path_ + ": section " + prefix;
   BytesIn g(section(prefix + ".global"), where + ".global");
   const auto prec = g.get<std::uint64_t>(), crec = g.get<std::uint64_t>();
-  if (prec != particle_record_bytes() || crec != sizeof(ContactRecord))
-    throw InputError(where + ".global: record sizes " + std::to_string(prec) + " and " +
-                     std::to_string(crec) + " bytes, this build uses " +
-                     std::to_string(particle_record_bytes()) + " and " +
-                     std::to_string(sizeof(ContactRecord)));
+  const auto lrec = g.get<std::uint64_t>(), mrec = g.get<std::uint64_t>();
+  if (prec != particle_record_bytes() || crec != sizeof(ContactRecord) ||
+      lrec != sizeof(ContactLawParams) || mrec != sizeof(MacroState))
+    throw InputError(where + ".global: written by a build with other record sizes (particle, "
+                     "contact, contact law, measures: " + std::to_string(prec) + ", " +
+                     std::to_string(crec) + ", " + std::to_string(lrec) + ", " +
+                     std::to_string(mrec) + " bytes; this build: " +
+                     std::to_string(particle_record_bytes()) + ", " +
+                     std::to_string(sizeof(ContactRecord)) + ", " +
+                     std::to_string(sizeof(ContactLawParams)) + ", " +
+                     std::to_string(sizeof(MacroState)) + ")");
   snap.cell = PeriodicCell(g.get<Vec3>());
   snap.cell.set_strain_rate(g.get<Vec3>());
   SimulationParams& par = snap.params;

@@ -24,6 +24,9 @@
 
 namespace fabrica {
 
+// Raise the format version with any change of what is saved. Some values are saved as their
+// bytes (ContactLawParams, MacroState, the applications' cursors): their sizes are recorded and
+// checked too, so a checkpoint of a build where they differ is refused, not misread.
 inline constexpr std::uint32_t kCheckpointFormat = 1;
 inline constexpr std::size_t kHeaderBytes = 2048;
 
