@@ -4,6 +4,7 @@
 // positions, velocities, spins and every shear and rolling spring.
 //   Checkpoint.BitwiseContinuation   - save at N/2 (first rebuild step from there), restore
 //                                      into a fresh Simulation, continue to N (np 1 and 2);
+//   Checkpoint.KeepSeriesThrough     - the series rows kept on a restart;
 //   CheckpointFiles.Write / .ReadAndContinue - written by one rank count, read by another
 //                                      (ctest: written on 2 ranks, read on 1 and 4), via the
 //                                      file named in FABRICA_CHECKPOINT_FILE.
@@ -197,4 +198,26 @@ TEST(CheckpointFiles, ReadAndContinue) {
   EXPECT_NEAR(restarted.macro().p, ref.macro().p, 1e-12 * std::abs(ref.macro().p));
   EXPECT_NEAR(restarted.macro().dissipated.friction, ref.macro().dissipated.friction,
               1e-12 * ref.macro().dissipated.friction);
+}
+
+// On a restart the series keep their header and the complete rows up to the checkpoint's step.
+TEST(Checkpoint, KeepSeriesThrough) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const std::string path = checkpoint_path("series-rank" + std::to_string(rank));
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "stage,step,value\n"
+           "consolidation,100,1.5\n"
+           "consolidation,200,2.5\n"
+           "shear,300,3.5\n"
+           "shear,30";  // cut short by a kill
+  }
+  ASSERT_TRUE(keep_series_through(path, 1, 200));
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  EXPECT_EQ(s.str(), "stage,step,value\nconsolidation,100,1.5\nconsolidation,200,2.5\n");
+  EXPECT_FALSE(keep_series_through(path + ".none", 1, 200));  // no file: a new series
+  std::filesystem::remove(path);
 }
