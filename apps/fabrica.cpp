@@ -78,6 +78,8 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     at.k = in.get<std::int64_t>();
     if (!in.done()) throw InputError(restart + ": section app: unexpected extra bytes");
   }
+  std::optional<SimulationSnapshot> snapshot;  // decoded (and checked) before any file is touched
+  if (ckpt) snapshot = ckpt->simulation("sim", mpi.comm());
   Setup s = make_setup(scene);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
@@ -110,7 +112,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     s.params.law = prep;
   }
   std::unique_ptr<Simulation> simp =
-      ckpt ? std::make_unique<Simulation>(ckpt->simulation("sim", mpi.comm()), domain.get())
+      ckpt ? std::make_unique<Simulation>(std::move(*snapshot), domain.get())
            : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get());
   Simulation& sim = *simp;
   const std::int64_t first_step = sim.step_count();

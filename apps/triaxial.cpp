@@ -14,6 +14,7 @@
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <optional>
 
 namespace fabrica {
 
@@ -289,6 +290,8 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                        ": not the state of this build's triaxial application");
   }
   const std::int32_t start_case = current_case;
+  std::optional<SimulationSnapshot> case_snapshot;  // decoded before any file is touched
+  if (restart && start_case >= 0) case_snapshot = restart->simulation("sim", mpi.comm());
   std::unique_ptr<Simulation> prepared =
       !restart ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get())
                : std::make_unique<Simulation>(
@@ -378,7 +381,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
       const auto t1 = clock::now();
       std::unique_ptr<Domain> d2 = domain ? domain->clone() : nullptr;
       std::unique_ptr<Simulation> simp =
-          resuming ? std::make_unique<Simulation>(restart->simulation("sim", mpi.comm()), d2.get())
+          resuming ? std::make_unique<Simulation>(std::move(*case_snapshot), d2.get())
                    : std::make_unique<Simulation>(*prepared, d2.get());
       Simulation& sim = *simp;
       std::ofstream series;
