@@ -323,7 +323,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
   CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
                               prepared->step_count());
   auto save = [&](const StageCursor& cur, bool blowup) {
-    if (root) current_series->flush();
+    if (root && current_series) current_series->flush();
     const auto t = clock::now();
     CheckpointWriter w(mpi.comm(), scene_fingerprint(scene.text), "triaxial", blowup);
     w.add_simulation("sim", *current);
@@ -423,7 +423,8 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                       std::max(e.max_energy_error, sh.max_energy_error), inertial, secs);
       summary_rows += row;
       if (root) summary << row << std::flush;
-      current = prepared.get();  // the case's simulation ends here
+      current = prepared.get();  // the case's simulation and series end here
+      current_series = nullptr;
     }
   } catch (const BlowUpError& err) {  // every rank is here (the diagnosis is collective)
     const std::string path = save(StageCursor{}, true);
