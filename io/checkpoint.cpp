@@ -486,14 +486,14 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
 std::string describe(const CheckpointHeader& h, const std::string& path) {
   std::ostringstream s;
   s << "checkpoint " << path << "\n"
-    << "  format version   " << h.format << "\n"
-    << "  written by       Fabrica " << h.software << " on " << h.ranks << " rank(s)\n"
-    << "  application      " << h.app << (h.blowup ? " (blow-up state, not restartable)" : "") << "\n"
-    << "  step             " << h.step << "\n";
+    << "  format version    " << h.format << "\n"
+    << "  written by        Fabrica " << h.software << " on " << h.ranks << " rank(s)\n"
+    << "  application       " << h.app << (h.blowup ? " (blow-up state, not restartable)" : "") << "\n"
+    << "  step              " << h.step << "\n";
   s.precision(17);
-  s << "  time             " << h.time << " s\n"
+  s << "  time              " << h.time << " s\n"
     << "  scene fingerprint " << h.scene_fingerprint << "\n"
-    << "  size             " << h.file_bytes << " bytes\n"
+    << "  size              " << h.file_bytes << " bytes\n"
     << "  sections (name, offset, bytes, records):\n";
   for (const CheckpointSection& c : h.sections)
     s << "    " << c.name << " " << c.offset << " " << c.bytes << " " << c.records << "\n";
