@@ -96,6 +96,8 @@ struct Scene {
   real_t max_overlap = 1.0;       // stop when an overlap exceeds this fraction of the smaller radius
   std::int64_t snapshot_every = 10000;  // steps between HDF5 snapshots (docs/output.md)
   bool hdf5 = true;               // write OUT/run.h5 and OUT/run.xmf
+  std::int64_t checkpoint_every = 0;  // steps between checkpoints (0 = none by count)
+  real_t checkpoint_seconds = 600;    // s of wall-clock time between checkpoints (0 = none by time)
   TriaxialSpec triaxial;
   ParallelSpec parallel;
   FabricSpec fabric;
