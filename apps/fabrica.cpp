@@ -1,10 +1,13 @@
-// fabrica: runs a scene (the built-in demo scene when none is given), or describes an output file.
-//   fabrica run [scene.toml] [--output DIR] [--overwrite]
+// fabrica: runs a scene (the built-in demo scene when none is given), continues one from a
+// checkpoint, or describes an output file or a checkpoint.
+//   fabrica run [scene.toml] [--output DIR] [--overwrite] [--restart CKPT]
 //   fabrica info OUT/run.h5
 //   fabrica fabric OUT/run.h5 [--case C] [--step S | --all] [--strong-ratio R] [--bins B] [-o DIR]
+//   fabrica checkpoint-info CKPT
 #include "apps/fabric_offline.hpp"
 #include "apps/triaxial.hpp"
 #include "core/simulation.hpp"
+#include "io/checkpoint.hpp"
 #include "io/run_output.hpp"
 #include "io/snapshot.hpp"
 #include "io/scene.hpp"
@@ -15,6 +18,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <memory>
+#include <optional>
 
 #include <chrono>
 #include <cmath>
@@ -61,26 +65,51 @@ void print_row(const Simulation& sim, const MacroState& m, std::ofstream* csv, R
 // Stops the run, on every rank, with a diagnostic if the state is no longer physical.
 void check_sane(const Simulation& sim, const MacroState& m, const Scene& scene) {
   const std::string msg = diagnose(m, sim.step_count(), scene.max_overlap, scene.kinetic_runaway);
-  if (!msg.empty()) throw CollectiveError(msg);
+  if (!msg.empty()) throw BlowUpError(msg);
 }
 
 Vec3 log_strain(const Vec3& l0, const Vec3& l) {
   return Vec3(std::log(l0[0] / l[0]), std::log(l0[1] / l[1]), std::log(l0[2] / l[2]));
 }
 
-int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out);
+// Where a plain run is: phase 0 compression, 1 the [run] steps; k the last finished iteration.
+struct Cursor {
+  std::int32_t phase = 0;
+  std::int64_t k = 0;
+};
+
+int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out,
+              const Checkpoint* ckpt, const std::string& restart);
 
 int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir,
-        bool overwrite) {
+        bool overwrite, const std::string& restart) {
   const auto t0 = std::chrono::steady_clock::now();
   const Scene scene = scene_path.empty() ? default_scene() : load_scene(scene_path);
+  // A restart reads and checks the whole checkpoint before anything is written.
+  std::optional<Checkpoint> ckpt;
+  if (!restart.empty()) {
+    Checkpoint::Expect ex;
+    ex.scene_text = &scene.text;
+    ex.app = scene.triaxial.enabled ? "triaxial" : "run";
+    ckpt = Checkpoint::read(mpi.comm(), restart, ex);
+  }
   if (mpi.rank() != 0 && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
+  // run.h5: a new file, or on a restart the existing one, continued (docs/output.md); a damaged
+  // one stops the restart here, before any file is touched.
   std::unique_ptr<RunOutput> out;
-  if (scene.hdf5) out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, overwrite);
+  if (scene.hdf5 && ckpt) {
+    out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
+    if (out->created_anew())
+      fmt::print("-- {} did not exist: a new one is written, holding only what the restarted run "
+                 "writes\n", out->path());
+  } else if (scene.hdf5) {
+    out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, overwrite);
+  }
   int rc = 0;
   try {
-    rc = scene.triaxial.enabled ? run_triaxial(mpi, scene, outdir, out.get())
-                                : run_plain(mpi, scene, outdir, out.get());
+    rc = scene.triaxial.enabled
+             ? run_triaxial(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr)
+             : run_plain(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, restart);
   } catch (const CollectiveError&) {  // met by every rank: the file can be closed (collective)
     if (out) out->close();
     throw;
@@ -99,8 +128,21 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   return rc;
 }
 
-int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out) {
+int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out,
+              const Checkpoint* ckpt, const std::string& restart) {
+  namespace fs = std::filesystem;
   const bool root = mpi.rank() == 0;
+  Cursor at;
+  if (ckpt) {
+    BytesIn in(ckpt->section("app"), restart + ": section app");
+    at.phase = in.get<std::int32_t>();
+    at.k = in.get<std::int64_t>();
+    if (!in.done()) throw InputError(restart + ": section app: unexpected extra bytes");
+  }
+  std::optional<SimulationSnapshot> saved;  // decoded (and checked) before any file is touched
+  if (ckpt) saved = ckpt->simulation("sim", mpi.comm());
+  // run.h5: the rows and snapshots after the checkpoint's step go (collective).
+  if (out && ckpt) out->resume_after(ckpt->header().step, {"run"}, 0);
   Setup s = make_setup(scene);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
@@ -110,73 +152,116 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   fmt::print("{} MPI rank(s){}\n", mpi.size(),
              mpi.size() > 1 ? ", " + scene.parallel.decomposition + " decomposition" : "");
   std::ofstream csv;
+  const fs::path series_path = fs::path(outdir) / "series.csv";
   if (root) {
-    std::filesystem::create_directories(outdir);
-    csv.open(std::filesystem::path(outdir) / "series.csv");
+    fs::create_directories(outdir);
+    // On a restart the rows after the checkpoint's step go (the run writes them again).
+    if (ckpt && keep_series_through(series_path.string(), 0, ckpt->header().step))
+      csv.open(series_path, std::ios::app);
+    else
+      csv.open(series_path);
   }
-  csv << kSeriesHeader;
+  MPI_Barrier(mpi.comm());  // the output directory exists before any rank writes to it
+  if (csv.tellp() == 0) csv << kSeriesHeader;
 
   const ContactLawParams law = scene.law;
   const auto t0 = std::chrono::steady_clock::now();
-  std::int64_t steps_done = 0;
   if (scene.compress.enabled) {
     ContactLawParams prep = law;
     prep.friction = scene.compress.friction;
     prep.rolling_friction = 0;
     s.params.law = prep;
   }
-  Simulation sim(std::move(s.particles), s.cell, s.params, domain.get());
-  const Vec3 l0 = sim.cell().lengths();
+  const Vec3 l0 = s.cell.lengths();  // the strain reference of the snapshots (also on a restart)
+  std::unique_ptr<Simulation> simp =
+      ckpt ? std::make_unique<Simulation>(std::move(*saved), domain.get())
+           : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get());
+  Simulation& sim = *simp;
+  const std::int64_t first_step = sim.step_count();
   // A snapshot every [run] snapshot_every steps and at the end of each stage.
   auto snapshot = [&](bool force) {
     if (out && (force || out->snapshot_due(sim.step_count())))
       out->snapshot("run", sim, log_strain(l0, sim.cell().lengths()));
   };
-  print_header();
-  if (scene.compress.enabled) {
-    const real_t rate = scene.compress.strain_rate;
-    sim.cell().set_strain_rate(Vec3::Constant(rate));
-    fmt::print("-- compression at {} 1/s to p = {} Pa\n", rate, scene.compress.target_pressure);
-    std::int64_t k = 0;
-    for (; k < scene.compress.max_steps; ++k) {
-      const bool measure = k % 10 == 0;
+  if (ckpt)
+    fmt::print("-- restarted from {} at step {} (written on {} rank(s))\n", restart,
+               sim.step_count(), ckpt->header().ranks);
+  const std::uint64_t fingerprint = scene_fingerprint(scene.text);
+  const std::string ckpt_path = (fs::path(outdir) / "checkpoint.ckpt").string();
+  CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
+                              sim.step_count());
+  auto save = [&](std::int32_t phase, std::int64_t k, bool blowup = false) {
+    if (root) csv.flush();
+    // run.h5 on disk up to here: a checkpoint never refers to output that is not (collective).
+    if (out) out->flush();
+    const auto t = std::chrono::steady_clock::now();
+    CheckpointWriter w(mpi.comm(), fingerprint, "run", blowup);
+    w.add_simulation("sim", sim);
+    w.add_global("app", Bytes().put(phase).put(k).str());
+    const std::string path = blowup ? (fs::path(outdir) / "blowup.ckpt").string() : ckpt_path;
+    const std::uint64_t bytes = w.write(path);
+    schedule.taken(sim.step_count());
+    fmt::print("-- {} at step {}: {} ({:.1f} MB in {:.2f} s)\n",
+               blowup ? "state at the blow-up" : "checkpoint", sim.step_count(), path,
+               double(bytes) / 1e6,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
+    std::fflush(stdout);
+    return path;
+  };
+  try {
+    print_header();
+    if (scene.compress.enabled && at.phase == 0) {
+      const real_t rate = scene.compress.strain_rate;
+      if (!ckpt) sim.cell().set_strain_rate(Vec3::Constant(rate));
+      fmt::print("-- compression at {} 1/s to p = {} Pa\n", rate, scene.compress.target_pressure);
+      std::int64_t k = ckpt ? at.k + 1 : 0;
+      for (; k < scene.compress.max_steps; ++k) {
+        const bool measure = k % 10 == 0;
+        sim.step(measure);
+        snapshot(false);
+        if (measure) {
+          const MacroState m = sim.macro();
+          check_sane(sim, m, scene);
+          if (k % 2000 == 0) print_row(sim, m, nullptr, nullptr);
+          if (m.p >= scene.compress.target_pressure) break;
+        }
+        if (schedule.due(sim)) save(0, k);
+      }
+      if (k == scene.compress.max_steps)
+        throw std::runtime_error(fmt::format("{}: [compress] max_steps = {} reached before p = {} Pa",
+                                             scene.path, scene.compress.max_steps,
+                                             scene.compress.target_pressure));
+      snapshot(true);
+      sim.cell().set_strain_rate(Vec3::Zero());
+      sim.set_law(law);
+      const MacroState m = sim.macro();
+      fmt::print("-- compressed: void ratio {:.4f}, solid fraction {:.4f}; now mu_s = {}, mu_r = {}\n",
+                 m.void_ratio, 1.0 / (1.0 + m.void_ratio), law.friction, law.rolling_friction);
+    }
+    for (std::int64_t k = at.phase == 1 ? at.k + 1 : 1; k <= scene.steps; ++k) {
+      const bool measure = k % scene.output_every == 0 || k == scene.steps;
       sim.step(measure);
       snapshot(false);
-      if (!measure) continue;
-      const MacroState m = sim.macro();
-      check_sane(sim, m, scene);
-      if (k % 2000 == 0) print_row(sim, m, nullptr, nullptr);
-      if (m.p >= scene.compress.target_pressure) break;
+      if (measure) {
+        const MacroState m = sim.macro();
+        check_sane(sim, m, scene);
+        print_row(sim, m, root ? &csv : nullptr, out);
+      }
+      if (k < scene.steps && schedule.due(sim)) save(1, k);
     }
-    steps_done += k;
-    if (k == scene.compress.max_steps)
-      throw std::runtime_error(fmt::format("{}: [compress] max_steps = {} reached before p = {} Pa",
-                                           scene.path, scene.compress.max_steps,
-                                           scene.compress.target_pressure));
     snapshot(true);
-    sim.cell().set_strain_rate(Vec3::Zero());
-    sim.set_law(law);
-    const MacroState m = sim.macro();
-    fmt::print("-- compressed: void ratio {:.4f}, solid fraction {:.4f}; now mu_s = {}, mu_r = {}\n",
-               m.void_ratio, 1.0 / (1.0 + m.void_ratio), law.friction, law.rolling_friction);
+  } catch (const BlowUpError& e) {  // every rank is here (the diagnosis is collective)
+    const std::string path = save(0, 0, true);
+    throw CollectiveError(std::string(e.what()) + "; the state at detection is saved in " + path +
+                          " (for post-mortem: a run cannot restart from it)");
   }
-  for (std::int64_t k = 1; k <= scene.steps; ++k) {
-    const bool measure = k % scene.output_every == 0 || k == scene.steps;
-    sim.step(measure);
-    snapshot(false);
-    if (!measure) continue;
-    const MacroState m = sim.macro();
-    check_sane(sim, m, scene);
-    print_row(sim, m, root ? &csv : nullptr, out);
-  }
-  snapshot(true);
-  steps_done += scene.steps;
+  const std::int64_t steps_done = sim.step_count() - first_step;
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double n_total = double(sim.macro().particles);
   fmt::print("{} steps in {:.2f} s: {:.4f} us per particle-step on {} rank(s), {} neighbour rebuilds\n",
              steps_done, secs, secs * 1e6 / (double(steps_done) * n_total), mpi.size(),
              sim.rebuild_count());
-  fmt::print("series written to {}\n", (std::filesystem::path(outdir) / "series.csv").string());
+  fmt::print("series written to {}\n", series_path.string());
   return 0;
 }
 
@@ -212,6 +297,10 @@ int main(int argc, char** argv) {
   runc->add_option("-o,--output", outdir, "output directory");
   bool overwrite = false;
   runc->add_flag("--overwrite", overwrite, "replace an existing OUT/run.h5");
+  std::string restart;
+  runc->add_option("--restart", restart,
+                   "continue from this checkpoint (written by a run of the same scene); "
+                   "OUT/run.h5 is continued from the checkpoint's step");
   std::string info_path;
   CLI::App* infoc = app.add_subcommand("info", "describe an output file (OUT/run.h5)");
   infoc->add_option("file", info_path, "run.h5 of a run")->required();
@@ -224,6 +313,9 @@ int main(int argc, char** argv) {
   fabc->add_option("--strong-ratio", fab.strong_ratio, "strong: f_n > R x mean f_n (default 1)");
   fabc->add_option("--bins", fab.bins, "rose diagram bins over [0, pi) (default 36)");
   fabc->add_option("-o,--output", fab.outdir, "output directory (default: <dir of file>/fabric)");
+  std::string ckpt_path;
+  CLI::App* ckptc = app.add_subcommand("checkpoint-info", "print the header of a checkpoint");
+  ckptc->add_option("checkpoint", ckpt_path, "checkpoint file")->required();
   return run_guarded(mpi, [&]() -> int {
     try {
       app.parse(argc, argv);
@@ -232,6 +324,13 @@ int main(int argc, char** argv) {
     }
     if (*infoc) return info(mpi, info_path);
     if (*fabc) return fabric_offline(mpi, fab);
-    return run(mpi, scene_path, outdir, overwrite);
+    if (*ckptc) {
+      Checkpoint::Expect any;
+      any.allow_blowup = true;
+      const Checkpoint c = Checkpoint::read(mpi.comm(), ckpt_path, any);
+      if (mpi.rank() == 0) fmt::print("{}", describe(c.header(), ckpt_path));
+      return 0;
+    }
+    return run(mpi, scene_path, outdir, overwrite, restart);
   });
 }

@@ -3,6 +3,7 @@
 #include "core/contact_snapshot.hpp"
 #include "core/fabric.hpp"
 
+#include "io/checkpoint.hpp"
 #include "io/run_output.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
@@ -17,9 +18,14 @@
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 namespace fabrica {
+
+namespace {
+const char* const kStageNames[] = {"consolidation", "equilibration", "shear"};
+}  // namespace
 
 Vec3 Servo::update(const Mat3& stress, real_t elapsed) {
   Vec3 r = fixed_;
@@ -99,32 +105,48 @@ void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
 
 void TriaxialRun::fabric_row(Stage stage, const Vec3& eps) {
   if (!scene_.fabric.enabled) return;
-  static const char* names[] = {"consolidation", "equilibration", "shear"};
   const auto t0 = std::chrono::steady_clock::now();
   const auto records = contact_records(sim_.particles(), sim_.cell(), sim_.params().law, sim_.pairs());
   const FabricOptions opt{scene_.fabric.strong_ratio, int(scene_.fabric.rose_bins)};
   const FabricResult r = analyse_fabric(records, sim_.cell().volume(), opt, sim_.domain());
-  if (fabric_out_) write_fabric_rows(*fabric_out_, names[int(stage)], sim_.step_count(), eps[0], r);
+  if (fabric_out_) write_fabric_rows(*fabric_out_, kStageNames[int(stage)], sim_.step_count(), eps[0], r);
   fabric_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
-                                   const std::function<bool(const MacroState&, const Vec3&)>& done) {
+StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
   using clock = std::chrono::steady_clock;
   static const char* names[] = {"consolidation", "equilibration", "shear"};
-  StageResult res;
   const real_t dt = sim_.params().dt;
   const real_t target = tx_.confining_pressure;
+  Servo servo = stage == Stage::Shear
+                    ? make_servo({false, true, true}, Vec3(-tx_.axial_strain_rate, 0, 0))
+                    : make_servo({true, true, true}, Vec3::Zero());
+  auto done = [&](const MacroState& m, const Vec3& eps) {
+    if (stage == Stage::Shear) return eps[0] >= tx_.axial_strain;
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(m.stress(k, k) - target) > tx_.stress_tolerance * target) return false;
+    return m.unbalanced < tx_.unbalanced_tolerance;
+  };
   auto strain = [&] {
     Vec3 e;
     for (int k = 0; k < 3; ++k) e[k] = std::log(l0_[k] / sim_.cell().lengths()[k]);
     return e;
   };
-  sim_.cell().set_strain_rate(servo.update(last_stress_, 0.0));
+  StageResult res;
   real_t last_servo = sim_.time();
+  std::int64_t k = 1;
+  if (resume) {  // the rates are the checkpoint's
+    res = resume->result;
+    servo.set_integral(resume->servo_integral);
+    last_servo = resume->last_servo;
+    k = resume->k + 1;
+  } else {
+    sim_.cell().set_strain_rate(servo.update(last_stress_, 0.0));
+  }
+  const std::int64_t k0 = k - 1;
   const auto t0 = clock::now();
   auto last_print = t0;
-  for (std::int64_t k = 1;; ++k) {
+  for (;; ++k) {
     if (k > tx_.max_stage_steps)
       throw CollectiveError(fmt::format(
           "{}: [triaxial] max_stage_steps = {}: the {} stage did not converge (last p = {:.6g} Pa, "
@@ -137,46 +159,50 @@ StageResult TriaxialRun::run_stage(Stage stage, Servo servo,
     sim_.step(measure);
     work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
     if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
-    if (!measure) continue;
-    const MacroState& m = sim_.macro();
-    last_stress_ = m.stress;
-    res.state = m;
-    const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap, scene_.kinetic_runaway);
-    if (!bad.empty()) throw CollectiveError(bad);
-    const Vec3 eps = strain();
-    res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
-    if (stage == Stage::Shear && out) {  // at the output instants, as in the series
-      const real_t qp = m.p > 0 ? m.q / m.p : 0;
-      if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
-      for (int a = 1; a < 3; ++a)
-        res.max_lateral_error =
-            std::max(res.max_lateral_error, std::abs(m.stress(a, a) - target) / target);
+    if (measure) {
+      const MacroState& m = sim_.macro();
+      last_stress_ = m.stress;
+      res.state = m;
+      const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap, scene_.kinetic_runaway);
+      if (!bad.empty()) throw BlowUpError(bad);
+      const Vec3 eps = strain();
+      res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
+      if (stage == Stage::Shear && out) {  // at the output instants, as in the series
+        const real_t qp = m.p > 0 ? m.q / m.p : 0;
+        if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
+        for (int a = 1; a < 3; ++a)
+          res.max_lateral_error =
+              std::max(res.max_lateral_error, std::abs(m.stress(a, a) - target) / target);
+      }
+      if (out) row(stage, m, eps);
+      if (out && stage == Stage::Shear) fabric_row(stage, eps);
+      sim_.cell().set_strain_rate(servo.update(m.stress, sim_.time() - last_servo));
+      last_servo = sim_.time();
+      const auto now = clock::now();
+      if (log_ && std::chrono::duration<double>(now - last_print).count() > tx_.progress_seconds) {
+        last_print = now;
+        const double secs = std::chrono::duration<double>(now - t0).count();
+        std::string eta;
+        if (stage == Stage::Shear && eps[0] > 0)
+          eta = fmt::format(", {:.0f} s left", secs * (tx_.axial_strain - eps[0]) / eps[0]);
+        *log_ << fmt::format("  [{}] step {}: eps1 {:.4f}, p {:.1f} kPa, q/p {:.4f}, e {:.4f}, "
+                             "unbalanced {:.2e}, {:.0f} steps/s{}\n",
+                             names[int(stage)], sim_.step_count(), eps[0], m.p / 1e3,
+                             m.p > 0 ? m.q / m.p : 0, m.void_ratio, m.unbalanced,
+                             double(k - k0) / secs, eta);
+        log_->flush();
+      }
+      if (done(m, eps)) {
+        res.steps = k;
+        res.strain = eps;
+        if (!out) row(stage, m, eps);
+        if ((!out && stage == Stage::Shear) || stage == Stage::Consolidation) fabric_row(stage, eps);
+        if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
+        return res;
+      }
     }
-    if (out) row(stage, m, eps);
-    if (out && stage == Stage::Shear) fabric_row(stage, eps);
-    sim_.cell().set_strain_rate(servo.update(m.stress, sim_.time() - last_servo));
-    last_servo = sim_.time();
-    const auto now = clock::now();
-    if (log_ && std::chrono::duration<double>(now - last_print).count() > tx_.progress_seconds) {
-      last_print = now;
-      const double secs = std::chrono::duration<double>(now - t0).count();
-      std::string eta;
-      if (stage == Stage::Shear && eps[0] > 0)
-        eta = fmt::format(", {:.0f} s left", secs * (tx_.axial_strain - eps[0]) / eps[0]);
-      *log_ << fmt::format("  [{}] step {}: eps1 {:.4f}, p {:.1f} kPa, q/p {:.4f}, e {:.4f}, "
-                           "unbalanced {:.2e}, {:.0f} steps/s{}\n",
-                           names[int(stage)], sim_.step_count(), eps[0], m.p / 1e3,
-                           m.p > 0 ? m.q / m.p : 0, m.void_ratio, m.unbalanced, k / secs, eta);
-      log_->flush();
-    }
-    if (done(m, eps)) {
-      res.steps = k;
-      res.strain = eps;
-      if (!out) row(stage, m, eps);
-      if ((!out && stage == Stage::Shear) || stage == Stage::Consolidation) fabric_row(stage, eps);
-      if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
-      return res;
-    }
+    if (hook_)
+      hook_(StageCursor{stage, k, servo.integral(), last_servo, res, l0_, work_, e0_, last_stress_});
   }
 }
 
@@ -191,13 +217,7 @@ StageResult TriaxialRun::consolidate() {
   law.rolling_friction = 0;
   sim_.set_law(law);
   sim_.set_local_damping(tx_.preparation_damping);
-  const real_t target = tx_.confining_pressure;
-  return run_stage(Stage::Consolidation, make_servo({true, true, true}, Vec3::Zero()),
-                   [&](const MacroState& m, const Vec3&) {
-                     for (int k = 0; k < 3; ++k)
-                       if (std::abs(m.stress(k, k) - target) > tx_.stress_tolerance * target) return false;
-                     return m.unbalanced < tx_.unbalanced_tolerance;
-                   });
+  return run_stage(Stage::Consolidation);
 }
 
 StageResult TriaxialRun::equilibrate(real_t rolling_friction) {
@@ -205,32 +225,62 @@ StageResult TriaxialRun::equilibrate(real_t rolling_friction) {
   law.rolling_friction = rolling_friction;
   sim_.set_law(law);
   sim_.set_local_damping(tx_.preparation_damping);
-  const real_t target = tx_.confining_pressure;
-  return run_stage(Stage::Equilibration, make_servo({true, true, true}, Vec3::Zero()),
-                   [&](const MacroState& m, const Vec3&) {
-                     for (int k = 0; k < 3; ++k)
-                       if (std::abs(m.stress(k, k) - target) > tx_.stress_tolerance * target) return false;
-                     return m.unbalanced < tx_.unbalanced_tolerance;
-                   });
+  return run_stage(Stage::Equilibration);
 }
 
 StageResult TriaxialRun::shear() {
   sim_.set_local_damping(tx_.shear_damping);
   l0_ = sim_.cell().lengths();  // strains of the shear stage are measured from here
-  return run_stage(Stage::Shear, make_servo({false, true, true}, Vec3(-tx_.axial_strain_rate, 0, 0)),
-                   [&](const MacroState&, const Vec3& eps) { return eps[0] >= tx_.axial_strain; });
+  return run_stage(Stage::Shear);
+}
+
+StageCursor TriaxialRun::account() const {
+  StageCursor a;
+  a.l0 = l0_;
+  a.work = work_;
+  a.e0 = e0_;
+  a.last_stress = last_stress_;
+  return a;
+}
+
+void TriaxialRun::set_account(const StageCursor& a) {
+  l0_ = a.l0;
+  work_ = a.work;
+  e0_ = a.e0;
+  last_stress_ = a.last_stress;
+}
+
+StageResult TriaxialRun::resume(const StageCursor& at) {
+  set_account(at);  // the contact law and damping are the simulation's, restored with it
+  return run_stage(at.stage, &at);
 }
 
 // The fabric files of one directory (rank 0 only; 'open' false: no files, null streams).
 FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix,
-                         int rose_bins) {
+                         int rose_bins, std::int64_t resume_step) {
   if (!open) return;
   std::filesystem::create_directories(dir);
-  fabric_.open(dir / (prefix + "fabric.csv"));
-  sff_.open(dir / (prefix + "sff.csv"));
-  rose_.open(dir / (prefix + "rose.csv"));
+  const std::filesystem::path f = dir / (prefix + "fabric.csv"), s = dir / (prefix + "sff.csv"),
+                              r = dir / (prefix + "rose.csv");
+  // On a restart, the rows after the checkpoint's step go (column 1 is the step), as in the
+  // series; if any of the three files is missing, all three start again.
+  bool kept = false;
+  if (resume_step >= 0) {
+    kept = true;
+    for (const auto& p : {f, s, r})
+      if (!keep_series_through(p.string(), 1, resume_step)) kept = false;
+  }
+  const auto mode = kept ? std::ios::app : std::ios::trunc;
+  fabric_.open(f, std::ios::out | mode);
+  sff_.open(s, std::ios::out | mode);
+  rose_.open(r, std::ios::out | mode);
   streams_ = {&fabric_, &sff_, &rose_};
-  write_fabric_headers(streams_, rose_bins);
+  if (!kept) write_fabric_headers(streams_, rose_bins);
+}
+
+void FabricFiles::flush() {
+  if (!streams_.fabric) return;
+  fabric_.flush(), sff_.flush(), rose_.flush();
 }
 
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
@@ -244,7 +294,7 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
 }
 
 int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                 RunOutput* output) {
+                 RunOutput* output, const Checkpoint* restart) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   const bool root = mpi.rank() == 0;
@@ -274,69 +324,203 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                         s.params.dt / s.critical_dt, cases.size());
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   const auto t0 = clock::now();
-  Simulation prepared(std::move(s.particles), s.cell, s.params, domain.get());
-  std::ofstream cons_series;
-  if (root) {
-    fs::create_directories(outdir);
-    cons_series.open(fs::path(outdir) / "consolidation.csv");
-    write_series_header(cons_series);
+  // On a restart: the case (-1: consolidation) and stage the checkpoint was taken in, the
+  // consolidated state's account, the results so far and the summary rows of finished cases.
+  std::int32_t current_case = -1;
+  StageCursor at, prep_account;
+  StageResult c, e_saved;
+  double t_cons = 0;
+  std::string summary_rows;
+  if (restart) {
+    BytesIn in(restart->section("app"), restart->path() + ": section app");
+    current_case = in.get<std::int32_t>();
+    at = in.get<StageCursor>();
+    prep_account = in.get<StageCursor>();
+    c = in.get<StageResult>();
+    e_saved = in.get<StageResult>();
+    t_cons = in.get<double>();
+    summary_rows = in.get_string();
+    if (!in.done() || current_case < -1 || current_case >= std::int32_t(cases.size()))
+      throw InputError(restart->path() + ": section app: case " + std::to_string(current_case) +
+                       " of a sweep of " + std::to_string(cases.size()) +
+                       ": not the state of this build's triaxial application");
   }
-  TriaxialRun prep(scene, prepared, d_mean, density, root ? &cons_series : nullptr, log);
-  FabricFiles cons_fabric(root && scene.fabric.enabled, fs::path(outdir), "consolidation_",
-                          int(scene.fabric.rose_bins));
-  prep.set_fabric_output(cons_fabric.streams());
-  prep.set_output(output, "consolidation");
-  const StageResult c = prep.consolidate();
-  const double t_cons = std::chrono::duration<double>(clock::now() - t0).count();
-  if (log)
-    *log << fmt::format("consolidated to p = {:.1f} kPa in {} steps ({:.1f} s): void ratio {:.4f}, "
-                        "Z {:.3f}, mean overlap {:.3f} % of the mean diameter\n",
-                        c.state.p / 1e3, c.steps, t_cons, c.state.void_ratio, c.state.coordination,
-                        100 * c.state.mean_overlap / d_mean);
-  std::ofstream summary;
-  if (root) {
-    summary.open(fs::path(outdir) / "summary.csv");
-    summary << "case,rolling_friction,void_ratio_consolidated,peak_q_p,eps1_at_peak,eps_v_end,"
-               "q_p_end,max_lateral_error,max_energy_error,max_inertial_number,wall_seconds\n";
+  const std::int32_t start_case = current_case;
+  std::optional<SimulationSnapshot> case_snapshot;  // decoded before any file is touched
+  if (restart && start_case >= 0) case_snapshot = restart->simulation("sim", mpi.comm());
+  std::unique_ptr<Simulation> prepared =
+      !restart ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get())
+               : std::make_unique<Simulation>(
+                     restart->simulation(start_case < 0 ? "sim" : "prep", mpi.comm()), domain.get());
+  const std::int64_t restart_step = restart ? restart->header().step : 0;
+  if (output && restart) {  // run.h5: what the run wrote after the checkpoint goes
+    std::vector<std::string> names{"consolidation"};
+    for (const TriaxialCase& tc : cases) names.push_back(tc.name);
+    output->resume_after(restart_step, names, std::size_t(start_case + 1));
   }
-  for (const TriaxialCase& tc : cases) {
-    const auto t1 = clock::now();
-    std::unique_ptr<Domain> d2 = domain ? domain->clone() : nullptr;
-    Simulation sim(prepared, d2.get());
-    std::ofstream series;
-    if (root) {
-      fs::create_directories(fs::path(outdir) / tc.name);
-      series.open(fs::path(outdir) / tc.name / "series.csv");
-      write_series_header(series);
+  const fs::path out(outdir);
+  // A series file; on a restart in its stage, its rows after the checkpoint's step are dropped.
+  auto open_series = [&](const fs::path& p, std::ofstream& f, bool resuming) {
+    if (!root) return;
+    fs::create_directories(p.parent_path());
+    if (resuming && keep_series_through(p.string(), 1, restart_step)) {
+      f.open(p, std::ios::app);
+    } else {
+      f.open(p);
+      write_series_header(f);
     }
-    TriaxialRun run(scene, sim, d_mean, density, root ? &series : nullptr, log, &prep);
-    FabricFiles fabric(root && scene.fabric.enabled, fs::path(outdir) / tc.name, "",
-                       int(scene.fabric.rose_bins));
-    run.set_fabric_output(fabric.streams());
-    run.set_output(output, tc.name);
-    if (log) *log << fmt::format("case {}: mu_s = {}, mu_r = {}\n", tc.name, scene.law.friction, tc.rolling_friction);
-    const StageResult e = run.equilibrate(tc.rolling_friction);
-    const StageResult sh = run.shear();
-    const double secs = std::chrono::duration<double>(clock::now() - t1).count();
-    const real_t p_end = sh.state.p;
-    const real_t inertial = tx.axial_strain_rate * d_mean * std::sqrt(density / std::max(p_end, 1.0));
-    const real_t qp_end = p_end > 0 ? sh.state.q / p_end : 0;
+  };
+  std::ofstream cons_series;
+  if (root) fs::create_directories(out);
+  if (start_case < 0) open_series(out / "consolidation.csv", cons_series, restart != nullptr);
+  std::optional<FabricFiles> cons_fabric;
+  if (start_case < 0)
+    cons_fabric.emplace(root && scene.fabric.enabled, out, "consolidation_", int(scene.fabric.rose_bins),
+                        restart ? restart_step : -1);
+  MPI_Barrier(mpi.comm());  // the output directory exists before any rank writes a checkpoint
+
+  // Checkpoints: the current simulation, the consolidated one (inside a case) and the state of
+  // the protocol, at rebuild steps (TriaxialRun::on_step).
+  Simulation* current = prepared.get();
+  std::ofstream* current_series = &cons_series;
+  FabricFiles* current_fabric = cons_fabric ? &*cons_fabric : nullptr;
+  StageCursor prep_acc;
+  StageResult e_res;
+  CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
+                              prepared->step_count());
+  auto save = [&](const StageCursor& cur, bool blowup) {
+    if (root && current_series) current_series->flush();
+    if (root && current_fabric) current_fabric->flush();
+    // run.h5 on disk up to here: a checkpoint never refers to output that is not (collective).
+    if (output) output->flush();
+    const auto t = clock::now();
+    CheckpointWriter w(mpi.comm(), scene_fingerprint(scene.text), "triaxial", blowup);
+    w.add_simulation("sim", *current);
+    if (current_case >= 0) w.add_simulation("prep", *prepared);
+    w.add_global("app", Bytes().put(current_case).put(cur).put(prep_acc).put(c).put(e_res)
+                            .put(t_cons).put_string(summary_rows).str());
+    const std::string path = (out / (blowup ? "blowup.ckpt" : "checkpoint.ckpt")).string();
+    const std::uint64_t bytes = w.write(path);
+    schedule.taken(current->step_count());
+    const double secs = std::chrono::duration<double>(clock::now() - t).count();
+    if (log && blowup)
+      *log << fmt::format("  state at the blow-up, step {}: {} ({:.1f} MB in {:.2f} s)\n",
+                          current->step_count(), path, double(bytes) / 1e6, secs);
+    else if (log)
+      *log << fmt::format("  checkpoint at step {} ({}, {}): {} ({:.1f} MB in {:.2f} s)\n",
+                          current->step_count(),
+                          current_case < 0 ? std::string("consolidation") : cases[current_case].name,
+                          kStageNames[int(cur.stage)], path, double(bytes) / 1e6, secs)
+           << std::flush;
+    return path;
+  };
+  // A blow-up: the state at detection goes to OUT/blowup.ckpt. Called where the simulation that
+  // blew up is still alive (inside a case, its simulation and streams are the case's locals).
+  auto blowup = [&](const BlowUpError& err) {
+    const std::string path = save(StageCursor{}, true);
+    throw CollectiveError(std::string(err.what()) + "; the state at detection is saved in " +
+                          path + " (for post-mortem: a run cannot restart from it)");
+  };
+  auto hook = [&](const StageCursor& cur) {
+    if (schedule.due(*current)) save(cur, false);
+  };
+  try {
+    TriaxialRun prep(scene, *prepared, d_mean, density, root ? &cons_series : nullptr, log);
+    if (cons_fabric) prep.set_fabric_output(cons_fabric->streams());
+    prep.set_output(output, "consolidation");
+    if (start_case < 0) {
+      prep.on_step(hook);
+      c = restart ? prep.resume(at) : prep.consolidate();
+      prep.on_step(nullptr);
+      // Every case branches from here. A rebuild of the lists makes this state one that a
+      // checkpoint restores exactly (docs/checkpoint.md), for the cases after a restart.
+      prepared->rebuild();
+      t_cons = std::chrono::duration<double>(clock::now() - t0).count();
+      cons_series.close();  // complete on disk before any checkpoint of a case
+      current_fabric = nullptr;
+      cons_fabric.reset();
+    } else {
+      prep.set_account(prep_account);
+    }
+    prep_acc = prep.account();
     if (log)
-      *log << fmt::format("case {}: equilibrated in {} steps; sheared to eps1 = {:.3f} in {} steps "
-                          "({:.1f} s): peak q/p {:.4f} at eps1 = {:.4f}, end q/p {:.4f}, eps_v {:.4f}, "
-                          "lateral stress error <= {:.2f} %, energy balance error <= {:.3f} %, "
-                          "inertial number {:.2e}\n",
-                          tc.name, e.steps, sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
-                          qp_end, sh.strain.sum(), 100 * sh.max_lateral_error,
-                          100 * std::max(e.max_energy_error, sh.max_energy_error), inertial);
-    if (log && scene.fabric.enabled)
-      *log << fmt::format("case {}: fabric analysis {:.2f} s ({:.2f} % of the case's {:.1f} s)\n",
-                          tc.name, run.fabric_seconds(), 100 * run.fabric_seconds() / secs, secs);
-    if (root)
-      summary << fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.3e},{:.1f}\n",
-                             tc.name, tc.rolling_friction, c.state.void_ratio, sh.peak_q_p,
-                             sh.peak_eps1, sh.strain.sum(), qp_end, sh.max_lateral_error,
-                             std::max(e.max_energy_error, sh.max_energy_error), inertial, secs);
+      *log << fmt::format("consolidated to p = {:.1f} kPa in {} steps ({:.1f} s): void ratio {:.4f}, "
+                          "Z {:.3f}, mean overlap {:.3f} % of the mean diameter\n",
+                          c.state.p / 1e3, c.steps, t_cons, c.state.void_ratio, c.state.coordination,
+                          100 * c.state.mean_overlap / d_mean);
+    std::ofstream summary;
+    if (root) {
+      summary.open(out / "summary.csv");
+      summary << "case,rolling_friction,void_ratio_consolidated,peak_q_p,eps1_at_peak,eps_v_end,"
+                 "q_p_end,max_lateral_error,max_energy_error,max_inertial_number,wall_seconds\n"
+              << summary_rows;
+    }
+    for (std::size_t i = std::size_t(std::max(0, start_case)); i < cases.size(); ++i) {
+      const TriaxialCase& tc = cases[i];
+      const bool resuming = restart && std::int32_t(i) == start_case;
+      const auto t1 = clock::now();
+      std::unique_ptr<Domain> d2 = domain ? domain->clone() : nullptr;
+      std::unique_ptr<Simulation> simp =
+          resuming ? std::make_unique<Simulation>(std::move(*case_snapshot), d2.get())
+                   : std::make_unique<Simulation>(*prepared, d2.get());
+      Simulation& sim = *simp;
+      std::ofstream series;
+      open_series(out / tc.name / "series.csv", series, resuming);
+      FabricFiles fabric(root && scene.fabric.enabled, out / tc.name, "", int(scene.fabric.rose_bins),
+                         resuming ? restart_step : -1);
+      current = &sim;
+      current_series = &series;
+      current_fabric = &fabric;
+      current_case = std::int32_t(i);
+      schedule.rebase(sim.step_count());
+      TriaxialRun run(scene, sim, d_mean, density, root ? &series : nullptr, log, &prep);
+      run.on_step(hook);
+      run.set_fabric_output(fabric.streams());
+      run.set_output(output, tc.name);
+      if (log) *log << fmt::format("case {}: mu_s = {}, mu_r = {}{}\n", tc.name, scene.law.friction,
+                                   tc.rolling_friction,
+                                   resuming ? fmt::format(" (resumed at step {})", sim.step_count()) : "");
+      StageResult e, sh;
+      e_res = StageResult{};
+      try {
+        if (resuming && at.stage == TriaxialStage::Shear) {
+          e = e_res = e_saved;
+          sh = run.resume(at);
+        } else {
+          e = e_res = resuming ? run.resume(at) : run.equilibrate(tc.rolling_friction);
+          sh = run.shear();
+        }
+      } catch (const BlowUpError& err) {  // every rank is here (the diagnosis is collective)
+        blowup(err);
+      }
+      const double secs = std::chrono::duration<double>(clock::now() - t1).count();
+      const real_t p_end = sh.state.p;
+      const real_t inertial = tx.axial_strain_rate * d_mean * std::sqrt(density / std::max(p_end, 1.0));
+      const real_t qp_end = p_end > 0 ? sh.state.q / p_end : 0;
+      if (log)
+        *log << fmt::format("case {}: equilibrated in {} steps; sheared to eps1 = {:.3f} in {} steps "
+                            "({:.1f} s): peak q/p {:.4f} at eps1 = {:.4f}, end q/p {:.4f}, eps_v {:.4f}, "
+                            "lateral stress error <= {:.2f} %, energy balance error <= {:.3f} %, "
+                            "inertial number {:.2e}\n",
+                            tc.name, e.steps, sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
+                            qp_end, sh.strain.sum(), 100 * sh.max_lateral_error,
+                            100 * std::max(e.max_energy_error, sh.max_energy_error), inertial);
+      if (log && scene.fabric.enabled)
+        *log << fmt::format("case {}: fabric analysis {:.2f} s ({:.2f} % of the case's {:.1f} s)\n",
+                            tc.name, run.fabric_seconds(), 100 * run.fabric_seconds() / secs, secs);
+      const std::string row =
+          fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.3e},{:.1f}\n",
+                      tc.name, tc.rolling_friction, c.state.void_ratio, sh.peak_q_p, sh.peak_eps1,
+                      sh.strain.sum(), qp_end, sh.max_lateral_error,
+                      std::max(e.max_energy_error, sh.max_energy_error), inertial, secs);
+      summary_rows += row;
+      if (root) summary << row << std::flush;
+      current = prepared.get();  // the case's simulation and series end here
+      current_series = nullptr;
+      current_fabric = nullptr;
+    }
+  } catch (const BlowUpError& err) {  // in the consolidation: every rank is here
+    blowup(err);
   }
   if (log) *log << fmt::format("series and summary written to {}\n", outdir);
   return 0;

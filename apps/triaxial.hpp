@@ -8,6 +8,7 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -29,6 +30,8 @@ class Servo {
       : target_(target), kp_(gain), ki_(integral_gain), cap_(cap), axes_(axes), fixed_(fixed) {}
   // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one.
   Vec3 update(const Mat3& stress, real_t elapsed);
+  const Vec3& integral() const { return integral_; }    // for checkpoints
+  void set_integral(const Vec3& i) { integral_ = i; }
 
  private:
   real_t target_, kp_, ki_, cap_;
@@ -54,6 +57,21 @@ struct StageResult {
   real_t max_energy_error = 0;   // over the stage, relative to the boundary work
 };
 
+enum class TriaxialStage : std::int32_t { Consolidation, Equilibration, Shear };
+
+// Where a run is inside a stage, with the run's own account: what a checkpoint saves to resume
+// the stage bit for bit (plain values only: it is stored as bytes).
+struct StageCursor {
+  TriaxialStage stage = TriaxialStage::Consolidation;
+  std::int64_t k = 0;            // steps of the stage done
+  Vec3 servo_integral = Vec3::Zero();
+  real_t last_servo = 0;         // s, time of the last servo update
+  StageResult result;            // so far
+  Vec3 l0 = Vec3::Zero();        // the run's strain reference, boundary work, initial energy
+  real_t work = 0, e0 = 0;
+  Mat3 last_stress = Mat3::Zero();
+};
+
 // One run of the protocol: the series rows go to 'series' (rank 0's stream; others pass null).
 class TriaxialRun {
  public:
@@ -64,8 +82,16 @@ class TriaxialRun {
   StageResult consolidate();
   StageResult equilibrate(real_t rolling_friction);
   StageResult shear();
+  // Continues the stage a checkpoint was taken in (the simulation restored from it).
+  StageResult resume(const StageCursor& at);
+  // Called at the end of every step of a stage that does not end there (to take checkpoints).
+  void on_step(std::function<void(const StageCursor&)> hook) { hook_ = std::move(hook); }
 
   real_t boundary_work() const { return work_; }
+  // The run's account (strain reference, boundary work, initial energy, last stress) in the
+  // fields of a cursor, and its restoration (the parent of the cases, on a restart).
+  StageCursor account() const;
+  void set_account(const StageCursor& a);
 
   // Fabric analysis ([fabric] enabled): at the output rows of the shear stage and at the end of
   // consolidation, on every rank (collective); rows go to 'out' (rank 0's streams; others pass
@@ -80,10 +106,9 @@ class TriaxialRun {
   }
 
  private:
-  enum class Stage { Consolidation, Equilibration, Shear };
-  // Steps until done() (checked at servo steps) returns true; the servo updates the rates.
-  StageResult run_stage(Stage stage, Servo servo,
-                        const std::function<bool(const MacroState&, const Vec3&)>& done);
+  using Stage = TriaxialStage;
+  // Steps until the stage is done (checked at servo steps); the servo updates the rates.
+  StageResult run_stage(Stage stage, const StageCursor* resume = nullptr);
   void row(Stage stage, const MacroState& m, const Vec3& eps);
   void fabric_row(Stage stage, const Vec3& eps);
   Servo make_servo(std::array<bool, 3> axes, Vec3 fixed) const;
@@ -99,6 +124,7 @@ class TriaxialRun {
   real_t work_ = 0;  // boundary work done on the specimen since the start [J]
   real_t e0_ = 0;    // kinetic + elastic energy at the start [J]
   Mat3 last_stress_ = Mat3::Zero();
+  std::function<void(const StageCursor&)> hook_;
   const FabricStreams* fabric_out_ = nullptr;
   double fabric_seconds_ = 0;
   RunOutput* output_ = nullptr;
@@ -107,11 +133,15 @@ class TriaxialRun {
 
 void write_series_header(std::ostream& out);
 
-// DIR/<prefix>fabric.csv, sff.csv, rose.csv with their headers (when 'open'; rank 0).
+// DIR/<prefix>fabric.csv, sff.csv, rose.csv with their headers (when 'open'; rank 0). With
+// 'resume_step' >= 0 (a restart in the stage that writes them) the existing files keep their
+// rows up to that step (the others are written again) and are appended to.
 class FabricFiles {
  public:
-  FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins);
+  FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins,
+              std::int64_t resume_step = -1);
   const FabricStreams* streams() const { return streams_.fabric ? &streams_ : nullptr; }
+  void flush();  // the rows so far on disk (before a checkpoint)
 
  private:
   std::ofstream fabric_, sff_, rose_;
@@ -119,6 +149,7 @@ class FabricFiles {
 };
 
 class MpiContext;
+class Checkpoint;
 // The scene's MPI domain ([parallel]) on several ranks; null (serial) on one.
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 
@@ -126,8 +157,9 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 // (or the single [contact] rolling_friction) a branch of the consolidated state that is
 // re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0), and
 // with 'output' the same series and the snapshots into run.h5 (cases "consolidation" and each
-// case's name).
+// case's name). Checkpoints ([run] checkpoint_every / checkpoint_seconds) go to OUT/checkpoint.ckpt; with
+// 'restart' the test continues from one (docs/checkpoint.md).
 int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                 RunOutput* output = nullptr);
+                 RunOutput* output = nullptr, const Checkpoint* restart = nullptr);
 
 }  // namespace fabrica

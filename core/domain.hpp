@@ -36,10 +36,17 @@ class Domain {
 
   // At start-up. Before: every rank holds the same complete set of particles, as read or
   // generated, wrapped into the cell. After: each rank keeps only the particles of its
-  // subdomain, whose bins are at least 'cutoff' (2 Rmax + skin) wide.
-  virtual void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) {
-    (void)p, (void)cell, (void)cutoff;
+  // subdomain, whose bins are at least 'cutoff' (2 Rmax + skin) wide. With 'decomposed_for'
+  // (a restart on the same rank count), the decomposition is the one made for a cell of those
+  // lengths (see decomposition_lengths()), so that every rank owns what it owned when saved.
+  virtual void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
+                     const Vec3* decomposed_for = nullptr) {
+    (void)p, (void)cell, (void)cutoff, (void)decomposed_for;
   }
+
+  // The cell lengths the current decomposition was made for (zero for the serial domain or a
+  // decomposition that cannot be remade from them, METIS).
+  virtual Vec3 decomposition_lengths() const { return Vec3::Zero(); }
 
   // At a rebuild, with owned positions wrapped into the cell. Before: 'history' holds the
   // springs of this rank's touching contacts, keyed by the two global ids. After: every owned

@@ -50,6 +50,25 @@ Simulation::Simulation(const Simulation& other, Domain* domain) : Simulation(oth
   domain_ = domain ? domain : &serial_;
 }
 
+Simulation::Simulation(SimulationSnapshot s, Domain* domain)
+    : domain_(domain ? domain : &serial_), p_(std::move(s.particles)), cell_(s.cell),
+      par_(std::move(s.params)), diss_(s.dissipation), macro_(s.macro), step_(s.step),
+      time_(s.time) {
+  const real_t rmax = p_.max_radius();
+  cutoff_max_ = 2 * rmax + par_.skin;
+  check_cell_size(cell_, rmax, par_.skin);
+  domain_->adopt(p_, cell_, cutoff_max_,
+                 s.decomposition_lengths.isZero() ? nullptr : &s.decomposition_lengths);
+  carry_ = std::move(s.history);
+  e0_ = s.energy.e0;
+  work_ = s.energy.work;
+  vol_strain_ = s.energy.vol_strain;
+  stress_prev_ = s.energy.stress_prev;
+  gravity_work_local_ = s.energy.gravity_work_local;
+  rebuild_lists();  // the saved run rebuilt at the saved positions: the same lists
+  rebuilds_ = s.rebuilds;
+}
+
 void Simulation::step(bool measure) {
   const real_t dt = par_.dt;
   PhaseClock clk(timing_ ? &times_ : nullptr);
@@ -66,6 +85,7 @@ void Simulation::step(bool measure) {
   domain_->update_ghosts(p_);
   clk.lap(&PhaseTimes::ghost);
   const bool rebuild_now = needs_rebuild();
+  rebuilt_last_ = false;  // set by rebuild_lists()
   clk.lap(&PhaseTimes::check);
   if (rebuild_now) {
     rebuild();
@@ -146,7 +166,11 @@ void Simulation::rebuild() {
     if (walls_.touching[q])
       carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
                     {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+  rebuild_lists();
+}
 
+void Simulation::rebuild_lists() {
+  const bool rolling = par_.law.rolling();
   // 2. Wrap into the cell, move particles that left this subdomain (with their springs), sort
   //    the owned ones in space, and bring in the ghosts.
   p_.clear_ghosts();
@@ -194,6 +218,7 @@ void Simulation::rebuild() {
   for (std::size_t a = 0; a < p_.n_owned(); ++a) s_ref_[a] = p_.x[a].cwiseQuotient(L);
   L_ref_ = L;
   ++rebuilds_;
+  rebuilt_last_ = true;
 }
 
 }  // namespace fabrica

@@ -37,6 +37,33 @@ struct PhaseTimes {
   std::int64_t steps = 0;
 };
 
+// The state a checkpoint holds (io/checkpoint.hpp): enough to rebuild a Simulation that
+// continues bit for bit, provided it was taken right after a neighbour-list rebuild
+// (Simulation::rebuilt_last_step()): the lists are then a function of the positions and of the
+// springs of the touching contacts.
+// The energy account of a Simulation (see boundary_work() and MacroState::energy_input): a
+// checkpoint carries it so that a restarted run keeps one unbroken account.
+struct EnergyAccount {
+  real_t e0 = 0;                    // kinetic + elastic energy at construction [J]
+  real_t work = 0;                  // boundary work up to the last measuring step [J]
+  Vec3 vol_strain = Vec3::Zero();   // sum of V edot_k dt since the last measuring step [m^3]
+  Mat3 stress_prev = Mat3::Zero();  // stress of the last measuring step [Pa]
+  real_t gravity_work_local = 0;    // work of gravity on this rank's particles [J]
+};
+
+struct SimulationSnapshot {
+  Particles particles;       // every particle (all ranks), forces and torques included
+  HistoryMap history;        // springs of every touching contact, keyed by the two global ids
+  PeriodicCell cell;         // lengths and strain rates
+  SimulationParams params;   // contact law, time step, skin, damping, walls
+  MacroState macro;          // the last measured state
+  Dissipation dissipation;   // this rank's accumulators
+  std::int64_t step = 0, rebuilds = 0;
+  real_t time = 0;
+  Vec3 decomposition_lengths = Vec3::Zero();  // see Domain::decomposition_lengths()
+  EnergyAccount energy;      // the global part, and this rank's gravity work
+};
+
 class Simulation {
  public:
   // Builds the contact lists and the initial forces. Throws std::invalid_argument if the cell
@@ -49,6 +76,11 @@ class Simulation {
   // A copy of 'other' that communicates through 'domain' (a clone of other's domain, or null
   // for a serial run): to branch several runs from one prepared state.
   Simulation(const Simulation& other, Domain* domain);
+
+  // A run restored from a snapshot (every rank passes the same particles and history; the
+  // dissipation is this rank's). Forces are not recomputed: the next step() is the one the
+  // saved run would have taken.
+  Simulation(SimulationSnapshot snapshot, Domain* domain);
 
   // Advances one time step. With measure = true (the same on every rank) the contact sums of
   // this step are reduced over all ranks and macro() returns the state at the end of the step.
@@ -76,6 +108,9 @@ class Simulation {
   // (trapezoid in the two measured stresses), so it lags the true work at most by the change
   // of stress over one measuring interval. Updated at measuring steps (macro().energy_input).
   real_t boundary_work() const { return work_; }
+  EnergyAccount energy_account() const {
+    return {e0_, work_, vol_strain_, stress_prev_, gravity_work_local_};
+  }
   Domain& domain() { return *domain_; }
   const PairList& pairs() const { return pairs_; }
   const WallContactList& wall_contacts() const { return walls_; }
@@ -84,6 +119,24 @@ class Simulation {
   std::int64_t step_count() const { return step_; }
   real_t time() const { return time_; }
   std::int64_t rebuild_count() const { return rebuilds_; }
+  // True if the last step() (or the construction) rebuilt the lists: the moments at which a
+  // checkpoint can be taken (and restored bit for bit).
+  bool rebuilt_last_step() const { return rebuilt_last_; }
+
+  // Calls fn(id_a, id_b, history) once per touching contact over all ranks: here, those whose
+  // lower-id body is owned by this rank (walls: b = -1 - wall index).
+  template <class F>
+  void for_each_contact(F&& fn) const {
+    const bool rolling = par_.law.rolling();
+    for (std::size_t q = 0; q < pairs_.size(); ++q)
+      if (pairs_.touching[q] && std::size_t(pairs_.i[q]) < p_.n_owned())
+        fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
+           ContactHistory{pairs_.fs[q], rolling ? pairs_.mr[q] : Vec3::Zero()});
+    for (std::size_t q = 0; q < walls_.size(); ++q)
+      if (walls_.touching[q])
+        fn(p_.id[walls_.i[q]], GlobalId(-1 - walls_.wall[q]),
+           ContactHistory{walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+  }
 
   // True once particles (on any rank) have moved, or the cell has strained, enough that a pair
   // outside the list could be touching. Collective.
@@ -101,6 +154,8 @@ class Simulation {
   void compute(bool measure, real_t dt);
 
   void measure_and_reduce();
+  // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
+  void rebuild_lists();
 
   Domain serial_;
   Domain* domain_;
@@ -126,6 +181,7 @@ class Simulation {
   Mat3 stress_prev_ = Mat3::Zero();     // stress of the last measuring step [Pa]
   real_t gravity_work_local_ = 0;       // work of gravity on the owned particles [J]
   bool timing_ = false;
+  bool rebuilt_last_ = true;
   double last_migrate_seconds_ = 0;  // communication time of the last rebuild (when timing)
   PhaseTimes times_;
 };

@@ -200,6 +200,10 @@ std::vector<std::string> Group::children() const {
   return names;
 }
 
+void Group::remove(const std::string& rel) const {
+  check(H5Ldelete(id(), rel.c_str(), H5P_DEFAULT), "removing " + rel);
+}
+
 Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols,
                               hsize_t chunk_rows) const {
   std::vector<hsize_t> dims{rows}, maxd{chunk_rows > 0 ? H5S_UNLIMITED : rows}, chunk{chunk_rows};
@@ -308,6 +312,17 @@ File File::create_parallel(const std::string& path, MPI_Comm comm, bool truncate
   Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl.get()),
            H5Fclose);
   if (!f.valid()) throw Error(path + ": cannot create the HDF5 file: " + error_stack_text());
+  return File(std::move(f), path, "/");
+}
+
+File File::open_parallel(const std::string& path, MPI_Comm comm) {
+  quiet();
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_fapl_mpio(fapl.get(), comm, MPI_INFO_NULL);
+  H5Pset_all_coll_metadata_ops(fapl.get(), true);
+  H5Pset_coll_metadata_write(fapl.get(), true);
+  Handle f(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose);
+  if (!f.valid()) throw Error(path + ": cannot open the HDF5 file for writing: " + error_stack_text());
   return File(std::move(f), path, "/");
 }
 

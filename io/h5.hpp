@@ -100,6 +100,7 @@ class Group : public Object {
   // True if every component of the relative path 'rel' exists.
   bool exists(const std::string& rel) const;
   std::vector<std::string> children() const;  // names of the links, in name order
+  void remove(const std::string& rel) const;  // unlinks 'rel' (H5Ldelete; collective under MPI-IO)
 
   // A dataset of 'rows' x 'cols' elements (cols = 0: one-dimensional). With chunk_rows > 0 it is
   // chunked and extendible along the rows (for appending).
@@ -119,7 +120,7 @@ class Dataset : public Object {
   // (n * max(cols, 1) elements). Collective transfer when 'collective' (every rank of the file's
   // communicator calls, n = 0 allowed), independent otherwise.
   void write_rows(Type t, hsize_t row0, hsize_t n, const void* data, bool collective) const;
-  void extend(hsize_t rows) const;  // collective under MPI-IO
+  void extend(hsize_t rows) const;  // sets the number of rows (grows or shrinks); collective under MPI-IO
   // The whole dataset, converted to the requested type.
   std::vector<double> read_doubles() const;
   std::vector<std::int64_t> read_ints() const;
@@ -132,6 +133,8 @@ class File : public Group {
   // Creates 'path' collectively over 'comm' with MPI-IO; refuses an existing file unless
   // 'truncate'.
   static File create_parallel(const std::string& path, MPI_Comm comm, bool truncate);
+  // Opens an existing 'path' read-write, collectively over 'comm' with MPI-IO (a restart).
+  static File open_parallel(const std::string& path, MPI_Comm comm);
   // Opens 'path' read-only, serially (the reader and `fabrica info`).
   static File open_read(const std::string& path);
   void flush() const;  // H5Fflush of the whole file (collective under MPI-IO)

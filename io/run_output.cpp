@@ -2,6 +2,7 @@
 
 #include "core/contact_snapshot.hpp"
 #include "io/layout.hpp"
+#include "io/snapshot.hpp"
 #include "io/version.hpp"
 
 #include <algorithm>
@@ -156,6 +157,124 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
     throw;
   }
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+
+RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, Restart)
+    : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every) {
+  const auto t0 = clock_type::now();
+  MPI_Comm_rank(comm, &rank_);
+  MPI_Comm_size(comm, &size_);
+  // Rank 0 checks the file serially, read-only, before any rank opens it for writing: a
+  // damaged or foreign file is refused (on every rank alike) without being touched.
+  int exists = 0;
+  std::string error;
+  if (rank_ == 0) {
+    exists = std::filesystem::exists(path_) ? 1 : 0;
+    if (exists) {
+      try {
+        const RunFileInfo ri = read_run_info(path_);
+        if (ri.scene_text != scene.text)
+          error = path_ + ": the output file holds another scene than " + scene.path;
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+      if (!error.empty())
+        error = "cannot continue the output file of the restarted run: " + error +
+                "; move it aside (a new run.h5 is then written from the restart on) and run again";
+    }
+  }
+  int len = int(error.size());
+  MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
+  MPI_Bcast(&len, 1, MPI_INT, 0, comm);
+  error.resize(std::size_t(len));
+  if (len > 0) MPI_Bcast(error.data(), len, MPI_CHAR, 0, comm);
+  if (!error.empty()) throw InputError(error);
+  if (!exists) {
+    if (rank_ == 0) std::filesystem::create_directories(outdir);
+    created_anew_ = true;
+    file_ = h5::File::create_parallel(path_, comm, false);
+    try {
+      write_header(scene);
+    } catch (...) {
+      if (size_ > 1) file_.abandon();
+      throw;
+    }
+  } else {
+    file_ = h5::File::open_parallel(path_, comm);
+  }
+  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+
+void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& cases,
+                             std::size_t current) {
+  const auto t0 = clock_type::now();
+  // Every rank makes the same calls in the same order (HDF5 metadata operations are collective).
+  auto order = [&](const std::string& c) {  // the case's place relative to the current one
+    const auto it = std::find(cases.begin(), cases.end(), c);
+    if (it == cases.end()) return -1;  // not a case of this run: left alone
+    const std::size_t i = std::size_t(it - cases.begin());
+    return i < current ? -1 : i == current ? 0 : 1;
+  };
+  series_.clear();
+  h5::Group all = file_.exists("series") ? file_.open_group("series") : file_.create_group("series");
+  for (const std::string& c : all.children()) {
+    const int o = order(c);
+    if (o < 0) continue;
+    if (o > 0) {
+      all.remove(c);
+      continue;
+    }
+    h5::Group g = all.open_group(c);
+    const std::vector<std::int64_t> steps = g.open_dataset("step").read_ints();
+    hsize_t keep = 0;
+    while (keep < steps.size() && steps[keep] <= step) ++keep;
+    for (const std::string& d : g.children()) g.open_dataset(d).extend(keep);
+    // The buffer continues the stored series: same columns, same stage codes.
+    SeriesBuffer& b = series_[c];
+    b.header = g.attr_string("columns");
+    for (const std::string& col : split_csv(b.header)) {
+      if (col == "stage") b.has_stage = true;
+      else if (col != "step") b.columns.push_back(col);
+    }
+    b.values.resize(b.columns.size());
+    if (b.has_stage) {
+      const h5::Dataset st = g.open_dataset("stage");
+      if (st.has_attr("labels")) b.labels = split_csv(st.attr_string("labels"));
+    }
+    b.written = keep;
+    b.created = true;
+  }
+  xmf_.clear();
+  h5::Group snaps = file_.exists("snapshots") ? file_.open_group("snapshots") : file_.create_group("snapshots");
+  std::vector<std::string> kept_cases = cases;
+  for (const std::string& c : snaps.children())
+    if (std::find(kept_cases.begin(), kept_cases.end(), c) == kept_cases.end()) kept_cases.push_back(c);
+  for (const std::string& c : kept_cases) {
+    if (!snaps.exists(c)) continue;
+    const int o = order(c);
+    if (o > 0) {
+      snaps.remove(c);
+      continue;
+    }
+    h5::Group cg = snaps.open_group(c);
+    std::vector<XmfEntry> entries;
+    for (const std::string& sn : cg.children()) {
+      h5::Group sg = cg.open_group(sn);
+      const std::int64_t s = sg.attr_int("step");
+      if (o == 0 && s > step) {
+        cg.remove(sn);
+        continue;
+      }
+      entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles")});
+    }
+    std::sort(entries.begin(), entries.end(),
+              [](const XmfEntry& a, const XmfEntry& b) { return a.step < b.step; });
+    xmf_.insert(xmf_.end(), entries.begin(), entries.end());
+  }
+  if (file_.exists(layout::kVertexIndex))
+    vertices_ = std::int64_t(file_.open_dataset(layout::kVertexIndex).shape()[0]);
+  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+  flush();
 }
 
 void RunOutput::write_header(const Scene& scene) {

@@ -28,6 +28,13 @@ class RunOutput {
   // Creates OUT/run.h5 (and OUT); an existing file is refused with an InputError unless
   // 'overwrite'. Writes the version attributes and the scene.
   RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, bool overwrite);
+  // A restart (fabrica run --restart): opens the existing OUT/run.h5 read-write (no overwrite
+  // needed). Before anything is written, rank 0 opens it read-only and checks it is a Fabrica
+  // output file of this scene; if not (e.g. corrupt), an InputError names it and nothing is
+  // touched. A missing run.h5 is created anew ('created_anew()' then true). Call
+  // resume_after() next, once the case the checkpoint was taken in is known.
+  struct Restart {};
+  RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, Restart);
   // Closes the file if close() was not called (errors then only printed) - except while an
   // exception unwinds on several ranks: it may be this rank's alone, and closing is collective,
   // so the file is abandoned instead (flushed at the last snapshot). Callers close() explicitly
@@ -50,6 +57,14 @@ class RunOutput {
   // The particles and contacts of 'sim' now, with the strain eps_i = ln(l_i0 / l_i). A second
   // snapshot of the same case and step is skipped (e.g. the end of a stage on a cadence step).
   void snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
+
+  // A restart from a checkpoint taken at 'step' in case cases[current] ('cases': every case of
+  // the run in the order it writes them): removes the series rows with a step after 'step' and
+  // the snapshots after it of that case, and the series and snapshots of every later case
+  // (which starts over); earlier cases are kept. Rebuilds the XDMF sidecar(s) from what
+  // remains and flushes; later rows and snapshots are appended as in an uninterrupted run.
+  void resume_after(std::int64_t step, const std::vector<std::string>& cases, std::size_t current);
+  bool created_anew() const { return created_anew_; }
 
   // Appends the buffered series rows, flushes the file (H5Fflush) and rewrites run.xmf (and,
   // with several cases, run_<case>.xmf).
@@ -92,6 +107,7 @@ class RunOutput {
   std::vector<XmfEntry> xmf_;
   double seconds_ = 0, bytes_ = 0;
   std::int64_t vertices_ = 0;  // length of /xdmf/vertices
+  bool created_anew_ = false;
 };
 
 // The XDMF 3 sidecar for the snapshots of 'entries' (case, step, time, particles) in h5file (a

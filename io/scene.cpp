@@ -276,6 +276,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (sc.snapshot_every <= 0)
     R.fail("snapshot_every", std::to_string(sc.snapshot_every), "must be positive");
   sc.hdf5 = R.boolean("hdf5").value_or(sc.hdf5);
+  if (auto c = R.integer("checkpoint_every")) sc.checkpoint_every = *c;
+  if (sc.checkpoint_every < 0)
+    R.fail("checkpoint_every", std::to_string(sc.checkpoint_every), "must be >= 0 (0 = off)");
+  sc.checkpoint_seconds = R.number("checkpoint_seconds", sc.checkpoint_seconds);
+  require(R, "checkpoint_seconds", sc.checkpoint_seconds, sc.checkpoint_seconds >= 0,
+          "must be >= 0 (0 = off)");
   R.reject_unknown();
 
   Section T(table("triaxial"), path, "triaxial");

@@ -99,6 +99,8 @@ struct Scene {
   real_t kinetic_runaway = 1.5;   // stop when kinetic (or stored + dissipated) energy > this x the energy put in (>= 1)
   real_t max_initial_overlap = 0.2;  // refuse an initial overlap above this fraction of the smaller radius
   real_t density_scaling = 1.0;   // masses and moments of inertia multiplied by this (> 0)
+  std::int64_t checkpoint_every = 0;  // steps between checkpoints (0 = none by count)
+  real_t checkpoint_seconds = 600;    // s of wall-clock time between checkpoints (0 = none by time)
   TriaxialSpec triaxial;
   ParallelSpec parallel;
   FabricSpec fabric;

@@ -42,4 +42,11 @@ class CollectiveError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A collective error for a numerical blow-up (diagnose() in core/measures.hpp): the executable
+// saves the state at detection (OUT/blowup.ckpt) before it ends the run.
+class BlowUpError : public CollectiveError {
+ public:
+  using CollectiveError::CollectiveError;
+};
+
 }  // namespace fabrica

@@ -75,6 +75,7 @@ std::vector<double> MpiDomain::global_bin_work(const Particles& p, const Periodi
 void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell) {
   if (opt_.kind == DecompositionKind::Cartesian) {
     dec_ = Decomposition::cartesian(size_, cell.lengths(), cutoff_);
+    decomposed_for_ = cell.lengths();
   } else {
     // Bin work from the current owners (the bins of the new decomposition).
     const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
@@ -83,11 +84,17 @@ void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell) {
   }
 }
 
-void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) {
+Vec3 MpiDomain::decomposition_lengths() const {
+  return opt_.kind == DecompositionKind::Cartesian ? decomposed_for_ : Vec3::Zero();
+}
+
+void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
+                      const Vec3* decomposed_for) {
   cutoff_ = cutoff;
   // Every rank holds every particle here: bin work is local knowledge, so no reduction.
   if (opt_.kind == DecompositionKind::Cartesian) {
-    dec_ = Decomposition::cartesian(size_, cell.lengths(), cutoff_);
+    decomposed_for_ = decomposed_for ? *decomposed_for : cell.lengths();
+    dec_ = Decomposition::cartesian(size_, decomposed_for_, cutoff_);
   } else {
     const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
     std::vector<double> work(shape.bins(), 0.0);

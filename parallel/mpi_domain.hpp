@@ -45,7 +45,9 @@ class MpiDomain final : public Domain {
   void max_all(std::span<double> values) override;
   void sum_all(std::span<double> values) override;
   void sum_all(std::span<std::int64_t> values) override;
-  void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
+  void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
+             const Vec3* decomposed_for = nullptr) override;
+  Vec3 decomposition_lengths() const override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
   std::unique_ptr<Domain> clone() const override { return std::make_unique<MpiDomain>(*this); }
@@ -66,6 +68,7 @@ class MpiDomain final : public Domain {
   int rank_ = 0, size_ = 1;
   MpiDomainOptions opt_;
   real_t cutoff_ = 0;
+  Vec3 decomposed_for_ = Vec3::Zero();  // cell lengths of the last Cartesian decomposition
   std::optional<Decomposition> dec_;
   // Ghost plan: owned indices sent to each partner every step; ghosts received from each.
   std::vector<std::vector<Index>> ghost_send_idx_;

@@ -161,3 +161,17 @@ TEST(Scene, OutputKeys) {
   expect_error("[run]\nsnapshot_every = 1.5\n", {"snapshot_every", "1.5", "integer"});
   expect_error("[run]\nhdf5 = \"yes\"\n", {"[run]", "hdf5", "yes", "true or false"});
 }
+
+// [run] checkpoint_every (steps, 0 = off) and checkpoint_seconds (s, 0 = off): docs/scene.md.
+TEST(Scene, CheckpointKeys) {
+  const Scene d = parse_scene("", "none.toml");
+  EXPECT_EQ(d.checkpoint_every, 0);
+  EXPECT_EQ(d.checkpoint_seconds, 600.0);
+  const Scene s = parse_scene("[run]\ncheckpoint_every = 5000\ncheckpoint_seconds = 0\n", "ck.toml");
+  EXPECT_EQ(s.checkpoint_every, 5000);
+  EXPECT_EQ(s.checkpoint_seconds, 0.0);
+  expect_error("[run]\ncheckpoint_every = -1\n", {"[run]", "checkpoint_every", "-1", ">= 0"});
+  expect_error("[run]\ncheckpoint_every = 2.5\n", {"checkpoint_every", "integer"});
+  expect_error("[run]\ncheckpoint_seconds = -60\n", {"[run]", "checkpoint_seconds", "-60", ">= 0"});
+  expect_error("[run]\ncheckpoint_seconds = nan\n", {"checkpoint_seconds", "finite"});
+}

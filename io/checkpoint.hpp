@@ -1,0 +1,179 @@
+// Checkpoints: the complete state of a run in one file, written collectively with MPI-IO and
+// readable on any number of ranks (docs/checkpoint.md).
+//
+// File layout (little-endian, as written by this machine):
+//   header (kHeaderBytes): magic "FABRCKPT", format version, header size, software version,
+//     fingerprint of the scene text, writer rank count, flags (blow-up), step, time, the
+//     application ("run" or "triaxial"), file size, and a table of sections (name, offset,
+//     bytes, records);
+//   sections, one after the other. A "collective" section holds one block per writer rank, in
+//     rank order (each rank writes its own block at an offset from the gathered sizes); a
+//     "global" section holds bytes every rank knows identically, written by rank 0;
+//   trailer: "FABREND" and a position-weighted checksum of every byte before it.
+// A file is written as DIR/name.tmp, synced, closed, then renamed by rank 0 after a barrier:
+// a run killed at any moment leaves the previous complete checkpoint in place.
+#pragma once
+#include "core/simulation.hpp"
+
+#include <mpi.h>
+
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace fabrica {
+
+// Raise the format version with any change of what is saved. Some values are saved as their
+// bytes (ContactLawParams, MacroState, the applications' cursors): their sizes are recorded and
+// checked too, so a checkpoint of a build where they differ is refused, not misread.
+inline constexpr std::uint32_t kCheckpointFormat = 2;
+inline constexpr std::size_t kHeaderBytes = 2048;
+
+// FNV-1a (64 bits) of the scene text: a checkpoint of another scene is refused.
+std::uint64_t scene_fingerprint(const std::string& text);
+
+struct CheckpointSection {
+  std::string name;
+  std::uint64_t offset = 0, bytes = 0, records = 0;
+};
+
+struct CheckpointHeader {
+  std::uint32_t format = 0;
+  std::string software;
+  std::uint64_t scene_fingerprint = 0;
+  std::int32_t ranks = 0;
+  bool blowup = false;
+  std::int64_t step = 0;
+  double time = 0;
+  std::string app;
+  std::uint64_t file_bytes = 0;
+  std::vector<CheckpointSection> sections;
+};
+
+// Appends plain values to a byte string (the application's own state).
+class Bytes {
+ public:
+  template <class T>
+  Bytes& put(const T& v) {
+    const char* c = reinterpret_cast<const char*>(&v);
+    s_.append(c, sizeof(T));
+    return *this;
+  }
+  Bytes& put_string(const std::string& v) {
+    put(std::uint64_t(v.size()));
+    s_ += v;
+    return *this;
+  }
+  const std::string& str() const { return s_; }
+
+ private:
+  std::string s_;
+};
+
+// Reads them back; throws InputError naming the file and the section if they run short.
+class BytesIn {
+ public:
+  BytesIn(std::string data, std::string where) : s_(std::move(data)), where_(std::move(where)) {}
+  template <class T>
+  T get() {
+    T v;
+    need(sizeof(T));
+    std::memcpy(static_cast<void*>(&v), s_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  std::string get_string();
+  bool done() const { return pos_ == s_.size(); }
+
+ private:
+  void need(std::size_t n) const;
+  std::string s_, where_;
+  std::size_t pos_ = 0;
+};
+
+// Stages the sections of one checkpoint, then writes it. Every rank of 'comm' makes the same
+// calls in the same order (collective).
+class CheckpointWriter {
+ public:
+  CheckpointWriter(MPI_Comm comm, std::uint64_t scene_fingerprint, std::string app, bool blowup = false);
+
+  // The state of 'sim' under sections "<prefix>.global", ".particles", ".contacts",
+  // ".dissipation". The step and time of the header are those of the first simulation added.
+  void add_simulation(const std::string& prefix, const Simulation& sim);
+  // Bytes every rank knows identically (written by rank 0).
+  void add_global(const std::string& name, std::string bytes);
+
+  // Writes 'path' atomically (path.tmp, sync, rename). Collective; throws CollectiveError on
+  // an I/O failure (the same on every rank). Returns the file size in bytes.
+  std::uint64_t write(const std::string& path);
+
+ private:
+  struct Staged {
+    std::string name;
+    bool collective;
+    std::uint64_t record_bytes;  // 0: opaque
+    std::string local;           // this rank's block (collective) or the whole section
+  };
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  CheckpointHeader head_;
+  std::vector<Staged> staged_;
+  bool have_step_ = false;
+};
+
+// A checkpoint read and checked: magic, format version, size, checksum, and (when 'scene_text'
+// is given) the scene fingerprint. Rank 0 reads the file and broadcasts it; every error is an
+// InputError naming the file and what is wrong, thrown on every rank alike.
+class Checkpoint {
+ public:
+  struct Expect {
+    const std::string* scene_text = nullptr;  // refuse a checkpoint of another scene
+    std::string app;                          // refuse another application ("" = any)
+    bool allow_blowup = false;                // refuse a blow-up checkpoint unless set
+  };
+  static Checkpoint read(MPI_Comm comm, const std::string& path, const Expect& expect);
+
+  const CheckpointHeader& header() const { return head_; }
+  const std::string& path() const { return path_; }
+  bool has(const std::string& name) const;
+  std::string section(const std::string& name) const;  // its bytes
+  // The snapshot of a simulation saved under 'prefix'; the dissipation accumulators go to the
+  // same ranks when the rank count is unchanged, else their sum goes to rank 0.
+  SimulationSnapshot simulation(const std::string& prefix, MPI_Comm comm) const;
+
+ private:
+  const CheckpointSection& find(const std::string& name) const;
+  std::string path_;
+  CheckpointHeader head_;
+  std::string data_;
+};
+
+// Prints the header and the section table (fabrica checkpoint-info).
+std::string describe(const CheckpointHeader& h, const std::string& path);
+
+// For a restart (rank 0): keeps the header line and the complete rows of the CSV series 'path'
+// whose column 'step_column' (0-based) is at most 'step', and drops the others (rows written
+// after the checkpoint, or a last row cut short by a kill), so that the restarted run appends
+// exactly what the uninterrupted run wrote. Returns false if there is no such file.
+bool keep_series_through(const std::string& path, int step_column, std::int64_t step);
+
+// When to take a checkpoint: at the first neighbour-rebuild step after 'every' steps since the
+// last one (0 = never by count), or after 'seconds' of wall-clock time (0 = never by time,
+// decided by rank 0 and broadcast). Collective at rebuild steps (identical on every rank).
+class CheckpointSchedule {
+ public:
+  CheckpointSchedule(MPI_Comm comm, std::int64_t every, double seconds, std::int64_t step);
+  bool due(const Simulation& sim);
+  void taken(std::int64_t step);
+  void rebase(std::int64_t step) { last_step_ = step; }  // count from here (a new branch)
+
+ private:
+  MPI_Comm comm_;
+  std::int64_t every_;
+  double seconds_;
+  std::int64_t last_step_;
+  double last_time_;
+};
+
+}  // namespace fabrica

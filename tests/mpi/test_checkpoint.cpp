@@ -1,0 +1,223 @@
+// Checkpoint and restart (io/checkpoint.hpp) on the dense packing, with the cell deforming and
+// rolling springs on. The reference is an uninterrupted serial run on every rank (the
+// trajectory does not depend on the rank count); the restarted run must match it bit for bit:
+// positions, velocities, spins and every shear and rolling spring.
+//   Checkpoint.BitwiseContinuation   - save at N/2 (first rebuild step from there), restore
+//                                      into a fresh Simulation, continue to N (np 1 and 2);
+//   Checkpoint.KeepSeriesThrough     - the series rows kept on a restart;
+//   CheckpointFiles.Write / .ReadAndContinue - written by one rank count, read by another
+//                                      (ctest: written on 2 ranks, read on 1 and 4), via the
+//                                      file named in FABRICA_CHECKPOINT_FILE.
+#include "core/simulation.hpp"
+#include "io/checkpoint.hpp"
+#include "io/scene.hpp"
+#include "io/setup.hpp"
+#include "parallel/mpi_domain.hpp"
+
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <filesystem>
+#include <map>
+#include <unordered_map>
+
+using namespace fabrica;
+
+namespace {
+
+constexpr int kSteps = 240;
+
+int comm_size() {
+  int s;
+  MPI_Comm_size(MPI_COMM_WORLD, &s);
+  return s;
+}
+
+std::string dense_text() {
+  std::ifstream in(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Setup dense_setup() {
+  return make_setup(load_scene(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml"));
+}
+
+// The cell deforms (shear-like: axis 1 shortens, 2 and 3 lengthen) so that the saved strain
+// rates and the rebuild criterion's reference lengths matter.
+void deform(Simulation& sim) { sim.cell().set_strain_rate(Vec3(-2.0, 1.0, 1.0)); }
+
+// Steps until at least 'to' and a rebuild step: where a checkpoint can be taken.
+void run_to_rebuild(Simulation& sim, std::int64_t to) {
+  while (sim.step_count() < to || !sim.rebuilt_last_step()) sim.step(sim.step_count() % 20 == 0);
+}
+void run_to(Simulation& sim, std::int64_t to) {
+  while (sim.step_count() < to) sim.step(sim.step_count() % 20 == 0);
+}
+
+// Counts of mismatches (x, v, w, springs) of 'par' against the serial reference, over all ranks.
+std::array<long long, 4> mismatches(const Simulation& par, const Simulation& ref) {
+  const Particles& P = par.particles();
+  const Particles& S = ref.particles();
+  std::unordered_map<GlobalId, std::size_t> at;
+  for (std::size_t a = 0; a < S.n_owned(); ++a) at[S.id[a]] = a;
+  std::array<long long, 4> bad{0, 0, 0, 0};
+  long long owned = 0;
+  for (std::size_t a = 0; a < P.n_owned(); ++a, ++owned) {
+    const std::size_t b = at.at(P.id[a]);
+    bad[0] += P.x[a] != S.x[b];
+    bad[1] += P.v[a] != S.v[b];
+    bad[2] += P.w[a] != S.w[b];
+  }
+  std::map<std::pair<GlobalId, GlobalId>, ContactHistory> springs;
+  ref.for_each_contact([&](GlobalId a, GlobalId b, const ContactHistory& h) { springs[{a, b}] = h; });
+  long long mine = 0;
+  par.for_each_contact([&](GlobalId a, GlobalId b, const ContactHistory& h) {
+    ++mine;
+    auto it = springs.find({a, b});
+    bad[3] += it == springs.end() || it->second.fs != h.fs || it->second.mr != h.mr;
+  });
+  MPI_Allreduce(MPI_IN_PLACE, bad.data(), 4, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &owned, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &mine, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(owned, (long long)S.n_owned());
+  EXPECT_EQ(mine, (long long)springs.size()) << "contacts after the restart";
+  EXPECT_GT(springs.size(), 1000u);
+  return bad;
+}
+
+std::string checkpoint_path(const std::string& tag) {
+  return (std::filesystem::temp_directory_path() /
+          ("fabrica-test-" + tag + "-np" + std::to_string(comm_size()) + ".ckpt"))
+      .string();
+}
+
+}  // namespace
+
+TEST(Checkpoint, BitwiseContinuation) {
+  fabrica::Setup s = dense_setup();
+  const std::string text = dense_text();
+  Simulation ref(s.particles, s.cell, s.params);
+  deform(ref);
+  run_to(ref, kSteps);
+
+  const std::string path = checkpoint_path("continuation");
+  std::int64_t saved_at = 0;
+  {
+    MpiDomain domain(MPI_COMM_WORLD);
+    Simulation first(s.particles, s.cell, s.params, &domain);
+    deform(first);
+    run_to_rebuild(first, kSteps / 2);
+    saved_at = first.step_count();
+    CheckpointWriter w(MPI_COMM_WORLD, scene_fingerprint(text), "run");
+    w.add_simulation("sim", first);
+    w.add_global("app", Bytes().put(std::int64_t(42)).str());
+    EXPECT_GT(w.write(path), 13584u * 100);
+  }
+  ASSERT_LT(saved_at, kSteps);
+  Checkpoint::Expect ex;
+  ex.scene_text = &text;
+  ex.app = "run";
+  const Checkpoint c = Checkpoint::read(MPI_COMM_WORLD, path, ex);
+  EXPECT_EQ(c.header().step, saved_at);
+  EXPECT_EQ(c.header().ranks, comm_size());
+  EXPECT_EQ(BytesIn(c.section("app"), "app").get<std::int64_t>(), 42);
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
+  EXPECT_EQ(restarted.step_count(), saved_at);
+  run_to(restarted, kSteps);
+  const auto bad = mismatches(restarted, ref);
+  EXPECT_EQ(bad[0], 0) << "positions differ";
+  EXPECT_EQ(bad[1], 0) << "velocities differ";
+  EXPECT_EQ(bad[2], 0) << "spins differ";
+  EXPECT_EQ(bad[3], 0) << "springs differ";
+  EXPECT_EQ(restarted.time(), ref.time());
+  EXPECT_EQ(restarted.rebuild_count(), ref.rebuild_count());
+  EXPECT_EQ(restarted.cell().lengths(), ref.cell().lengths());
+  EXPECT_GT(ref.macro().dissipated.rolling, 0.0);
+  // The measures too, bitwise, against an uninterrupted run on this rank count: the same owners
+  // and accumulators per rank, so the same sums in the same order.
+  MpiDomain domain_full(MPI_COMM_WORLD);
+  Simulation full(s.particles, s.cell, s.params, &domain_full);
+  deform(full);
+  run_to(full, kSteps);
+  const MacroState& a = restarted.macro();
+  const MacroState& b = full.macro();
+  EXPECT_EQ(a.stress, b.stress);
+  EXPECT_EQ(a.kinetic, b.kinetic);
+  EXPECT_EQ(a.e_shear, b.e_shear);
+  EXPECT_EQ(a.e_rolling, b.e_rolling);
+  EXPECT_EQ(a.dissipated.friction, b.dissipated.friction);
+  EXPECT_EQ(a.dissipated.rolling, b.dissipated.rolling);
+  EXPECT_EQ(a.dissipated.viscous, b.dissipated.viscous);
+  EXPECT_EQ(a.contacts, b.contacts);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (domain.rank() == 0) std::filesystem::remove(path);
+}
+
+// Written here for CheckpointFiles.ReadAndContinue at another rank count.
+TEST(CheckpointFiles, Write) {
+  const char* path = std::getenv("FABRICA_CHECKPOINT_FILE");
+  if (!path) GTEST_SKIP() << "FABRICA_CHECKPOINT_FILE not set";
+  fabrica::Setup s = dense_setup();
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation sim(s.particles, s.cell, s.params, &domain);
+  deform(sim);
+  run_to_rebuild(sim, kSteps / 2);
+  CheckpointWriter w(MPI_COMM_WORLD, scene_fingerprint(dense_text()), "run");
+  w.add_simulation("sim", sim);
+  w.write(path);
+}
+
+TEST(CheckpointFiles, ReadAndContinue) {
+  const char* path = std::getenv("FABRICA_CHECKPOINT_FILE");
+  if (!path) GTEST_SKIP() << "FABRICA_CHECKPOINT_FILE not set";
+  fabrica::Setup s = dense_setup();
+  Simulation ref(s.particles, s.cell, s.params);
+  deform(ref);
+  run_to(ref, kSteps);
+  const std::string text = dense_text();
+  Checkpoint::Expect ex;
+  ex.scene_text = &text;
+  const Checkpoint c = Checkpoint::read(MPI_COMM_WORLD, path, ex);
+  EXPECT_NE(c.header().ranks, comm_size()) << "meant to be read on another rank count";
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
+  run_to(restarted, kSteps);
+  // The trajectory is rank-count independent, so bitwise here too.
+  const auto bad = mismatches(restarted, ref);
+  EXPECT_EQ(bad[0], 0) << "positions differ";
+  EXPECT_EQ(bad[1], 0) << "velocities differ";
+  EXPECT_EQ(bad[2], 0) << "spins differ";
+  EXPECT_EQ(bad[3], 0) << "springs differ";
+  // Measures: sums over ranks in another order, equal to rounding.
+  EXPECT_NEAR(restarted.macro().p, ref.macro().p, 1e-12 * std::abs(ref.macro().p));
+  EXPECT_NEAR(restarted.macro().dissipated.friction, ref.macro().dissipated.friction,
+              1e-12 * ref.macro().dissipated.friction);
+}
+
+// On a restart the series keep their header and the complete rows up to the checkpoint's step.
+TEST(Checkpoint, KeepSeriesThrough) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const std::string path = checkpoint_path("series-rank" + std::to_string(rank));
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "stage,step,value\n"
+           "consolidation,100,1.5\n"
+           "consolidation,200,2.5\n"
+           "shear,300,3.5\n"
+           "shear,30";  // cut short by a kill
+  }
+  ASSERT_TRUE(keep_series_through(path, 1, 200));
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  EXPECT_EQ(s.str(), "stage,step,value\nconsolidation,100,1.5\nconsolidation,200,2.5\n");
+  EXPECT_FALSE(keep_series_through(path + ".none", 1, 200));  // no file: a new series
+  std::filesystem::remove(path);
+}
