@@ -78,7 +78,15 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
     ContactHistory h;
     h.fs = fs[q];
     if constexpr (Rolling) h.mr = mr[q];
-    const ContactResult r = contact_law<Rolling, Viscous>(law, c, k, h, dt);
+    // Assigned, not initialised, on purpose. The law is out of line here and returns its
+    // 96-byte result through memory, writing fn with an 8-byte store, fs.xy with a 16-byte one
+    // and fs.z with an 8-byte one. Initialised in place, GCC 12 reads fs back for the cross
+    // product with 16-byte loads that straddle two of those stores ({fn, fs.x}, {fs.y, fs.z}),
+    // so store-to-load forwarding fails twice per contact: 6 to 7 % of this loop with the
+    // features off (benchmarks/README.md, "Zero cost of unused features"). Assigned, the
+    // result is copied with loads that match the law's stores. Same arithmetic, same bits.
+    ContactResult r;
+    r = contact_law<Rolling, Viscous>(law, c, k, h, dt);
     fs[q] = h.fs;
     if constexpr (Rolling) mr[q] = h.mr;
 
