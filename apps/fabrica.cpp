@@ -96,6 +96,9 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   if (mpi.rank() != 0 && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
   // run.h5: a new file, or on a restart the existing one, continued (docs/output.md); a damaged
   // one stops the restart here, before any file is touched.
+  // Bad input in the particle set-up (a missing or malformed data file, overlapping spheres, a
+  // time step above the critical one) is found before any output file is created or replaced.
+  if (!ckpt) (void)make_setup(scene);
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
