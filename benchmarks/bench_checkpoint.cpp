@@ -8,6 +8,7 @@
 // broadcast), and builds the restored Simulation from it (decomposition, lists). Times are the
 // slowest rank's, between barriers; the minimum and the median over REPS are printed, with a
 // mean step of the run for scale. The last line is machine-readable.
+#include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
 #include "io/checkpoint.hpp"
 #include "io/scene.hpp"
@@ -40,10 +41,7 @@ double timed(MPI_Comm c, F&& fn) {
   MPI_Allreduce(MPI_IN_PLACE, &t, 1, MPI_DOUBLE, MPI_MAX, c);
   return t;
 }
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
+using bench::median;
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -8,6 +8,7 @@
 // the macro state every output_every steps as the peers' thermo output does. After the REPS
 // plain repetitions, PHASE_REPS more run with Simulation's phase timers on (integration,
 // neighbour check, rebuild, forces). The last line is a machine-readable summary.
+#include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
@@ -52,12 +53,7 @@ RunResult run_once(const Scene& scene, const Setup& setup, bool phases) {
   return r;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
+using bench::median;
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -8,6 +8,7 @@
 //   bench_fabric [REPS=20] [scene.toml]
 //
 // The last line is a machine-readable summary.
+#include "benchmarks/median.hpp"
 #include "core/contact_snapshot.hpp"
 #include "core/fabric.hpp"
 #include "core/simulation.hpp"
@@ -28,10 +29,7 @@ using clock_type = std::chrono::steady_clock;
 double since(clock_type::time_point t0) {
   return std::chrono::duration<double>(clock_type::now() - t0).count();
 }
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
+using bench::median;
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -10,6 +10,7 @@
 // redistribution by id, the collective writes, the H5Fflush and the XDMF rewrite). Bandwidth =
 // bytes of data written / time; the median over the repetitions is reported. The last line is
 // a machine-readable summary.
+#include "benchmarks/median.hpp"
 #include "io/run_output.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
@@ -29,12 +30,7 @@ using namespace fabrica;
 
 namespace {
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
+using bench::median;
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -9,6 +9,7 @@
 // one-rank run does. Per phase: the slowest rank's seconds per step. Bytes: sent by all ranks
 // per step (ghost updates every step, migration and ghost rebuilds amortised). The last line is
 // machine-readable.
+#include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
@@ -35,12 +36,7 @@ double sum_all(MPI_Comm c, double v) {
   MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, c);
   return v;
 }
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
+using bench::median;
 // P copies of the packing along axis 3, ids shifted by k N.
 Setup replicate(const Setup& s, int copies) {
   Setup r = s;
