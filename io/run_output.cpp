@@ -225,9 +225,17 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
       continue;
     }
     h5::Group g = all.open_group(c);
-    const std::vector<std::int64_t> steps = g.open_dataset("step").read_ints();
-    hsize_t keep = 0;
-    while (keep < steps.size() && steps[keep] <= step) ++keep;
+    // Every rank reads the stored steps, and all take rank 0's count of rows to keep: rank 0
+    // has read them before it sends the count, so before any rank shrinks the datasets below.
+    // A rank that read them after another rank's shrink had filled the cut rows of the chunk
+    // with zeros would count those as rows to keep, and the ranks would extend the datasets to
+    // different lengths (seen under load: the continued rows written after a gap of zeros).
+    std::uint64_t keep = 0;
+    {
+      const std::vector<std::int64_t> steps = g.open_dataset("step").read_ints();
+      while (keep < steps.size() && steps[keep] <= step) ++keep;
+    }
+    MPI_Bcast(&keep, 1, MPI_UINT64_T, 0, comm_);
     for (const std::string& d : g.children()) g.open_dataset(d).extend(keep);
     // The buffer continues the stored series: same columns, same stage codes.
     SeriesBuffer& b = series_[c];
