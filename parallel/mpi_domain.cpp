@@ -91,6 +91,9 @@ Vec3 MpiDomain::decomposition_lengths() const {
 void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
                       const Vec3* decomposed_for) {
   cutoff_ = cutoff;
+  rmax_ = 0;
+  for (std::size_t a = 0; a < p.n_owned(); ++a) rmax_ = std::max(rmax_, p.radius[a]);
+  MPI_Allreduce(MPI_IN_PLACE, &rmax_, 1, MPI_DOUBLE, MPI_MAX, comm_);
   // Every rank holds every particle here: bin work is local knowledge, so no reduction.
   if (opt_.kind == DecompositionKind::Cartesian) {
     decomposed_for_ = decomposed_for ? *decomposed_for : cell.lengths();
@@ -176,12 +179,52 @@ void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& hist
 }
 
 void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) {
-  (void)cutoff;  // the bins are at least this wide (checked in migrate)
+  // A particle a becomes a ghost on rank r when a bin of r within kReach of its own bin comes
+  // closer to it than R_a + Rmax + skin (= R_a + cutoff - Rmax): a partner j on r lies in such a
+  // bin, and the list takes the pair only within R_a + R_j + skin. Small particles thus travel
+  // only from a thinner layer than the cutoff; the bins alone (each at least cutoff / kReach
+  // wide) would send every particle of the two boundary bins.
   const Vec3& L = cell.lengths();
+  const std::array<int, 3>& dims = dec_->dims();
+  const real_t beyond = cutoff - rmax_ + 1e-9 * cutoff;  // Rmax + skin, and a rounding margin
   ghost_send_idx_.assign(size_, {});
-  for (std::size_t a = 0; a < p.n_owned(); ++a)
-    for (int r : dec_->neighbour_ranks(dec_->bin_of(p.x[a], L)))
-      ghost_send_idx_[r].push_back(Index(a));
+  std::vector<char> near(size_, 0);
+  constexpr int kSpan = 2 * kReach + 1;
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const int bin = dec_->bin_of(p.x[a], L);
+    const std::vector<int>& partners = dec_->neighbour_ranks(bin);
+    if (partners.empty()) continue;
+    // Per axis: the squared distance from x_a to the slab of the bin at each offset, and that
+    // bin's (periodic) coordinate.
+    const int c[3] = {bin % dims[0], (bin / dims[0]) % dims[1], bin / (dims[0] * dims[1])};
+    real_t d2[3][kSpan];
+    int w[3][kSpan];
+    for (int k = 0; k < 3; ++k) {
+      const real_t edge = L[k] / dims[k], x = p.x[a][k];
+      for (int o = -kReach; o <= kReach; ++o) {
+        const real_t lo = (c[k] + o) * edge, hi = lo + edge;
+        const real_t d = o == 0 ? 0.0 : std::max<real_t>(0.0, std::max(lo - x, x - hi));
+        d2[k][o + kReach] = d * d;
+        w[k][o + kReach] = ((c[k] + o) % dims[k] + dims[k]) % dims[k];
+      }
+    }
+    const real_t lim = p.radius[a] + beyond, lim2 = lim * lim;
+    for (int oz = 0; oz < kSpan; ++oz)
+      for (int oy = 0; oy < kSpan; ++oy) {
+        const real_t dyz = d2[2][oz] + d2[1][oy];
+        if (dyz > lim2) continue;
+        for (int ox = 0; ox < kSpan; ++ox) {
+          if (dyz + d2[0][ox] > lim2) continue;
+          const int r = dec_->owner(w[0][ox] + dims[0] * (w[1][oy] + dims[1] * w[2][oz]));
+          if (r != rank_) near[r] = 1;
+        }
+      }
+    for (int r : partners)
+      if (near[r]) {
+        ghost_send_idx_[r].push_back(Index(a));
+        near[r] = 0;
+      }
+  }
   std::vector<std::vector<char>> out(size_);
   for (int r = 0; r < size_; ++r) {
     if (ghost_send_idx_[r].empty()) continue;

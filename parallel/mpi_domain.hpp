@@ -68,6 +68,7 @@ class MpiDomain final : public Domain {
   int rank_ = 0, size_ = 1;
   MpiDomainOptions opt_;
   real_t cutoff_ = 0;
+  real_t rmax_ = 0;  // the largest radius of all ranks (cutoff_ = 2 rmax_ + skin)
   Vec3 decomposed_for_ = Vec3::Zero();  // cell lengths of the last Cartesian decomposition
   std::optional<Decomposition> dec_;
   // Ghost plan: owned indices sent to each partner every step; ghosts received from each.
