@@ -79,7 +79,7 @@ struct Cursor {
 };
 
 int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out,
-              const Checkpoint* ckpt, const std::string& restart);
+              const Checkpoint* ckpt, const std::string& restart, Setup* setup);
 
 int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir,
         bool overwrite, const std::string& restart) {
@@ -98,7 +98,9 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   // one stops the restart here, before any file is touched.
   // Bad input in the particle set-up (a missing or malformed data file, overlapping spheres, a
   // time step above the critical one) is found before any output file is created or replaced.
-  if (!ckpt) (void)make_setup(scene);
+  // The set-up made here is the run's (made once).
+  std::optional<Setup> setup;
+  if (!ckpt) setup = make_setup(scene.triaxial.enabled ? triaxial_setup_scene(scene) : scene);
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
@@ -111,8 +113,10 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   int rc = 0;
   try {
     rc = scene.triaxial.enabled
-             ? run_triaxial(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr)
-             : run_plain(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, restart);
+             ? run_triaxial(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr,
+                            setup ? &*setup : nullptr)
+             : run_plain(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, restart,
+                         setup ? &*setup : nullptr);
   } catch (const CollectiveError&) {  // met by every rank: the file can be closed (collective)
     if (out) out->close();
     throw;
@@ -132,7 +136,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
 }
 
 int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out,
-              const Checkpoint* ckpt, const std::string& restart) {
+              const Checkpoint* ckpt, const std::string& restart, Setup* setup) {
   namespace fs = std::filesystem;
   const bool root = mpi.rank() == 0;
   Cursor at;
@@ -146,7 +150,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   if (ckpt) saved = ckpt->simulation("sim", mpi.comm());
   // run.h5: the rows and snapshots after the checkpoint's step go (collective).
   if (out && ckpt) out->resume_after(ckpt->header().step, {"run"}, 0);
-  Setup s = make_setup(scene);
+  Setup s = setup ? std::move(*setup) : make_setup(scene);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
              s.particles.n_owned(), s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);

@@ -293,8 +293,15 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
   return std::make_unique<MpiDomain>(mpi.comm(), o);
 }
 
+Scene triaxial_setup_scene(const Scene& scene) {
+  Scene sized = scene;
+  for (real_t mur : scene.triaxial.rolling_friction_cases)
+    sized.law.rolling_friction = std::max(sized.law.rolling_friction, mur);
+  return sized;
+}
+
 int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                 RunOutput* output, const Checkpoint* restart) {
+                 RunOutput* output, const Checkpoint* restart, Setup* setup) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   const bool root = mpi.rank() == 0;
@@ -307,9 +314,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     for (real_t mur : tx.rolling_friction_cases) cases.push_back({fmt::format("mur_{}", mur), mur});
   }
   // The time step must suit the stiffest stage: rolling springs of the largest mu_r included.
-  Scene sized = scene;
-  for (const auto& c : cases) sized.law.rolling_friction = std::max(sized.law.rolling_friction, c.rolling_friction);
-  Setup s = make_setup(sized);
+  Setup s = setup ? std::move(*setup) : make_setup(triaxial_setup_scene(scene));
   s.params.law = scene.law;
   real_t dsum = 0, msum = 0, vsum = 0;
   for (std::size_t a = 0; a < s.particles.n_owned(); ++a) {

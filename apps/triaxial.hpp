@@ -150,6 +150,7 @@ class FabricFiles {
 
 class MpiContext;
 class Checkpoint;
+struct Setup;
 // The scene's MPI domain ([parallel]) on several ranks; null (serial) on one.
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 
@@ -159,7 +160,14 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 // with 'output' the same series and the snapshots into run.h5 (cases "consolidation" and each
 // case's name). Checkpoints ([run] checkpoint_every / checkpoint_seconds) go to OUT/checkpoint.ckpt; with
 // 'restart' the test continues from one (docs/checkpoint.md).
+// 'setup', when given, is make_setup(triaxial_setup_scene(scene)) made beforehand (fabrica run
+// checks it before run.h5 is created); it is moved from. Without it the set-up is made here.
 int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                 RunOutput* output = nullptr, const Checkpoint* restart = nullptr);
+                 RunOutput* output = nullptr, const Checkpoint* restart = nullptr,
+                 Setup* setup = nullptr);
+
+// The scene whose particle set-up a triaxial run uses: the scene with the largest mu_r of its
+// sweep, so that the time step suits the stiffest stage (rolling springs included).
+Scene triaxial_setup_scene(const Scene& scene);
 
 }  // namespace fabrica
