@@ -87,32 +87,40 @@ struct Sample {
 // Normals from E(n) = (1 + a:nn) / (4 pi) by rejection (uniform proposals, acceptance
 // (1 + a:nn) / (1 + lambda_max(a))); f_n = f0 (1 + a^n:nn), |b| = b0 (1 + a^b:nn),
 // f_t = f0 (a^t n - (n.a^t.n) n). Flags: sliding with probability 0.3, rolling 0.4.
+std::vector<ContactRecord> sample_contacts(std::size_t n, std::uint64_t seed, const Mat3& a,
+                                           const Mat3& an, const Mat3& ab, const Mat3& at,
+                                           double f0, double b0) {
+  const double lmax = Eigen::SelfAdjointEigenSolver<Mat3>(a).eigenvalues().maxCoeff();
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<ContactRecord> rec;
+  rec.reserve(n);
+  while (rec.size() < n) {
+    Vec3 v(g(rng), g(rng), g(rng));
+    v.normalize();
+    if (u(rng) * (1 + lmax) > 1 + v.dot(a * v)) continue;
+    ContactRecord c;
+    c.id1 = GlobalId(rec.size());
+    c.id2 = c.id1 + 1;
+    c.normal = v;
+    c.branch = b0 * (1 + v.dot(ab * v)) * v;
+    c.fn = f0 * (1 + v.dot(an * v));
+    c.ft = f0 * (at * v - v.dot(at * v) * v);
+    c.sliding = u(rng) < 0.3;
+    c.rolling = u(rng) < 0.4;
+    rec.push_back(c);
+  }
+  return rec;
+}
+
 Sample make_sample(std::size_t n, std::uint64_t seed) {
   Sample s;
   s.a = sym(0.5, -0.2, -0.3, 0.1, 0.05, 0.0);
   s.an = sym(0.4, -0.1, -0.3, 0.0, 0.0, 0.08);
   s.ab = sym(0.1, -0.04, -0.06, 0.02, 0.0, 0.0);
   s.at = sym(0.3, -0.15, -0.15, 0.05, 0.0, 0.0);
-  const double lmax = Eigen::SelfAdjointEigenSolver<Mat3>(s.a).eigenvalues().maxCoeff();
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> g;
-  std::uniform_real_distribution<double> u(0, 1);
-  s.rec.reserve(n);
-  while (s.rec.size() < n) {
-    Vec3 v(g(rng), g(rng), g(rng));
-    v.normalize();
-    if (u(rng) * (1 + lmax) > 1 + v.dot(s.a * v)) continue;
-    ContactRecord c;
-    c.id1 = GlobalId(s.rec.size());
-    c.id2 = c.id1 + 1;
-    c.normal = v;
-    c.branch = s.b0 * (1 + v.dot(s.ab * v)) * v;
-    c.fn = s.f0 * (1 + v.dot(s.an * v));
-    c.ft = s.f0 * (s.at * v - v.dot(s.at * v) * v);
-    c.sliding = u(rng) < 0.3;
-    c.rolling = u(rng) < 0.4;
-    s.rec.push_back(c);
-  }
+  s.rec = sample_contacts(n, seed, s.a, s.an, s.ab, s.at, s.f0, s.b0);
   return s;
 }
 
@@ -212,41 +220,15 @@ TEST(Fabric, RecoversPrescribedAnisotropy) {
 // these closed forms, the standard errors from the spread of 10 independent batches of 50,000
 // contacts (batch means); and the gap more than 10 standard errors from zero, i.e. the test
 // tells the two apart.
-std::vector<ContactRecord> axisymmetric_sample(std::size_t n, double a, double b, double t,
-                                               std::uint64_t seed) {
-  const Mat3 D = Vec3(2.0 / 3, -1.0 / 3, -1.0 / 3).asDiagonal();
-  const Mat3 A = a * D, B = b * D, T = t * D;
-  const double f0 = 10.0, b0 = 0.02, lmax = 2.0 * a / 3;
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> g;
-  std::uniform_real_distribution<double> u(0, 1);
-  std::vector<ContactRecord> rec;
-  rec.reserve(n);
-  while (rec.size() < n) {
-    Vec3 v(g(rng), g(rng), g(rng));
-    v.normalize();
-    if (u(rng) * (1 + lmax) > 1 + v.dot(A * v)) continue;
-    ContactRecord c;
-    c.id1 = GlobalId(rec.size());
-    c.id2 = c.id1 + 1;
-    c.normal = v;
-    c.branch = b0 * v;
-    c.fn = f0 * (1 + v.dot(B * v));
-    c.ft = f0 * (T * v - v.dot(T * v) * v);
-    c.sliding = u(rng) < 0.3;
-    c.rolling = u(rng) < 0.4;
-    rec.push_back(c);
-  }
-  return rec;
-}
-
 TEST(Fabric, StressForceFabricTruncationMatchesClosedForm) {
   const double a = 0.4, b = 0.6, t = 0.3;
   const double first = 0.4 * (a + b + 1.5 * t);
   const double exact = (first + 8 * a * b / 105 + 2 * a * t / 35) / (1 + 4 * a * b / 45);
   constexpr int kBatches = 10;
   constexpr std::size_t kPerBatch = 50000;
-  const std::vector<ContactRecord> rec = axisymmetric_sample(kBatches * kPerBatch, a, b, t, 7);
+  const Mat3 D = Vec3(2.0 / 3, -1.0 / 3, -1.0 / 3).asDiagonal();
+  const std::vector<ContactRecord> rec = sample_contacts(kBatches * kPerBatch, 7, a * D, b * D,
+                                                         Mat3::Zero(), t * D, 10.0, 0.02);
   Domain serial;
   auto analyse = [&](std::span<const ContactRecord> r) {
     const FabricResult f = analyse_fabric(r, 1.0, FabricOptions{}, serial);
