@@ -1,8 +1,10 @@
 #!/bin/bash
 # ctest cli.output.paraview: runs check_paraview.py with ParaView's pvpython on the run OUT and
 # renders PNG. ParaView is not a dependency of Fabrica: without pvpython the test is skipped
-# (exit 77). The Debian package renders through X: without a display the check runs under
-# xvfb-run, or without the rendering step if xvfb-run is missing too.
+# (exit 77). The Debian package renders through X. The check renders under its own X server
+# (xvfb-run -a) when xvfb-run exists, whatever DISPLAY says: an inherited DISPLAY may name a
+# server that is not there or not ready (pvpython then aborts). Without xvfb-run it renders on
+# DISPLAY only if that server answers; otherwise it checks everything but the rendering.
 #   check_paraview.sh OUT PNG
 out=$1 png=$2
 script=$(dirname "$0")/check_paraview.py
@@ -10,11 +12,23 @@ if ! command -v pvpython >/dev/null; then
   echo "cli.output.paraview: skipped: pvpython not found (ParaView is not a Fabrica dependency; install it, e.g. apt-get install paraview, to run this check)"
   exit 77
 fi
-if [ -n "$DISPLAY" ]; then
+
+# Does the X server named by $DISPLAY answer? xdpyinfo if installed, else its local socket.
+display_answers() {
+  [ -n "${DISPLAY:-}" ] || return 1
+  if command -v xdpyinfo >/dev/null; then
+    timeout 10 xdpyinfo >/dev/null 2>&1
+  else
+    local n=${DISPLAY#*:}; n=${n%%.*}
+    [[ "$DISPLAY" == :* && -S /tmp/.X11-unix/X$n ]]
+  fi
+}
+
+if command -v xvfb-run >/dev/null; then
+  exec env -u DISPLAY xvfb-run -a pvpython --force-offscreen-rendering "$script" "$out" --png "$png"
+elif display_answers; then
   exec pvpython --force-offscreen-rendering "$script" "$out" --png "$png"
-elif command -v xvfb-run >/dev/null; then
-  exec xvfb-run -a pvpython --force-offscreen-rendering "$script" "$out" --png "$png"
 else
-  echo "cli.output.paraview: no X display and no xvfb-run: checking without rendering"
-  exec pvpython "$script" "$out" --no-render
+  echo "cli.output.paraview: no xvfb-run and no X server answering on DISPLAY='${DISPLAY:-}': checking without rendering"
+  exec env -u DISPLAY pvpython "$script" "$out" --no-render
 fi
