@@ -25,8 +25,9 @@ display_answers() {
 }
 
 # pvpython's first X connection is sometimes refused under load although the server is up and
-# answers xdpyinfo ("bad X server connection", then SIGABRT; seen 1 run in 5 with two busy loops
-# beside it, never idle). That failure alone is retried, up to 3 attempts, and reported.
+# answers xdpyinfo ("bad X server connection", then SIGABRT; 2 to 4 runs in 15 with two busy loops
+# beside it, none in 12 idle; once in CI). That failure alone is retried, up to 3 attempts, and
+# reported.
 render() {
   local log rc attempt
   log=$(mktemp)
