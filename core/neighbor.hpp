@@ -25,14 +25,16 @@ class NeighborSearch {
  public:
   // Fills out.i, out.j, out.image (springs are left to the caller) with every pair that has at
   // least one owned particle. Pairs are oriented from the lower to the higher global id and
-  // sorted by (id_i, id_j). Positions must lie in [0, L) (ghosts included).
+  // sorted by the places of i, then j, in the space-filling-curve order of core/space_order.hpp
+  // (the same relative order on every rank). Positions must lie in [0, L) (ghosts included).
   void build(const Particles& p, const PeriodicCell& cell, real_t skin, PairList& out);
 
   // Sphere-wall candidates: distance from the plane below R_i + skin.
   static void build_walls(const Particles& p, const std::vector<Wall>& walls, real_t skin,
                           WallContactList& out);
 
-  // A spatial order of the owned particles (by cell of a fine grid) for cache locality.
+  // The owned particles in the space-filling-curve order (core/space_order.hpp), for cache
+  // locality.
   std::vector<Index> spatial_order(const Particles& p, const PeriodicCell& cell) const;
 
  private:
@@ -40,7 +42,13 @@ class NeighborSearch {
   std::vector<Index> cell_start_, cell_items_; // counting-sort buffers
   std::vector<Index> tmp_i_, tmp_j_;
   std::vector<std::uint8_t> tmp_img_;
-  std::vector<std::uint32_t> order_;
+  struct SortItem {
+    std::uint64_t key;  // place of i << 32 | place of j
+    std::uint32_t q;
+  };
+  std::vector<std::uint32_t> rank_;
+  std::size_t last_pairs_ = 0;  // pairs found by the previous build
+  std::vector<SortItem> sort_;
 };
 
 // Reference: every pair within R_i + R_j + skin by testing all N^2/2 pairs (minimum image),

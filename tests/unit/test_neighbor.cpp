@@ -2,10 +2,13 @@
 //  - NeighborSearch::build == brute_force_pairs on polydisperse periodic packings (diameter
 //    ratio 6), including cells where the grid of the largest class has fewer than 3 cells per
 //    axis, with the stored periodic image giving the minimum-image branch vector;
+//  - the list order (by space-filling-curve place, core/space_order.hpp) depends on the
+//    particles alone, not on their storage order (the basis of rank-count independence);
 //  - during a run with a deforming cell, the Verlet rebuild criterion keeps every touching pair
 //    in the list (checked against brute force at every step).
 #include "core/generate.hpp"
 #include "core/neighbor.hpp"
+#include "core/space_order.hpp"
 #include "core/timestep.hpp"
 #include "scene_helpers.hpp"
 
@@ -17,6 +20,7 @@
 #include <numbers>
 #include <map>
 #include <set>
+#include <tuple>
 
 namespace fabrica {
 namespace {
@@ -62,8 +66,14 @@ void compare_with_brute_force(const Particles& p, const PeriodicCell& cell, real
   const std::vector<Pair> ref = brute_force_pairs(p, cell, skin);
   EXPECT_TRUE(std::adjacent_find(got.begin(), got.end()) == got.end()) << "duplicate pair";
   EXPECT_EQ(got, ref) << label;
-  // Sorted by the first index, as the force loop expects.
-  EXPECT_TRUE(std::is_sorted(pl.i.begin(), pl.i.end()));
+  // Sorted along the space-filling curve: by (Morton key, id) of body i, then of body j,
+  // computed here from the positions and ids alone (independently of neighbor.cpp).
+  using Place = std::tuple<std::uint64_t, GlobalId, std::uint64_t, GlobalId>;
+  std::vector<Place> places;
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    places.emplace_back(morton_key(p.x[pl.i[q]], cell.lengths()), p.id[pl.i[q]],
+                        morton_key(p.x[pl.j[q]], cell.lengths()), p.id[pl.j[q]]);
+  EXPECT_TRUE(std::is_sorted(places.begin(), places.end())) << label;
   std::printf("[neighbor] %s: N = %zu, cell %.3f x %.3f x %.3f m, %zu pairs (brute force %zu)\n",
               label, p.size(), cell.lengths()[0], cell.lengths()[1], cell.lengths()[2],
               got.size(), ref.size());
@@ -113,6 +123,47 @@ TEST(Neighbor, BuildMatchesBruteForceSmallCell) {
     const Particles p = compressed_packing(d, Lv, 0.8, rng);
     for (real_t s : {0.0, skin}) compare_with_brute_force(p, cell, s, "small cell");
   }
+}
+
+// The Morton key interleaves the cell coordinates (bit k of axis a at bit 3k + a) and clamps
+// positions on the upper face into the last cell.
+TEST(Neighbor, MortonKeyInterleavesAndClamps) {
+  const Vec3 L(2.0, 4.0, 8.0);
+  const real_t cell = std::ldexp(1.0, -kMortonBits);  // one grid cell in reduced coordinates
+  EXPECT_EQ(morton_key(Vec3(0, 0, 0), L), 0u);
+  EXPECT_EQ(morton_key(Vec3(1.5 * cell * L[0], 0, 0), L), 1u);
+  EXPECT_EQ(morton_key(Vec3(0, 1.5 * cell * L[1], 0), L), 2u);
+  EXPECT_EQ(morton_key(Vec3(0, 0, 1.5 * cell * L[2]), L), 4u);
+  EXPECT_EQ(morton_key(Vec3(2.5 * cell * L[0], 0, 0), L), 8u);  // cell 2 along x: bit 3
+  EXPECT_EQ(morton_key(L, L), (std::uint64_t(1) << (3 * kMortonBits)) - 1);
+  EXPECT_EQ(morton_key(Vec3(-1e-300, 0, 0), L), 0u);
+}
+
+// The pair list, as a sequence of (id_i, id_j), is the same whatever the storage order of the
+// particles: what makes force sums bitwise the same on any number of ranks.
+TEST(Neighbor, PairOrderIndependentOfStorageOrder) {
+  Random rng(11);
+  std::vector<real_t> d = diameters(600, rng);
+  const Vec3 L = Vec3(1, 1, 2) * std::cbrt(solid_volume(d) / 0.3 / 2.0) * 0.85;
+  const Particles p = compressed_packing(d, L, 0.85, rng);
+  const PeriodicCell cell(L);
+  auto id_sequence = [&](const Particles& q) {
+    NeighborSearch ns;
+    PairList pl;
+    ns.build(q, cell, 0.002, pl);
+    std::vector<Pair> seq;
+    for (std::size_t k = 0; k < pl.size(); ++k) seq.emplace_back(q.id[pl.i[k]], q.id[pl.j[k]]);
+    return seq;
+  };
+  Particles shuffled = p;
+  std::vector<Index> order(p.n_owned());
+  for (std::size_t a = 0; a < order.size(); ++a) order[a] = Index(order.size() - 1 - a);
+  for (std::size_t a = order.size() - 1; a > 0; --a)
+    std::swap(order[a], order[std::size_t(rng.uniform() * double(a + 1))]);
+  shuffled.permute_owned(order);
+  const std::vector<Pair> ref = id_sequence(p);
+  EXPECT_GT(ref.size(), p.size());
+  EXPECT_EQ(id_sequence(shuffled), ref);
 }
 
 // The Verlet criterion under a deforming cell: at every step, every pair that touches now
