@@ -1,7 +1,8 @@
 // Domain decomposition of the periodic cell over MPI ranks.
 //
 // The cell is divided into bins in reduced coordinates (x_k / L_k), so subdomain bounds follow
-// the cell as it deforms. A bin's edge is at least half the interaction cutoff (2 Rmax + skin),
+// the cell as it deforms. A bin's edge is at least half the interaction cutoff (2 Rmax + skin;
+// made 1.25 times that, so that it stays so while an axis of the cell shrinks by 20 %),
 // so every pair that can interact lies within two bins of each other along every axis
 // (kReach = 2: the 124 neighbours of a bin, periodic). Half-cutoff bins let the subdomains be
 // cut twice as finely as cutoff-wide bins would, for a better balance of the load.
@@ -53,6 +54,10 @@ class Decomposition {
   int owner(int bin) const { return owner_[bin]; }
   // Distinct ranks, other than the bin's owner, that own a bin within kReach of 'bin' (periodic).
   const std::vector<int>& neighbour_ranks(int bin) const { return adj_ranks_[bin]; }
+  // Distinct ranks, other than 'rank', that own a bin within kReach of one of rank's bins
+  // (sorted): the only ranks it exchanges ghosts and migrants with. Symmetric: r is a partner
+  // of s exactly when s is a partner of r.
+  std::vector<int> partners(int rank) const;
   // True while bins are still at least cutoff / kReach wide in the current cell.
   bool fits(const Vec3& L, real_t cutoff) const;
 

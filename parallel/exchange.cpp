@@ -27,6 +27,33 @@ std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std
   return in;
 }
 
+std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vector<int>& partners,
+                                                 const std::vector<std::vector<char>>& out,
+                                                 int tag) {
+  const std::size_t n = partners.size();
+  std::vector<long long> scount(n), rcount(n);
+  std::vector<MPI_Request> req(2 * n);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (out[k].size() > std::size_t(INT32_MAX))
+      throw std::runtime_error("exchange_partners: more than 2 GiB to one rank");
+    scount[k] = static_cast<long long>(out[k].size());
+    MPI_Irecv(&rcount[k], 1, MPI_LONG_LONG, partners[k], tag, comm, &req[k]);
+  }
+  for (std::size_t k = 0; k < n; ++k)
+    MPI_Isend(&scount[k], 1, MPI_LONG_LONG, partners[k], tag, comm, &req[n + k]);
+  MPI_Waitall(int(2 * n), req.data(), MPI_STATUSES_IGNORE);
+  std::vector<std::vector<char>> in(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (rcount[k] > INT32_MAX) throw std::runtime_error("exchange_partners: more than 2 GiB from one rank");
+    in[k].resize(std::size_t(rcount[k]));
+    MPI_Irecv(in[k].data(), int(rcount[k]), MPI_BYTE, partners[k], tag + 1, comm, &req[k]);
+  }
+  for (std::size_t k = 0; k < n; ++k)
+    MPI_Isend(out[k].data(), int(out[k].size()), MPI_BYTE, partners[k], tag + 1, comm, &req[n + k]);
+  MPI_Waitall(int(2 * n), req.data(), MPI_STATUSES_IGNORE);
+  return in;
+}
+
 void NeighbourExchange::start(MPI_Comm comm, int tag) {
   requests.clear();
   recv_buf.resize(recv_ranks.size());

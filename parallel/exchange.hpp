@@ -12,6 +12,14 @@ namespace fabrica {
 // Before: out.size() == comm size. After: in.size() == comm size.
 std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std::vector<char>>& out);
 
+// Sends out[k] to partners[k] and returns what partners[k] sent to this one (in[k]): point to
+// point with the partners only (sizes first, then bytes), no collective over comm.
+// Before: the partner lists are symmetric (r lists s exactly when s lists r), every rank of the
+// pattern calls it with the same tag. After: in.size() == partners.size().
+std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vector<int>& partners,
+                                                 const std::vector<std::vector<char>>& out,
+                                                 int tag);
+
 // A plan for the same exchange repeated every step between fixed partners (ghost updates):
 // what each partner gets and how many bytes each partner sends back.
 struct NeighbourExchange {

@@ -11,6 +11,8 @@ namespace fabrica {
 namespace {
 
 constexpr int kForwardTag = 7101;
+constexpr int kMigrateTag = 7111;  // and 7112
+constexpr int kGhostTag = 7121;    // and 7122
 
 struct HistoryRecord {
   GlobalId a, b;
@@ -74,14 +76,22 @@ std::vector<double> MpiDomain::global_bin_work(const Particles& p, const Periodi
 
 void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell) {
   if (opt_.kind == DecompositionKind::Cartesian) {
-    dec_ = Decomposition::cartesian(size_, cell.lengths(), cutoff_);
+    set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_));
     decomposed_for_ = cell.lengths();
   } else {
     // Bin work from the current owners (the bins of the new decomposition).
     const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
-    dec_ = Decomposition::metis(size_, cell.lengths(), cutoff_, global_bin_work(p, cell, shape),
-                                comm_);
+    set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_,
+                                           global_bin_work(p, cell, shape), comm_));
   }
+}
+
+void MpiDomain::set_decomposition(Decomposition d) {
+  dec_ = std::move(d);
+  partners_ = dec_->partners(rank_);
+  partner_slot_.assign(size_, -1);
+  for (std::size_t k = 0; k < partners_.size(); ++k) partner_slot_[partners_[k]] = int(k);
+  redecomposed_ = true;
 }
 
 Vec3 MpiDomain::decomposition_lengths() const {
@@ -97,13 +107,14 @@ void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
   // Every rank holds every particle here: bin work is local knowledge, so no reduction.
   if (opt_.kind == DecompositionKind::Cartesian) {
     decomposed_for_ = decomposed_for ? *decomposed_for : cell.lengths();
-    dec_ = Decomposition::cartesian(size_, decomposed_for_, cutoff_);
+    set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_));
   } else {
     const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
     std::vector<double> work(shape.bins(), 0.0);
     for (std::size_t a = 0; a < p.n_owned(); ++a) work[shape.bin_of(p.x[a], cell.lengths())] += 1;
-    dec_ = Decomposition::metis(size_, cell.lengths(), cutoff_, work, comm_);
+    set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_, work, comm_));
   }
+  redecomposed_ = false;  // every rank keeps its own share: nothing to send
   std::vector<Index> keep;
   for (std::size_t a = 0; a < p.n_owned(); ++a)
     if (dec_->owner(dec_->bin_of(p.x[a], cell.lengths())) == rank_) keep.push_back(Index(a));
@@ -152,8 +163,10 @@ void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& hist
     });
   }
   std::vector<std::vector<char>> out(size_);
+  int beyond = redecomposed_ ? 1 : 0;  // a destination that is not a partner
   for (int r = 0; r < size_; ++r) {
     if (leave[r].empty()) continue;
+    beyond |= partner_slot_[r] < 0;
     put(out[r], std::int64_t(leave[r].size()));
     pack(p, leave[r], Message::Full, out[r]);
     put(out[r], std::int64_t(hist_out[r].size()));
@@ -161,7 +174,22 @@ void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& hist
     stats_.particles_migrated += std::int64_t(leave[r].size());
     stats_.bytes_migrated += std::int64_t(out[r].size());
   }
-  const auto in = exchange_all(comm_, out);
+  // Between decompositions a particle moves less than a bin between rebuilds, so it goes to a
+  // partner: point to point. After a new decomposition (or if anything would go further), one
+  // all-to-all; the decision is one allreduce of a flag, the same on every rank.
+  MPI_Allreduce(MPI_IN_PLACE, &beyond, 1, MPI_INT, MPI_LOR, comm_);
+  redecomposed_ = false;
+  std::vector<std::vector<char>> in;
+  if (beyond) {
+    in = exchange_all(comm_, out);
+    ++stats_.migrations_all_to_all;
+  } else {
+    std::vector<std::vector<char>> to(partners_.size());
+    for (std::size_t k = 0; k < partners_.size(); ++k) to[k] = std::move(out[partners_[k]]);
+    std::vector<std::vector<char>> from = exchange_partners(comm_, partners_, to, kMigrateTag);
+    in.assign(size_, {});
+    for (std::size_t k = 0; k < partners_.size(); ++k) in[partners_[k]] = std::move(from[k]);
+  }
   p.permute_owned(keep);
   for (int r = 0; r < size_; ++r) {
     if (in[r].empty()) continue;
@@ -225,21 +253,24 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
         near[r] = 0;
       }
   }
-  std::vector<std::vector<char>> out(size_);
-  for (int r = 0; r < size_; ++r) {
+  // Ghosts come only from partners (the owners of bins within kReach): point to point.
+  std::vector<std::vector<char>> out(partners_.size());
+  for (std::size_t k = 0; k < partners_.size(); ++k) {
+    const int r = partners_[k];
     if (ghost_send_idx_[r].empty()) continue;
-    pack(p, ghost_send_idx_[r], Message::Full, out[r]);
-    stats_.bytes_ghost_build += std::int64_t(out[r].size());
+    pack(p, ghost_send_idx_[r], Message::Full, out[k]);
+    stats_.bytes_ghost_build += std::int64_t(out[k].size());
   }
-  const auto in = exchange_all(comm_, out);
+  const auto in = exchange_partners(comm_, partners_, out, kGhostTag);
   const std::size_t full = bytes_per_particle(Message::Full);
   ghost_recv_first_.assign(size_, 0);
   ghost_recv_count_.assign(size_, 0);
-  for (int r = 0; r < size_; ++r) {
-    const std::size_t n = in[r].size() / full;
+  for (std::size_t k = 0; k < partners_.size(); ++k) {
+    const int r = partners_[k];
+    const std::size_t n = in[k].size() / full;
     ghost_recv_count_[r] = n;
     ghost_recv_first_[r] = p.append_ghosts(n);
-    unpack(p, ghost_recv_first_[r], n, Message::Full, in[r].data());
+    unpack(p, ghost_recv_first_[r], n, Message::Full, in[k].data());
   }
   // The forward plan: same partners, same order, every step.
   forward_.send_ranks.clear();

@@ -26,6 +26,7 @@ struct MpiDomainOptions {
 
 struct DomainStats {
   std::int64_t migrations = 0;          // rebuilds with migration
+  std::int64_t migrations_all_to_all = 0;  // of which after a new decomposition (all ranks)
   std::int64_t particles_migrated = 0;  // sent by this rank
   std::int64_t bytes_migrated = 0;      // sent by this rank (particles + history)
   std::int64_t bytes_ghost_build = 0;   // sent by this rank at ghost creation
@@ -55,12 +56,15 @@ class MpiDomain final : public Domain {
   int size() const override { return size_; }
 
   const Decomposition& decomposition() const { return *dec_; }
+  // The ranks this one exchanges ghosts and migrants with (Decomposition::partners).
+  const std::vector<int>& partners() const { return partners_; }
   const DomainStats& stats() const { return stats_; }
   // max/mean of the owned particle count over ranks (collective).
   double load_imbalance(const Particles& p);
 
  private:
   void decompose(const Particles& p, const PeriodicCell& cell);
+  void set_decomposition(Decomposition d);  // and its partner ranks
   std::vector<double> global_bin_work(const Particles& p, const PeriodicCell& cell,
                                       const Decomposition& d);
 
@@ -71,6 +75,9 @@ class MpiDomain final : public Domain {
   real_t rmax_ = 0;  // the largest radius of all ranks (cutoff_ = 2 rmax_ + skin)
   Vec3 decomposed_for_ = Vec3::Zero();  // cell lengths of the last Cartesian decomposition
   std::optional<Decomposition> dec_;
+  std::vector<int> partners_;      // dec_->partners(rank_)
+  std::vector<int> partner_slot_;  // per rank: its index in partners_, or -1
+  bool redecomposed_ = false;      // a new decomposition since the last migration
   // Ghost plan: owned indices sent to each partner every step; ghosts received from each.
   std::vector<std::vector<Index>> ghost_send_idx_;
   std::vector<std::size_t> ghost_recv_first_, ghost_recv_count_;
