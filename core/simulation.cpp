@@ -157,7 +157,10 @@ bool Simulation::needs_rebuild() {
 void Simulation::rebuild() {
   const bool rolling = par_.law.rolling();
   // 1. Keep the springs of touching contacts, keyed by global ids (local indices change).
-  carry_.reset(pairs_.size() + walls_.size());
+  std::size_t touching = 0;
+  for (std::uint8_t t : pairs_.touching) touching += t;
+  for (std::uint8_t t : walls_.touching) touching += t;
+  carry_.reset(touching);
   for (std::size_t q = 0; q < pairs_.size(); ++q)
     if (pairs_.touching[q])
       carry_.insert(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
@@ -166,6 +169,9 @@ void Simulation::rebuild() {
     if (walls_.touching[q])
       carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
                     {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+  // The old lists are now in carry_: free them before the new ones are built (memory at large N).
+  pairs_ = PairList();
+  walls_ = WallContactList();
   rebuild_lists();
 }
 
@@ -211,6 +217,8 @@ void Simulation::rebuild_lists() {
       walls_.fs[q] = h->fs;
       if (rolling) walls_.mr[q] = h->mr;
     }
+
+  carry_.release();  // attached: the springs live in the lists until the next rebuild
 
   // 4. Reference for the displacement criterion.
   const Vec3& L = cell_.lengths();

@@ -1,5 +1,6 @@
 #include "io/lammps_data.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -60,6 +61,10 @@ DataFile read_lammps_data(const std::string& path) {
         if (seen) throw InputError(where(path, lineno) + ": section '" + w1 + "' appears twice");
         seen = true;
         section = w1 == "Atoms" ? Section::Atoms : Section::Velocities;
+        // Room for the header's count, so that the arrays do not double past need (up to
+        // 2^26 at once: a wrong count cannot request more than that before the data say so).
+        if (section == Section::Atoms)
+          out.particles.reserve(std::size_t(std::min<long long>(natoms, 1ll << 26)));
         continue;
       }
       // Header keywords follow numbers ("N atoms", "lo hi xlo xhi"): a line that starts with a

@@ -38,9 +38,17 @@ real_t scene_time_step(const Scene& sc, real_t critical_dt) {
 }
 
 OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell) {
-  Particles w = p;  // the search needs positions in [0, L)
-  w.clear_ghosts();
-  for (std::size_t a = 0; a < w.n_owned(); ++a) w.x[a] = cell.wrap(w.x[a]);
+  // The search needs positions in [0, L): a wrapped copy only if some are not (memory at
+  // large N; make_setup passes wrapped positions).
+  bool wrapped = p.n_ghost() == 0;
+  for (std::size_t a = 0; wrapped && a < p.n_owned(); ++a) wrapped = cell.wrap(p.x[a]) == p.x[a];
+  Particles copy;
+  if (!wrapped) {
+    copy = p;
+    copy.clear_ghosts();
+    for (std::size_t a = 0; a < copy.n_owned(); ++a) copy.x[a] = cell.wrap(copy.x[a]);
+  }
+  const Particles& w = wrapped ? p : copy;
   NeighborSearch search;
   PairList pairs;
   search.build(w, cell, 0.0, pairs);
@@ -97,6 +105,9 @@ Setup make_setup(const Scene& sc) {
   } catch (const std::exception& e) {
     throw InputError(sc.path + ": [cell] " + e.what());
   }
+  // Wrapped now as the simulation would (the same positions; the overlap check needs them).
+  for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
+    s.particles.x[a] = s.cell.wrap(s.particles.x[a]);
   const OverlapReport ov = largest_overlap(s.particles, s.cell);
   if (ov.ratio > sc.max_initial_overlap) {
     const std::string from = sc.source == ParticleSource::File
