@@ -8,6 +8,7 @@ import csv
 import glob
 import os
 import re
+import tomllib
 
 import numpy as np
 
@@ -104,6 +105,14 @@ class Run:
             with open(p) as fh:
                 self.summary = list(csv.DictReader(fh))
         self.info = self.h5.info()
+        try:
+            scene = tomllib.loads(self.info.scene_text)
+        except tomllib.TOMLDecodeError as e:
+            raise SystemExit(f"plot_paper.py: {h5}: the stored scene does not parse: {e}")
+        # The defaults of io/scene.hpp and core/contact_law.hpp for keys the scene leaves out.
+        self.mu_s = float(scene.get("contact", {}).get("friction", 0.3))
+        self.consolidation_mu_s = float(scene.get("triaxial", {}).get("consolidation_friction", 1.0))
+        self.scene = scene
 
     def reference(self):
         """The case shown in figures 3-8: the one with mu_r nearest to the study's 0.05, among

@@ -33,6 +33,7 @@ try:
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
     import paper_data as pd
+    from paper_findings import sff_deviation
 except ImportError as e:  # pragma: no cover
     sys.exit(f"plot_paper.py: {e}; install python3-numpy, python3-matplotlib and python3-h5py "
              "and run with /usr/bin/python3")
@@ -94,7 +95,7 @@ def fig_force_chains(run, path, written):
     ax[0].set_ylabel(r"$x_1$ (m), loading axis")
     eps1 = 100 * c.info.strain[0]
     fig.suptitle(f"Fig. 3  Force chains at the end of shear ($\\varepsilon_1$ = {eps1:.1f} %), "
-                 f"$\\mu_s$ = 0.3, {case.label}\ncontacts with their midpoint in the middle third of the cell "
+                 f"$\\mu_s$ = {run.mu_s:g}, {case.label}\ncontacts with their midpoint in the middle third of the cell "
                  f"along axis 3, projected on the 1-2 plane; line width proportional to $f_n$ "
                  f"(largest {fmax:.3g} N)", fontsize=10.5)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
@@ -167,7 +168,7 @@ def fig_fabric(run, networks, number, title, path, written):
         rose_panel(axr, case, net, LETTERS[n + k])
         if k == 0:
             axr.legend(loc="lower left", bbox_to_anchor=(-0.15, -0.12), fontsize=8)
-    fig.suptitle(f"Fig. {number}  {title}, $\\mu_s$ = 0.3, {case.label}\nsolid: the network, dashed: the "
+    fig.suptitle(f"Fig. {number}  {title}, $\\mu_s$ = {run.mu_s:g}, {case.label}\nsolid: the network, dashed: the "
                  f"global network; rose diagrams at the end of shear (dashed outline: global)", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     save(fig, path, written)
@@ -189,7 +190,7 @@ def fig_anisotropy(run, path, written):
         name = "contact normal anisotropy" if key == "a_c" else "normal contact force anisotropy"
         ax[i].set_title(f"({LETTERS[i]}) {name} ${sym}$")
     ax[0].legend(ncol=2, fontsize=8)
-    fig.suptitle(f"Fig. 8  Anisotropy of the sub-networks during shear, $\\mu_s$ = 0.3, {case.label} "
+    fig.suptitle(f"Fig. 8  Anisotropy of the sub-networks during shear, $\\mu_s$ = {run.mu_s:g}, {case.label} "
                  f"(a_n left out where the network's density 1 + a_c:nn is not positive)", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.94))
     save(fig, path, written)
@@ -212,7 +213,7 @@ def fig_anisotropy_mur(run, path, written):
                 ax[i, j].set_xlabel(EPS1)
     ax[0, 0].legend()
     fig.suptitle("Fig. 9  Influence of rolling resistance on the anisotropy indices of the global, ns, sf and "
-                 "ns-sf networks ($\\mu_s$ = 0.3)", fontsize=11)
+                 f"ns-sf networks ($\\mu_s$ = {run.mu_s:g})", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     save(fig, path, written)
 
@@ -233,7 +234,7 @@ def fig_stress_strain(run, path, written):
         a.set_xlabel(EPS1)
         a.legend()
     fig.suptitle("Fig. 10  Macroscopic stress-strain response for different rolling resistance coefficients "
-                 "($\\mu_s$ = 0.3, lateral stresses 200 kPa)", fontsize=11)
+                 f"($\\mu_s$ = {run.mu_s:g})", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     save(fig, path, written)
 
@@ -262,15 +263,6 @@ def fig_xi(run, path, written):
                  "(share of the contacts × relative mean normal force)", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.92))
     save(fig, path, written)
-
-
-def sff_deviation(case, partition, form="star"):
-    """Mean and max |(q/p)* - q/p| / (q/p) over the shear rows, for one partition."""
-    q = case.sff
-    pred = q[f"q_p_{form}_{partition}"]
-    ok = np.isfinite(pred) & (q["q_p"] > 0)
-    d = np.abs(pred[ok] - q["q_p"][ok]) / q["q_p"][ok]
-    return (float(d.mean()), float(d.max())) if d.size else (float("nan"), float("nan"))
 
 
 def fig_sff(run, path, written):
