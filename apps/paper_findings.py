@@ -1,6 +1,6 @@
 """The twelve findings of the reference study (shared/spec/reference-problem.md section 7),
-each decided on a run's output with stated numbers and thresholds (docs/fabric.md#the-studys-
-findings-decided-by-the-report lists the criteria).
+each decided on a run's output with stated numbers and thresholds (docs/fabric.md, "The study's
+findings, decided by the report", lists the criteria).
 
 ``decide(run)`` returns twelve :class:`Finding`, in the spec's order. A verdict is
 ``holds``, ``does not hold``, or ``cannot be decided`` when the run lacks what the finding is

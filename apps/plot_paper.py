@@ -3,7 +3,7 @@
 
     /usr/bin/python3 apps/plot_paper.py OUT [--no-report]
 
-writes OUT/figures/ (docs/fabric.md#figures-of-the-study lists what each shows):
+writes OUT/figures/ (docs/fabric.md, "Figures of the study", says what each shows):
   fig03_force_chains.png            force chains of the global, non-sliding, sliding and strong
                                     networks at the end of shear (a slab normal to axis 3)
   fig04_fabric_ns_s.png             phi_11, phi_22, phi_33 of ns and s against eps_1 (global

@@ -14,7 +14,7 @@ packages=(build-essential cmake pkg-config openmpi-bin libopenmpi-dev libeigen3-
   libtomlplusplus-dev libcli11-dev libfmt-dev python3 python3-numpy python3-matplotlib python3-h5py)
 # The test suite also opens the XDMF sidecars in ParaView (pvpython, rendering under Xvfb) and the
 # report page in headless Chromium (cli.output.paraview*, cli.report.html). On a fresh Debian 12
-# machine these add about 340 MB of downloads and 1.6 GB on disk (measured, see docs/output.md).
+# machine these add about 270 MB of downloads and 1.2 GB on disk, 2-3 minutes (docs/output.md).
 if [ "$mode" = test ]; then
   packages+=(paraview python3-paraview xvfb xauth chromium)
 fi
