@@ -1,10 +1,11 @@
 #!/bin/bash
 # ctest cli.output.paraview (and cli.output.paraview_contacts): runs check_paraview.py (or
 # SCRIPT) with ParaView's pvpython on the run OUT and renders PNG. ParaView is not a dependency
-# of Fabrica: without pvpython the test is skipped (exit 77). The Debian package renders through X. The check renders under its own X server
-# (xvfb-run -a) when xvfb-run exists, whatever DISPLAY says: an inherited DISPLAY may name a
-# server that is not there or not ready (pvpython then aborts). Without xvfb-run it renders on
-# DISPLAY only if that server answers; otherwise it checks everything but the rendering.
+# of Fabrica: without pvpython the test is skipped (exit 77). The Debian package renders through
+# X. The check renders under its own X server (xvfb-run -a) when xvfb-run exists, whatever
+# DISPLAY says: an inherited DISPLAY may name a server that is not there or not ready (pvpython
+# then aborts). Without xvfb-run it renders on DISPLAY only if that server answers; otherwise it
+# checks everything but the rendering.
 # scripts/run.sh test installs ParaView (paraview, python3-paraview, xvfb); under CI (CI=true) a
 # missing pvpython is a failure, not a skip, so that CI cannot pass without running the check.
 #   check_paraview.sh OUT PNG [SCRIPT [TEST]]   SCRIPT: check_paraview.py (default) or
