@@ -149,7 +149,7 @@ def fig_fabric(run, networks, number, title, path, written):
         for key in ("phi11", "phi22", "phi33"):
             if not empty:
                 ax.plot(100 * s["eps1"], s[key], color=PHI_COLOURS[key], lw=1.6,
-                        label=f"{PHI_LABELS[key]} {net}")
+                        label=f"{PHI_LABELS[key]} of the network")
             ax.plot(100 * glob_rows["eps1"], glob_rows[key], "--", color=PHI_COLOURS[key], lw=1.0,
                     label=f"{PHI_LABELS[key]} global")
         ax.axhline(1 / 3, color="0.4", lw=0.6, ls=":")
@@ -163,14 +163,19 @@ def fig_fabric(run, networks, number, title, path, written):
         top = np.nanmax([s[k].max() for k in ("phi11", "phi22", "phi33")]) if not empty else 0.5
         ax.set_ylim(0.15, max(0.6, top + 0.03))
         if k == 0:
-            ax.legend(ncol=2, loc="upper left")
+            handles, labels = ax.get_legend_handles_labels()
         axr = fig.add_subplot(2, n, n + k + 1, projection="polar")
         rose_panel(axr, case, net, LETTERS[n + k])
         if k == 0:
-            axr.legend(loc="lower left", bbox_to_anchor=(-0.15, -0.12), fontsize=8)
+            h, lab = axr.get_legend_handles_labels()
+            handles, labels = handles + h, labels + ["global (rose)"]
     fig.suptitle(f"Fig. {number}  {title}, $\\mu_s$ = {run.mu_s:g}, {case.label}\nsolid: the network, dashed: the "
                  f"global network; rose diagrams at the end of shear (dashed outline: global)", fontsize=11)
-    fig.tight_layout(rect=(0, 0, 1, 0.95))
+    # one row of 7 (4 networks) or 2 rows filled column by column (network above global)
+    order = [0, 2, 4, 1, 3, 5, 6] if len(handles) == 7 and n >= 4 else range(len(handles))
+    fig.legend([handles[i] for i in order], [labels[i] for i in order], loc="upper center",
+               ncol=7 if n >= 4 else 4, bbox_to_anchor=(0.5, 0.945), fontsize=9, frameon=False)
+    fig.tight_layout(rect=(0, 0, 1, 0.92 if n >= 4 else 0.89))
     save(fig, path, written)
 
 
