@@ -73,6 +73,8 @@ def fig_force_chains(run, path, written):
     x3 = np.mod(mid[:, 2], L[2])
     slab = np.abs(x3 - L[2] / 2) <= L[2] / 6
     fmax = c.fn[slab].max() if slab.any() else 1.0
+    every = c.ends[slab][:, :, [1, 0]].reshape(-1, 2)
+    lo, hi = every.min(axis=0, initial=0.0), every.max(axis=0, initial=0.0)
     panels = [("all", "global network"), ("ns", "non-sliding (ns)"), ("s", "sliding (s)"),
               ("sf", "strong (sf)")]
     fig, ax = plt.subplots(1, 4, figsize=(15, 6.4), sharey=True)
@@ -84,8 +86,7 @@ def fig_force_chains(run, path, written):
                                             capstyle="round"))
         ax[k].plot([0, L[1], L[1], 0, 0], [0, 0, L[0], L[0], 0], color="0.6", lw=0.8)
         ax[k].set_aspect("equal")
-        lo, hi = segs.reshape(-1, 2).min(axis=0, initial=0.0), segs.reshape(-1, 2).max(axis=0, initial=0.0)
-        pad = 0.03 * L[1]
+        pad = 0.03 * L[1]  # the same limits in every panel: those of the global network's slab
         ax[k].set_xlim(min(lo[0], 0) - pad, max(hi[0], L[1]) + pad)
         ax[k].set_ylim(min(lo[1], 0) - pad, max(hi[1], L[0]) + pad)
         ax[k].set_title(f"({LETTERS[k]}) {title}\n{int(m.sum())} of {int(c.network(net).sum())} contacts in the slab"
