@@ -1,12 +1,14 @@
 #include "io/run_output.hpp"
 
 #include "core/contact_snapshot.hpp"
+#include "core/exact_sum.hpp"
 #include "io/layout.hpp"
 #include "io/snapshot.hpp"
 #include "io/version.hpp"
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <limits>
 #include <chrono>
 #include <cstdio>
@@ -53,6 +55,7 @@ struct ContRec {
   std::int64_t id1, id2;
   double normal[3], branch[3], overlap, fn, ft[3], mr[3];
   std::uint8_t sliding, rolling;
+  double x1[3];  // centre of body 1, filled after the exchange (for the XDMF line cells)
 };
 
 void put(double* d, const Vec3& v) { d[0] = v[0], d[1] = v[1], d[2] = v[2]; }
@@ -129,6 +132,17 @@ std::string xml_escape(const std::string& s) {
   return r;
 }
 
+// Written to a temporary file and renamed: a reader (or a crash) never sees half a file.
+void replace_file(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f << text;
+    if (!f) throw std::runtime_error(tmp + ": cannot write the XDMF sidecar");
+  }
+  std::filesystem::rename(tmp, path);
+}
+
 }  // namespace
 
 std::string RunOutput::file_name(const std::string& outdir) {
@@ -136,7 +150,8 @@ std::string RunOutput::file_name(const std::string& outdir) {
 }
 
 RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, bool overwrite)
-    : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every) {
+    : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every),
+      strong_ratio_(scene.fabric.strong_ratio) {
   const auto t0 = clock_type::now();
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
@@ -160,7 +175,8 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
 }
 
 RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, Restart)
-    : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every) {
+    : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every),
+      strong_ratio_(scene.fabric.strong_ratio) {
   const auto t0 = clock_type::now();
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
@@ -273,7 +289,9 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
         cg.remove(sn);
         continue;
       }
-      entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles")});
+      // Snapshots of a file written before the contact line cells existed have no contacts/ends.
+      const std::int64_t m = sg.exists("contacts/ends") ? sg.attr_int("contacts") : 0;
+      entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles"), m});
     }
     std::sort(entries.begin(), entries.end(),
               [](const XmfEntry& a, const XmfEntry& b) { return a.step < b.step; });
@@ -418,6 +436,29 @@ void RunOutput::snapshot(const std::string& case_name, const Simulation& sim, co
   std::sort(conts.begin(), conts.end(), [](const ContRec& a, const ContRec& b) {
     return a.id1 != b.id1 ? a.id1 < b.id1 : a.id2 < b.id2;
   });
+  // Body 1 of every contact is here: particles and contacts went by the same id slices (by id
+  // and id1). Its centre is the first end of the contact's line cell in the XDMF sidecar.
+  for (ContRec& r : conts) {
+    const auto it = std::lower_bound(parts.begin(), parts.end(), r.id1,
+                                     [](const PartRec& a, std::int64_t id) { return a.id < id; });
+    if (it == parts.end() || it->id != r.id1)
+      throw std::logic_error("RunOutput::snapshot: body 1 of a contact is not on its rank");
+    std::copy(it->x, it->x + 3, r.x1);
+  }
+  // Strong contacts: f_n > strong_ratio x the mean f_n of all contacts, the threshold of the
+  // fabric analysis (core/fabric.cpp), with the same exact sum, so the same on any number of ranks.
+  double strong_threshold = 0;
+  {
+    ExactSums s(1);
+    for (const ContRec& r : conts) s.add(0, r.fn);
+    s.normalize();
+    std::vector<std::int64_t> buf(s.words().begin(), s.words().end());
+    buf.push_back(std::int64_t(conts.size()));
+    MPI_Allreduce(MPI_IN_PLACE, buf.data(), int(buf.size()), MPI_INT64_T, MPI_SUM, comm_);
+    std::copy(buf.begin(), buf.end() - 1, s.words().begin());
+    s.normalize();
+    if (buf.back() > 0) strong_threshold = strong_ratio_ * (s.value(0) / double(buf.back()));
+  }
 
   h5::Group g = file_.create_group(gp);
   const auto [p0, np] = slab(comm_, parts.size());
@@ -457,19 +498,30 @@ void RunOutput::snapshot(const std::string& case_name, const Simulation& sim, co
                         [](const ContRec& r, double* d) { std::copy(r.mr, r.mr + 3, d); });
   bytes += write_column<std::uint8_t>(cg, "sliding", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.sliding; });
   bytes += write_column<std::uint8_t>(cg, "rolling", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.rolling; });
-  if (std::int64_t(np) > vertices_) {  // same on every rank: extend the XDMF connectivity
+  // For the contacts' XDMF sidecar (line cells): the strong flag, |f_t|, |m_r| and both ends.
+  bytes += write_column<std::uint8_t>(cg, "strong", "bool", 0, conts, c0, nc,
+                        [&](const ContRec& r, std::uint8_t* d) { *d = r.fn > strong_threshold; });
+  bytes += write_column<double>(cg, "ft_norm", "N", 0, conts, c0, nc,
+                        [](const ContRec& r, double* d) { *d = std::sqrt(r.ft[0] * r.ft[0] + r.ft[1] * r.ft[1] + r.ft[2] * r.ft[2]); });
+  bytes += write_column<double>(cg, "mr_norm", "N m", 0, conts, c0, nc,
+                        [](const ContRec& r, double* d) { *d = std::sqrt(r.mr[0] * r.mr[0] + r.mr[1] * r.mr[1] + r.mr[2] * r.mr[2]); });
+  bytes += write_column<double>(cg, "ends", "m", 6, conts, c0, nc, [](const ContRec& r, double* d) {
+    for (int k = 0; k < 3; ++k) d[k] = r.x1[k], d[3 + k] = r.x1[k] + r.branch[k];
+  });
+  const std::int64_t need = std::max(std::int64_t(np), 2 * std::int64_t(nc));
+  if (need > vertices_) {  // same on every rank: extend the XDMF connectivity
     h5::Dataset vd = file_.open_dataset(layout::kVertexIndex);
-    vd.extend(np);
+    vd.extend(hsize_t(need));
     std::vector<std::int64_t> idx;
     if (rank_ == 0)
-      for (std::int64_t k = vertices_; k < std::int64_t(np); ++k) idx.push_back(k);
+      for (std::int64_t k = vertices_; k < need; ++k) idx.push_back(k);
     std::int64_t none = 0;  // a valid pointer for the empty selections
     vd.write_rows(h5::Type::I64, hsize_t(vertices_), idx.size(), idx.empty() ? &none : idx.data(), true);
     bytes += double(idx.size() * sizeof(std::int64_t));
-    vertices_ = std::int64_t(np);
+    vertices_ = need;
   }
   bytes_ += bytes;
-  xmf_.push_back({case_name, sim.step_count(), double(sim.time()), std::int64_t(np)});
+  xmf_.push_back({case_name, sim.step_count(), double(sim.time()), std::int64_t(np), std::int64_t(nc)});
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
   flush();
 }
@@ -489,14 +541,16 @@ void RunOutput::close() {
 }
 
 void RunOutput::write_xmf() const {
-  std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> e;
+  std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> e, ce;
   std::vector<std::string> cases;
   for (const XmfEntry& x : xmf_) {
     e.emplace_back(x.case_name, x.step, x.time, x.particles);
+    if (x.contacts > 0) ce.emplace_back(x.case_name, x.step, x.time, x.contacts);
     if (std::find(cases.begin(), cases.end(), x.case_name) == cases.end()) cases.push_back(x.case_name);
   }
   const std::filesystem::path dir(outdir_);
   write_xdmf((dir / "run.xmf").string(), "run.h5", e, vertices_);
+  write_contacts_xdmf((dir / "run_contacts.xmf").string(), "run.h5", ce, vertices_);
   // The cases of a triaxial test overlap in time (every case of the sweep starts from the end of
   // the consolidation): in run.xmf ParaView shows them superimposed and merges their time steps,
   // so each case gets its own file as well.
@@ -506,6 +560,10 @@ void RunOutput::write_xmf() const {
       for (const auto& t : e)
         if (std::get<0>(t) == c) ec.push_back(t);
       write_xdmf((dir / ("run_" + c + ".xmf")).string(), "run.h5", ec, vertices_);
+      std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> cc;
+      for (const auto& t : ce)
+        if (std::get<0>(t) == c) cc.push_back(t);
+      write_contacts_xdmf((dir / ("run_" + c + "_contacts.xmf")).string(), "run.h5", cc, vertices_);
     }
 }
 
@@ -555,14 +613,59 @@ void write_xdmf(const std::string& path, const std::string& h5file,
     x << "    </Grid>\n";
   }
   x << "  </Domain>\n</Xdmf>\n";
-  // Written to a temporary file and renamed: a reader (or a crash) never sees half a file.
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f << x.str();
-    if (!f) throw std::runtime_error(tmp + ": cannot write the XDMF sidecar");
+  replace_file(path, x.str());
+}
+
+void write_contacts_xdmf(const std::string& path, const std::string& h5file,
+                         const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
+                         std::int64_t vertices) {
+  std::ostringstream x;
+  x.precision(17);
+  x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+       "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+       "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n  <Domain>\n";
+  std::vector<std::string> cases;
+  for (const auto& e : entries)
+    if (std::find(cases.begin(), cases.end(), std::get<0>(e)) == cases.end()) cases.push_back(std::get<0>(e));
+  for (const std::string& c : cases) {
+    x << "    <Grid Name=\"" << xml_escape(c) << "_contacts\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    for (const auto& [cn, step, time, m] : entries) {
+      if (cn != c) continue;
+      const std::string base = h5file + ":/" + layout::snapshot_path(cn, step) + "/contacts/";
+      auto item = [&](const std::string& ds, int cols, const char* type, int prec) {
+        std::ostringstream d;
+        d << "<DataItem Dimensions=\"" << m;
+        if (cols) d << ' ' << cols;
+        d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">"
+          << xml_escape(base + ds) << "</DataItem>";
+        return d.str();
+      };
+      auto attribute = [&](const char* name, const std::string& ds, const char* type, int prec) {
+        return std::string("        <Attribute Name=\"") + name +
+               "\" AttributeType=\"Scalar\" Center=\"Cell\">\n          " + item(ds, 0, type, prec) +
+               "\n        </Attribute>\n";
+      };
+      // M two-node line cells over 2M points: the ends (x1, x1 + branch) of every contact,
+      // connectivity 0, 1, ..., 2M-1 (the first 2M values of the vertex index).
+      x << "      <Grid Name=\"" << xml_escape(c) << "_contacts_" << layout::step_name(step) << "\" GridType=\"Uniform\">\n"
+        << "        <Time Value=\"" << time << "\"/>\n"
+        << "        <Topology TopologyType=\"Polyline\" NumberOfElements=\"" << m << "\" NodesPerElement=\"2\">\n"
+        << "          <DataItem ItemType=\"HyperSlab\" Dimensions=\"" << m << " 2\" Type=\"HyperSlab\">\n"
+        << "            <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 " << 2 * m << "</DataItem>\n"
+        << "            <DataItem Dimensions=\"" << vertices << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
+        << xml_escape(h5file + ":/" + layout::kVertexIndex) << "</DataItem>\n"
+        << "          </DataItem>\n        </Topology>\n"
+        << "        <Geometry GeometryType=\"XYZ\">\n          " << item("ends", 6, "Float", 8) << "\n        </Geometry>\n"
+        << attribute("fn", "fn", "Float", 8) << attribute("ft_norm", "ft_norm", "Float", 8)
+        << attribute("mr_norm", "mr_norm", "Float", 8) << attribute("sliding", "sliding", "UChar", 1)
+        << attribute("rolling", "rolling", "UChar", 1) << attribute("strong", "strong", "UChar", 1)
+        << attribute("id1", "id1", "Int", 8) << attribute("id2", "id2", "Int", 8)
+        << "      </Grid>\n";
+    }
+    x << "    </Grid>\n";
   }
-  std::filesystem::rename(tmp, path);
+  x << "  </Domain>\n</Xdmf>\n";
+  replace_file(path, x.str());
 }
 
 }  // namespace fabrica

@@ -2,7 +2,8 @@
 // XDMF sidecar OUT/run.xmf (layout, units and guarantees in docs/output.md):
 //   /scene                           the scene text; attribute path
 //   /snapshots/<case>/<step>/particles/{id,position,velocity,spin,radius}
-//   /snapshots/<case>/<step>/contacts/{id1,id2,normal,branch,overlap,fn,ft,mr,sliding,rolling}
+//   /snapshots/<case>/<step>/contacts/{id1,id2,normal,branch,overlap,fn,ft,mr,sliding,rolling,
+//                                      strong,ft_norm,mr_norm,ends}
 //   /series/<case>/<column>          the macro series, one extendible dataset per CSV column
 // Snapshots are stored in global id order whatever the number of ranks: each rank sends its
 // particles (and the contacts whose id1 it owns) to the rank owning that slice of the id range
@@ -93,6 +94,7 @@ class RunOutput {
     std::int64_t step;
     double time;
     std::int64_t particles;
+    std::int64_t contacts;  // 0: not in the contacts' sidecar
   };
   void write_header(const Scene& scene);  // version attributes, /scene, empty groups
   void flush_series();
@@ -102,6 +104,7 @@ class RunOutput {
   int rank_ = 0, size_ = 1;
   std::string outdir_, path_;
   std::int64_t every_;
+  double strong_ratio_;  // [fabric] strong_ratio: the strong flag of the stored contacts
   h5::File file_;
   std::map<std::string, SeriesBuffer> series_;
   std::vector<XmfEntry> xmf_;
@@ -117,5 +120,11 @@ class RunOutput {
 void write_xdmf(const std::string& path, const std::string& h5file,
                 const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
                 std::int64_t vertices);
+// The contacts' sidecar for 'entries' (case, step, time, contacts M > 0): each snapshot a
+// Polyline grid of M two-node cells whose points are contacts/ends (x1, x1 + branch), with the
+// cell attributes fn, ft_norm, mr_norm, sliding, rolling, strong, id1, id2.
+void write_contacts_xdmf(const std::string& path, const std::string& h5file,
+                         const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
+                         std::int64_t vertices);
 
 }  // namespace fabrica

@@ -1,15 +1,24 @@
 #!/bin/bash
-# ctest cli.output.paraview: runs check_paraview.py with ParaView's pvpython on the run OUT and
-# renders PNG. ParaView is not a dependency of Fabrica: without pvpython the test is skipped
-# (exit 77). The Debian package renders through X. The check renders under its own X server
-# (xvfb-run -a) when xvfb-run exists, whatever DISPLAY says: an inherited DISPLAY may name a
-# server that is not there or not ready (pvpython then aborts). Without xvfb-run it renders on
-# DISPLAY only if that server answers; otherwise it checks everything but the rendering.
-#   check_paraview.sh OUT PNG
+# ctest cli.output.paraview (and cli.output.paraview_contacts): runs check_paraview.py (or
+# SCRIPT) with ParaView's pvpython on the run OUT and renders PNG. ParaView is not a dependency
+# of Fabrica: without pvpython the test is skipped (exit 77). The Debian package renders through
+# X. The check renders under its own X server (xvfb-run -a) when xvfb-run exists, whatever
+# DISPLAY says: an inherited DISPLAY may name a server that is not there or not ready (pvpython
+# then aborts). Without xvfb-run it renders on DISPLAY only if that server answers; otherwise it
+# checks everything but the rendering.
+# scripts/run.sh test installs ParaView (paraview, python3-paraview, xvfb); under CI (CI=true) a
+# missing pvpython is a failure, not a skip, so that CI cannot pass without running the check.
+#   check_paraview.sh OUT PNG [SCRIPT [TEST]]   SCRIPT: check_paraview.py (default) or
+#                                               check_paraview_contacts.py, beside this file
 out=$1 png=$2
-script=$(dirname "$0")/check_paraview.py
+script=$(dirname "$0")/${3:-check_paraview.py}
+name=${4:-cli.output.paraview}
 if ! command -v pvpython >/dev/null; then
-  echo "cli.output.paraview: skipped: pvpython not found (ParaView is not a Fabrica dependency; install it, e.g. apt-get install paraview, to run this check)"
+  if [ "${CI:-}" = true ]; then
+    echo "$name: FAIL: pvpython not found under CI (scripts/run.sh test installs paraview and python3-paraview)"
+    exit 1
+  fi
+  echo "$name: skipped: pvpython not found (ParaView is not a Fabrica dependency; install it, e.g. apt-get install paraview python3-paraview xvfb, to run this check)"
   exit 77
 fi
 
@@ -35,7 +44,7 @@ render() {
     "$@" >"$log" 2>&1; rc=$?
     cat "$log"
     if [ $rc -ne 0 ] && grep -q "bad X server connection" "$log" && [ $attempt -lt 3 ]; then
-      echo "cli.output.paraview: pvpython could not open the X display (attempt $attempt of 3); retrying"
+      echo "$name: pvpython could not open the X display (attempt $attempt of 3); retrying"
       continue
     fi
     break
@@ -49,6 +58,6 @@ if command -v xvfb-run >/dev/null; then
 elif display_answers; then
   render pvpython --force-offscreen-rendering "$script" "$out" --png "$png"
 else
-  echo "cli.output.paraview: no xvfb-run and no X server answering on DISPLAY='${DISPLAY:-}': checking without rendering"
+  echo "$name: no xvfb-run and no X server answering on DISPLAY='${DISPLAY:-}': checking without rendering"
   exec env -u DISPLAY pvpython "$script" "$out" --no-render
 fi

@@ -99,6 +99,62 @@ def xdmf(outdir):
         files.update({f"run_{c}.xmf": [c] for c in cases})
     for name, cs in files.items():
         _xdmf_file(os.path.join(outdir, name), h5, f, cs)
+    contacts = {"run_contacts.xmf": cases}
+    if len(cases) > 1:
+        contacts.update({f"run_{c}_contacts.xmf": [c] for c in cases})
+    for name, cs in contacts.items():
+        _contacts_xmf_file(os.path.join(outdir, name), h5, f, cs)
+
+
+CELL_ARRAYS = {"fn": ("Float", "8"), "ft_norm": ("Float", "8"), "mr_norm": ("Float", "8"),
+               "sliding": ("UChar", "1"), "rolling": ("UChar", "1"), "strong": ("UChar", "1"),
+               "id1": ("Int", "8"), "id2": ("Int", "8")}
+
+
+def _contacts_xmf_file(xmf, h5, f, cases):
+    """The contacts' sidecar: M two-node Polyline cells on contacts/ends, the cell arrays."""
+    try:
+        root = ET.parse(xmf).getroot()
+    except (ET.ParseError, OSError) as e:
+        fail(f"{xmf}: not well-formed XML: {e}")
+    listed = set()
+    for grid in root.iter("Grid"):
+        if grid.get("GridType") != "Uniform":
+            continue
+        topo = grid.find("Topology")
+        m = int(topo.get("NumberOfElements"))
+        if topo.get("TopologyType") != "Polyline" or topo.get("NodesPerElement") != "2":
+            fail(f"{xmf}: topology {topo.get('TopologyType')}, {topo.get('NodesPerElement')} nodes per element")
+        slab = topo.find("DataItem")
+        sel, src = slab.findall("DataItem")
+        if [int(v) for v in sel.text.split()] != [0, 1, 2 * m] or slab.get("Dimensions") != f"{m} 2":
+            fail(f"{xmf}: grid {grid.get('Name')}: connectivity {sel.text} / {slab.get('Dimensions')} for {m} lines")
+        v = f[src.text.strip().split(":", 1)[1]][()]
+        if v.shape[0] < 2 * m or not np.array_equal(v[:2 * m], np.arange(2 * m)):
+            fail(f"{xmf}: the vertex index is not 0, 1, ... of at least {2 * m} values")
+        geo = grid.find("Geometry/DataItem")
+        base = geo.text.strip().split(":", 1)[1].rsplit("/", 1)[0]
+        if not geo.text.strip().endswith("/contacts/ends") or f[base + "/ends"].shape != (m, 6) or \
+                geo.get("Dimensions") != f"{m} 6":
+            fail(f"{xmf}: grid {grid.get('Name')}: geometry {geo.text} {geo.get('Dimensions')}")
+        names = {}
+        for a in grid.findall("Attribute"):
+            item = a.find("DataItem")
+            path = item.text.strip().split(":", 1)[1]
+            if a.get("Center") != "Cell" or path != f"{base}/{a.get('Name')}" or path not in f or \
+                    f[path].shape != (m,) or item.get("Dimensions") != str(m):
+                fail(f"{xmf}: attribute {a.get('Name')}: {a.get('Center')}, {path}, {item.get('Dimensions')}")
+            names[a.get("Name")] = (item.get("NumberType"), item.get("Precision"))
+        if names != CELL_ARRAYS:
+            fail(f"{xmf}: grid {grid.get('Name')}: cell attributes {names}")
+        if int(f[base.rsplit("/", 1)[0]].attrs["contacts"]) != m:
+            fail(f"{xmf}: {m} lines, the snapshot has {f[base.rsplit('/', 1)[0]].attrs['contacts']} contacts")
+        listed.add(base.rsplit("/", 1)[0])
+    stored = {f"/snapshots/{c}/{s}" for c in cases for s in f["snapshots"][c]
+              if int(f["snapshots"][c][s].attrs["contacts"]) > 0}
+    if listed != stored:
+        fail(f"{xmf} lists {len(listed)} snapshots, {h5} holds {len(stored)} with contacts of case(s) {', '.join(cases)}")
+    print(f"xdmf: {os.path.basename(xmf)} well-formed; {len(listed)} snapshots with contacts, all present in {h5}")
 
 
 def _xdmf_file(xmf, h5, f, cases):

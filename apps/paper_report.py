@@ -1,0 +1,163 @@
+"""OUT/report.html: one self-contained page about a triaxial run against the reference study.
+
+``write(run, out, figures)`` writes the scene (key parameters and the full scene text), the
+run's summary (OUT/summary.csv, version, ranks, snapshots), the table of the study's twelve
+findings as decided by apps/paper_findings.py, the stress-force-fabric residuals per partition
+and case, and the figures of apps/plot_paper.py embedded as base64 PNG: the page loads nothing
+else (no script, no style sheet, no font, no network).
+"""
+import base64
+import html
+import os
+
+import numpy as np
+
+import paper_data as pd
+import paper_findings as pf
+
+CSS = """
+body { font-family: sans-serif; margin: 1.5em auto; max-width: 1200px; color: #222; line-height: 1.4; }
+h1 { font-size: 1.6em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
+table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.92em; }
+th, td { border: 1px solid #bbb; padding: 0.3em 0.5em; vertical-align: top; text-align: left; }
+th { background: #eef1f5; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.holds { background: #d9f2d9; font-weight: bold; } td.fails { background: #f8d7d7; font-weight: bold; }
+td.undecided { background: #eeeeee; font-weight: bold; }
+figure { margin: 1.2em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: 0.9em; color: #444; } pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
+.small { font-size: 0.88em; color: #555; } .wide { overflow-x: auto; }
+"""
+
+CAPTIONS = {
+    "fig03": "Force chains of the global, non-sliding, sliding and strong networks at the end of shear.",
+    "fig04": "Fabric of the non-sliding and sliding networks (study's Fig. 4).",
+    "fig05": "Fabric of ns-nr, ns-r, s-nr, s-r (study's Fig. 5).",
+    "fig06": "Fabric of the strong and weak networks (study's Fig. 6).",
+    "fig07": "Fabric of ns-sf, ns-wf, s-sf, s-wf (study's Fig. 7).",
+    "fig08": "Anisotropy a_c and a_n of the sub-networks (study's Fig. 8).",
+    "fig09": "Influence of mu_r on the anisotropy of the global, ns, sf, ns-sf networks (study's Fig. 9).",
+    "fig10": "Stress ratio and volumetric strain for every mu_r (study's Fig. 10).",
+    "fig11": "Weights xi_k of ns, sf, ns-sf (study's Fig. 11).",
+    "fig12": "The SFF prediction against the measured q/p (study's Fig. 12).",
+}
+
+
+def esc(x):
+    return html.escape(str(x))
+
+
+def table(header, rows, cls=None):
+    h = "".join(f"<th>{esc(c)}</th>" for c in header)
+    body = []
+    for r in rows:
+        cells = []
+        for k, v in enumerate(r):
+            c = cls(k, v) if cls else ""
+            cells.append(f"<td{c}>{esc(v)}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return (f"<div class='wide'><table><thead><tr>{h}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+            "</div>")
+
+
+def scene_section(run):
+    s = run.scene
+    p, c, t = s.get("particles", {}), s.get("contact", {}), s.get("triaxial", {})
+    rows = [
+        ("particles", p.get("count", "from a data file"), "spheres"),
+        ("diameters", f"{p.get('d_min', '?')} - {p.get('d_max', '?')}", "m"),
+        ("fractal dimension D", p.get("fractal_dimension", "?"), ""),
+        ("Young's modulus E", c.get("youngs_modulus", "?"), "Pa"),
+        ("mu_s (shear)", run.mu_s, ""),
+        ("mu_s (consolidation)", run.consolidation_mu_s, ""),
+        ("mu_r of the cases", ", ".join(f"{x.mu_r:g}" for x in run.cases), ""),
+        ("confining pressure", t.get("confining_pressure", "?"), "Pa"),
+        ("axial strain", t.get("axial_strain", "?"), ""),
+        ("axial strain rate", t.get("axial_strain_rate", "?"), "1/s"),
+    ]
+    rows = [(q, f"{v:g}" if isinstance(v, float) else v, u) for q, v, u in rows]
+    return ("<h2 id='scene'>Scene</h2>"
+            f"<p>Scene file: <code>{esc(run.info.scene_path)}</code>.</p>"
+            + table(["quantity", "value", "unit"], rows)
+            + f"<details><summary>The scene file as run</summary><pre>{esc(run.info.scene_text)}</pre></details>")
+
+
+def summary_section(run):
+    i = run.info
+    snaps = run.h5.snapshots()
+    parts = snaps[-1].particles if snaps else 0
+    head = (f"<p>Fabrica {esc(i.version)} (git {esc(i.git_describe)}), written by {i.mpi_ranks} MPI rank(s); "
+            f"{parts} particles; {len(snaps)} snapshots in <code>run.h5</code>. Figures 3-8 and the findings "
+            f"on a single case use {esc(run.reference().text)} (nearest the study's mu_r = 0.05 among mu_r &gt; 0); "
+            f"the residual state is eps_1 &ge; {pd.RESIDUAL_FROM:g} &times; the final eps_1.</p>")
+    cols = ["case", "rolling_friction", "void_ratio_consolidated", "peak_q_p", "eps1_at_peak", "eps_v_end",
+            "q_p_end", "max_lateral_error", "max_energy_error", "max_inertial_number", "wall_seconds"]
+    rows = [[r.get(k, "") for k in cols] for r in run.summary]
+    cols = [c.replace("_", " ") for c in cols]
+    return ("<h2 id='summary'>Run summary</h2>" + head
+            + table(cols, rows, lambda k, v: " class='num'" if k > 0 else "")
+            + "<p class='small'>From OUT/summary.csv (docs/triaxial.md): eps_v compression positive; "
+              "errors relative (lateral stress, energy balance).</p>")
+
+
+def findings_section(findings):
+    css = {pf.HOLDS: " class='holds'", pf.FAILS: " class='fails'", pf.UNDECIDED: " class='undecided'"}
+    rows = []
+    for f in findings:
+        rows.append(f"<tr><td class='num'>{f.number}</td><td>{esc(f.statement)}</td>"
+                    f"<td{css[f.verdict]}>{esc(f.verdict)}</td><td>{esc(f.numbers)}</td>"
+                    f"<td class='small'>{esc(f.criterion)}</td></tr>")
+    n = {v: sum(f.verdict == v for f in findings) for v in (pf.HOLDS, pf.FAILS, pf.UNDECIDED)}
+    return ("<h2 id='findings-head'>The study's findings (spec section 7)</h2>"
+            f"<p>{n[pf.HOLDS]} hold, {n[pf.FAILS]} do not hold, {n[pf.UNDECIDED]} cannot be decided on this run. "
+            "One realisation; the thresholds are in the last column and in docs/fabric.md.</p>"
+            "<table id='findings'><thead><tr><th>#</th><th>the study reports</th><th>verdict</th>"
+            "<th>numbers it was decided on</th><th>criterion</th></tr></thead><tbody>"
+            + "".join(rows) + "</tbody></table>")
+
+
+def sff_section(run):
+    header = ["partition"]
+    for c in run.cases:
+        header += [f"{c.text}: mean", "max", "tensor form: mean"]
+    rows = []
+    for p in pd.PARTITIONS:
+        r = [pd.PARTITION_LABELS[p]]
+        for c in run.cases:
+            m, mx = pf.sff_deviation(c, p)
+            t, _ = pf.sff_deviation(c, p, "tensor")
+            r += [f"{100 * m:.2f} %", f"{100 * mx:.1f} %", f"{100 * t:.2f} %" if np.isfinite(t) else "-"]
+        rows.append(r)
+    return ("<h2 id='sff'>Stress-force-fabric residuals per partition</h2>"
+            "<p>|(q/p)* - q/p| / (q/p) over the rows of the shear stage: (q/p)* = 2/5 &Sigma; xi_k (a_c + a_b + "
+            "a_n + 3/2 a_t) of the partition (the spec's scalar form), and the tensor form of docs/fabric.md.</p>"
+            + table(header, rows, lambda k, v: " class='num'" if k > 0 else ""))
+
+
+def figures_section(figures):
+    out = ["<h2 id='figures'>Figures</h2>"]
+    for path in figures:
+        name = os.path.basename(path)
+        with open(path, "rb") as fh:
+            data = base64.b64encode(fh.read()).decode("ascii")
+        cap = CAPTIONS.get(name[:5], "")
+        out.append(f"<figure><img alt='{esc(name)}' src='data:image/png;base64,{data}'>"
+                   f"<figcaption><code>figures/{esc(name)}</code>: {esc(cap)}</figcaption></figure>")
+    return "".join(out)
+
+
+def write(run, out, figures):
+    findings = pf.decide(run)
+    page = ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+            "<title>Fabrica run against the reference study</title>"
+            f"<style>{CSS}</style></head><body>"
+            "<h1>Fabrica: a periodic triaxial run against the reference study</h1>"
+            "<p>Wang, Shen, Liu, Chen, <i>Shear-induced anisotropy analysis of contact networks incorporating "
+            "particle rolling resistance</i>, Chinese Journal of Theoretical and Applied Mechanics 53(6), 2021, "
+            "as restated in shared/spec/reference-problem.md.</p>"
+            + scene_section(run) + summary_section(run) + findings_section(findings) + sff_section(run)
+            + figures_section(figures) + "</body></html>\n")
+    path = os.path.join(out, "report.html")
+    with open(path + ".tmp", "w", encoding="utf-8") as fh:
+        fh.write(page)
+    os.replace(path + ".tmp", path)
+    return path
