@@ -35,9 +35,10 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
   real_t e_fric = 0, e_roll = 0, e_visc = 0;
   const std::size_t np = pl.size();
   const std::size_t n_owned = P.n_owned();
-  // The pairs are ordered by global ids (neighbor.hpp), which are scattered in memory: fetch
-  // the positions and radii of the pair kAhead places on. Changes no result; about 7 % of the
-  // whole step on dense-13584 (benchmarks/README.md).
+  // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in memory,
+  // but the curve's jumps and the second body of each pair are not: fetch the positions and
+  // radii of the pair kAhead places on. Changes no result (it paid 7 % of the whole step on
+  // dense-13584 when the list was in id order, benchmarks/README.md).
   constexpr std::size_t kAhead = 8;
   for (std::size_t q = 0; q < np; ++q) {
     if (q + kAhead < np) {
