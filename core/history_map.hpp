@@ -10,6 +10,7 @@
 #pragma once
 #include "core/contact_law.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <limits>

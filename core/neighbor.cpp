@@ -145,7 +145,7 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
   // force loop walks memory nearly in order at any specimen size.
   space_ranks(p, n, L, rank_);
   const std::size_t m = tmp_i_.size();
-  std::vector<int>().swap(cls_);
+  std::vector<int>().swap(cls_);  // the class grids are done with: free before the sort
   std::vector<Index>().swap(cell_items_);
   sort_.resize(m);
   for (std::size_t q = 0; q < m; ++q)
@@ -168,8 +168,6 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
   std::vector<std::uint8_t>().swap(tmp_img_);
   std::vector<SortItem>().swap(sort_);
   std::vector<std::uint32_t>().swap(rank_);
-  std::vector<int>().swap(cls_);
-  std::vector<Index>().swap(cell_items_);
 }
 
 void NeighborSearch::build_walls(const Particles& p, const std::vector<Wall>& walls, real_t skin,
