@@ -6,7 +6,7 @@
 //                                      into a fresh Simulation, continue to N (np 1 and 2);
 //   Checkpoint.KeepSeriesThrough     - the series rows kept on a restart;
 //   CheckpointFiles.Write / .ReadAndContinue - written by one rank count, read by another
-//                                      (ctest: written on 2 ranks, read on 1 and 4), via the
+//                                      (ctest: written on 2 ranks, read on 1, 4, 8, 16), via the
 //                                      file named in FABRICA_CHECKPOINT_FILE.
 #include "core/simulation.hpp"
 #include "io/checkpoint.hpp"
