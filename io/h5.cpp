@@ -1,6 +1,11 @@
 #include "io/h5.hpp"
 
+#include "io/fault.hpp"
+#include "parallel/guard.hpp"
+
 #include <array>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 
 namespace fabrica::h5 {
@@ -78,6 +83,23 @@ void Object::fail(const std::string& what) const {
 
 void Object::check(herr_t status, const std::string& what) const {
   if (status < 0) fail(what + ": " + error_stack_text());
+}
+
+void Object::check_all(herr_t status, const std::string& what) const {
+  if (comm_ == MPI_COMM_NULL) return check(status, what);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm_, &rank);
+  MPI_Comm_size(comm_, &size);
+  std::string msg;
+  if (status < 0) msg = file_ + ": " + name_ + ": " + what + ": " + error_stack_text();
+  int first = status < 0 ? rank : size;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm_);
+  if (first == size) return;
+  int len = int(msg.size());
+  MPI_Bcast(&len, 1, MPI_INT, first, comm_);
+  msg.resize(std::size_t(len));
+  MPI_Bcast(msg.data(), len, MPI_CHAR, first, comm_);
+  throw Error(msg);
 }
 
 // ---- attributes ----------------------------------------------------------------------------
@@ -162,14 +184,14 @@ Group Group::create_group(const std::string& rel) const {
   H5Pset_create_intermediate_group(lcpl.get(), 1);
   Handle g(H5Gcreate2(id(), rel.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
   if (!g.valid()) check(-1, "creating group " + rel);
-  return Group(std::move(g), file_, child_name(rel));
+  return Group(std::move(g), file_, child_name(rel), comm_);
 }
 
 Group Group::open_group(const std::string& rel) const {
   if (!exists(rel)) fail("no group '" + rel + "'");
   Handle g(H5Gopen2(id(), rel.c_str(), H5P_DEFAULT), H5Gclose);
   if (!g.valid()) check(-1, "opening group " + rel);
-  return Group(std::move(g), file_, child_name(rel));
+  return Group(std::move(g), file_, child_name(rel), comm_);
 }
 
 bool Group::exists(const std::string& rel) const {
@@ -216,14 +238,14 @@ Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsiz
   Handle d(H5Dcreate2(id(), rel.c_str(), native(t), space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
            H5Dclose);
   if (!d.valid()) check(-1, "creating dataset " + rel);
-  return Dataset(std::move(d), file_, child_name(rel));
+  return Dataset(std::move(d), file_, child_name(rel), comm_);
 }
 
 Dataset Group::open_dataset(const std::string& rel) const {
   if (!exists(rel)) fail("no dataset '" + rel + "'");
   Handle d(H5Dopen2(id(), rel.c_str(), H5P_DEFAULT), H5Dclose);
   if (!d.valid()) check(-1, "opening dataset " + rel);
-  return Dataset(std::move(d), file_, child_name(rel));
+  return Dataset(std::move(d), file_, child_name(rel), comm_);
 }
 
 void Group::write_string(const std::string& rel, const std::string& text, bool writer) const {
@@ -275,13 +297,26 @@ void Dataset::write_rows(Type t, hsize_t row0, hsize_t n, const void* data, bool
   }
   Handle xfer(H5Pcreate(H5P_DATASET_XFER), H5Pclose);
   if (collective) H5Pset_dxpl_mpio(xfer.get(), H5FD_MPIO_COLLECTIVE);
-  check(H5Dwrite(id(), native(t), ms.get(), fs.get(), xfer.get(), data), "writing");
+  errno = 0;
+  herr_t st = H5Dwrite(id(), native(t), ms.get(), fs.get(), xfer.get(), data);
+  const int err = errno;
+  std::string what = "cannot write the data";
+  // The system's reason, when the failure was the disk's (HDF5's own text does not say).
+  if (st < 0 && (err == ENOSPC || err == EFBIG || err == EDQUOT || err == EIO || err == EROFS))
+    what += " (" + std::string(std::strerror(err)) + ")";
+  if (st >= 0 && fault_injected("h5")) {
+    H5Epush2(H5E_DEFAULT, __FILE__, __func__, __LINE__, H5E_ERR_CLS, H5E_DATASET, H5E_WRITEERROR, "%s",
+             fault_text("h5").c_str());
+    st = -1;
+  }
+  if (collective) check_all(st, what);
+  else check(st, what);
 }
 
 void Dataset::extend(hsize_t rows) const {
   std::vector<hsize_t> dims = shape();
   dims[0] = rows;
-  check(H5Dset_extent(id(), dims.data()), "extending");
+  check_all(H5Dset_extent(id(), dims.data()), "extending");
 }
 
 namespace {
@@ -311,8 +346,9 @@ File File::create_parallel(const std::string& path, MPI_Comm comm, bool truncate
   H5Pset_coll_metadata_write(fapl.get(), true);
   Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl.get()),
            H5Fclose);
-  if (!f.valid()) throw Error(path + ": cannot create the HDF5 file: " + error_stack_text());
-  return File(std::move(f), path, "/");
+  File file(std::move(f), path, "/", comm);
+  file.check_all(file.valid() ? 0 : -1, "cannot create the HDF5 file");
+  return file;
 }
 
 File File::open_parallel(const std::string& path, MPI_Comm comm) {
@@ -322,8 +358,9 @@ File File::open_parallel(const std::string& path, MPI_Comm comm) {
   H5Pset_all_coll_metadata_ops(fapl.get(), true);
   H5Pset_coll_metadata_write(fapl.get(), true);
   Handle f(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose);
-  if (!f.valid()) throw Error(path + ": cannot open the HDF5 file for writing: " + error_stack_text());
-  return File(std::move(f), path, "/");
+  File file(std::move(f), path, "/", comm);
+  file.check_all(file.valid() ? 0 : -1, "cannot open the HDF5 file for writing");
+  return file;
 }
 
 File File::open_read(const std::string& path) {
@@ -342,12 +379,24 @@ File File::open_read(const std::string& path) {
   return File(std::move(f), path, "/");
 }
 
-void File::flush() const { check(H5Fflush(id(), H5F_SCOPE_GLOBAL), "flushing"); }
+void File::abandon() {
+  if (!h_.valid()) return;
+  h_.release();
+  exit_without_finalize_on_error();  // HDF5 would close it at MPI_Finalize, and crash
+}
+
+void File::flush() const {
+  errno = 0;
+  const herr_t st = H5Fflush(id(), H5F_SCOPE_GLOBAL);
+  const int err = errno;
+  check_all(st, std::string("cannot flush the file to disk") +
+                    (st < 0 && err ? " (" + std::string(std::strerror(err)) + ")" : ""));
+}
 
 void File::close() {
   if (!h_.valid()) return;
   const herr_t s = H5Fclose(h_.release());
-  if (s < 0) throw Error(file_ + ": closing the file: " + error_stack_text());
+  check_all(s, "closing the file");
 }
 
 }  // namespace fabrica::h5

@@ -1,5 +1,7 @@
 #include "io/lammps_data.hpp"
 
+#include "io/fault.hpp"
+
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -32,7 +34,9 @@ bool parse_numbers(const std::string& body, int n, double* val) {
 
 DataFile read_lammps_data(const std::string& path) {
   std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open the particle data file");
+  if (!in || fault_injected("data"))
+    throw InputError(path + ": cannot open the particle data file" +
+                     (in ? " (" + fault_text("data") + ")" : std::string()));
   DataFile out;
   long long natoms = -1;
   bool have_box[3] = {false, false, false};

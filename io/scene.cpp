@@ -1,5 +1,7 @@
 #include "io/scene.hpp"
 
+#include "io/fault.hpp"
+
 #include <toml++/toml.h>
 
 #include <cmath>
@@ -359,7 +361,9 @@ Scene parse_scene(const std::string& text, const std::string& path) {
 
 Scene load_scene(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the scene file");
+  if (!in || fault_injected("scene"))
+    throw InputError(path + ": cannot open the scene file" +
+                     (in ? " (" + fault_text("scene") + ")" : std::string()));
   std::ostringstream s;
   s << in.rdbuf();
   return parse_scene(s.str(), path);
