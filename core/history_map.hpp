@@ -6,6 +6,9 @@
 #include "core/contact_law.hpp"
 
 #include <bit>
+#include <limits>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace fabrica {
@@ -20,6 +23,7 @@ class HistoryMap {
   }
 
   void insert(GlobalId a, GlobalId b, const ContactHistory& h) {
+    if (a == kEmpty) throw std::logic_error("HistoryMap: the id " + std::to_string(a) + " is the empty-slot marker");
     if (2 * (size_ + 1) > slots_.size()) grow();
     Slot& s = probe(a, b);
     if (s.a == kEmpty) ++size_;
@@ -46,6 +50,9 @@ class HistoryMap {
   }
 
  private:
+  // The empty-slot marker: the most negative id. Particle ids are >= 0 (data files: [1, 2^53],
+  // io/lammps_data.hpp; generated: 0 ... N-1) and walls' are -1 - wall index, so no key a
+  // caller can insert equals it.
   static constexpr GlobalId kEmpty = std::numeric_limits<GlobalId>::min();
   struct Slot {
     GlobalId a = kEmpty, b = 0;
