@@ -31,6 +31,8 @@ std::string error_stack_text() {
   return acc.outer.empty() || acc.outer.ends_with(acc.inner) ? acc.inner : acc.outer + " (" + acc.inner + ")";
 }
 
+constexpr hsize_t kChunkBytes = hsize_t(1) << 20;  // at most 1 MiB per chunk of a fixed-size dataset
+
 Handle dataspace(std::span<const hsize_t> dims, std::span<const hsize_t> maxdims = {}) {
   return Handle(H5Screate_simple(int(dims.size()), dims.data(), maxdims.empty() ? nullptr : maxdims.data()),
                 H5Sclose);
@@ -67,6 +69,12 @@ std::string read_str(const Object& o, hid_t type, const std::string& what, ReadF
 }  // namespace
 
 void quiet() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+
+namespace {
+bool g_checksums = true;
+}  // namespace
+void set_checksums(bool on) { g_checksums = on; }
+bool checksums_enabled() { return g_checksums; }
 
 hid_t native(Type t) {
   switch (t) {
@@ -228,11 +236,22 @@ void Group::remove(const std::string& rel) const {
 
 Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols,
                               hsize_t chunk_rows) const {
-  std::vector<hsize_t> dims{rows}, maxd{chunk_rows > 0 ? H5S_UNLIMITED : rows}, chunk{chunk_rows};
+  // Every dataset with data is chunked and carries HDF5's Fletcher-32 checksum of each chunk,
+  // verified by every read (docs/output.md, "Checksums"). A fixed-size dataset gets chunks of
+  // at most kChunkBytes; an empty fixed-size one stays contiguous (nothing to check).
+  const hsize_t width = std::max<hsize_t>(cols, 1) * H5Tget_size(native(t));
+  const bool extendible = chunk_rows > 0;
+  const hsize_t chunk_n = extendible ? chunk_rows
+                          : rows > 0 ? std::clamp<hsize_t>(kChunkBytes / width, 1, rows)
+                                     : 0;
+  std::vector<hsize_t> dims{rows}, maxd{extendible ? H5S_UNLIMITED : rows}, chunk{chunk_n};
   if (cols > 0) dims.push_back(cols), maxd.push_back(cols), chunk.push_back(cols);
   Handle space = dataspace(dims, maxd);
   Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-  if (chunk_rows > 0) check(H5Pset_chunk(dcpl.get(), int(chunk.size()), chunk.data()), "chunking " + rel);
+  if (chunk_n > 0) {
+    check(H5Pset_chunk(dcpl.get(), int(chunk.size()), chunk.data()), "chunking " + rel);
+    if (checksums_enabled()) check(H5Pset_fletcher32(dcpl.get()), "adding the Fletcher-32 checksum to " + rel);
+  }
   // No fill: every element is written (saves a pass over the file under MPI-IO).
   H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER);
   Handle d(H5Dcreate2(id(), rel.c_str(), native(t), space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
@@ -325,10 +344,43 @@ std::vector<T> read_all(const Dataset& d, hid_t type) {
   std::size_t n = 1;
   for (hsize_t k : d.shape()) n *= k;
   std::vector<T> v(n);
-  if (n > 0) d.check(H5Dread(d.id(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), "reading");
+  if (n > 0 && H5Dread(d.id(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0) d.fail_read();
   return v;
 }
 }  // namespace
+
+std::size_t Dataset::verify() const {
+  Handle t(H5Dget_type(id()), H5Tclose);
+  Handle s(H5Dget_space(id()), H5Sclose);
+  const hssize_t n = H5Sget_simple_extent_npoints(s.get());
+  if (n < 0) check(-1, "reading the data");
+  const std::size_t bytes = std::size_t(n) * H5Tget_size(t.get());
+  if (bytes == 0) return 0;
+  std::vector<unsigned char> buf(bytes);
+  if (H5Dread(id(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail_read();
+  return bytes;
+}
+
+void Dataset::fail_read() const {
+  const std::string text = error_stack_text();
+  fail("the data do not match their checksum or cannot be read (" + text +
+       "): the file is damaged; its other datasets may still be read");
+}
+
+bool Dataset::has_checksum() const {
+  Handle p(H5Dget_create_plist(id()), H5Pclose);
+  const int n = H5Pget_nfilters(p.get());
+  for (int k = 0; k < n; ++k) {
+    unsigned flags = 0;
+    std::size_t nel = 0;
+    unsigned cd[4];
+    char name[64];
+    unsigned config = 0;
+    if (H5Pget_filter2(p.get(), unsigned(k), &flags, &nel, cd, sizeof name, name, &config) == H5Z_FILTER_FLETCHER32)
+      return true;
+  }
+  return false;
+}
 
 std::vector<double> Dataset::read_doubles() const { return read_all<double>(*this, H5T_NATIVE_DOUBLE); }
 std::vector<std::int64_t> Dataset::read_ints() const { return read_all<std::int64_t>(*this, H5T_NATIVE_INT64); }

@@ -131,6 +131,11 @@ class Dataset : public Object {
   std::vector<double> read_doubles() const;
   std::vector<std::int64_t> read_ints() const;
   std::vector<std::uint8_t> read_bytes() const;
+  // Reads every element (in the file's own type, discarded), so that HDF5 verifies each chunk's
+  // Fletcher-32 checksum; throws Error naming the dataset on a mismatch. Returns the bytes read.
+  std::size_t verify() const;
+  bool has_checksum() const;  // the dataset carries the Fletcher-32 filter
+  [[noreturn]] void fail_read() const;  // after a failed H5Dread: Error naming the dataset
 };
 
 class File : public Group {
@@ -156,5 +161,10 @@ class File : public Group {
 
 // Switches off HDF5's printing of its error stack (the messages go into h5::Error instead).
 void quiet();
+
+// Whether datasets created from now on carry the Fletcher-32 checksum (default: yes). Only
+// benchmarks/bench_io switches it off, to measure what the checksum costs.
+void set_checksums(bool on);
+bool checksums_enabled();
 
 }  // namespace fabrica::h5

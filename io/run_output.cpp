@@ -3,6 +3,7 @@
 #include "core/contact_snapshot.hpp"
 #include "io/layout.hpp"
 #include "io/snapshot.hpp"
+#include "io/verify.hpp"
 #include "io/version.hpp"
 #include "io/write_check.hpp"
 #include "parallel/guard.hpp"
@@ -178,6 +179,8 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
         const RunFileInfo ri = read_run_info(path_);
         if (ri.scene_text != scene.text)
           error = path_ + ": the output file holds another scene than " + scene.path;
+        else
+          verify_run_file(path_);  // every dataset's checksum, before anything is appended
       } catch (const std::exception& e) {
         error = e.what();
       }
