@@ -135,6 +135,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     return e;
   };
   StageResult res;
+  bool servo_warned = false;
   real_t last_servo = sim_.time();
   std::int64_t k = 1;
   if (resume) {  // the rates are the checkpoint's
@@ -169,7 +170,10 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       if (!bad.empty()) throw BlowUpError(bad);
       const Vec3 eps = strain();
       res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
-      if (stage == Stage::Shear && out) {  // at the output instants, as in the series
+      const bool finished = done(m, eps);
+      // Over every row of the series: the output instants and the stage's last row (a stage
+      // shorter than output_every has only that one).
+      if (stage == Stage::Shear && (out || finished)) {
         const real_t qp = m.p > 0 ? m.q / m.p : 0;
         if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
         for (int a = 1; a < 3; ++a)
@@ -179,8 +183,26 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       if (out) row(stage, m, eps);
       if (out && stage == Stage::Shear) fabric_row(stage, eps);
       if (out && row_check_) row_check_();
-      sim_.cell().set_strain_rate(servo.update(m.stress, sim_.time() - last_servo));
+      const Vec3 rates = servo.update(m.stress, sim_.time() - last_servo);
+      sim_.cell().set_strain_rate(rates);
       last_servo = sim_.time();
+      // A servo that cannot follow the loading: a lateral axis at the rate cap while its stress
+      // is far from the target (10 x the stage's tolerance). Said once per stage.
+      if (stage == Stage::Shear && !servo_warned && log_)
+        for (int a = 1; a < 3; ++a)
+          if (std::abs(rates[a]) >= tx_.max_strain_rate &&
+              std::abs(m.stress(a, a) - target) > 10 * tx_.stress_tolerance * target) {
+            servo_warned = true;
+            *log_ << fmt::format("  warning: step {}: the servo is at its rate cap ([triaxial] "
+                                 "max_strain_rate = {} 1/s) on axis {} and s{}{} = {:.4g} Pa is {:.1f} % "
+                                 "from the target {:.4g} Pa: it cannot follow the axial loading "
+                                 "({} 1/s); raise max_strain_rate or lower axial_strain_rate\n",
+                                 sim_.step_count(), tx_.max_strain_rate, a + 1, a + 1, a + 1,
+                                 m.stress(a, a), 100 * std::abs(m.stress(a, a) - target) / target,
+                                 target, tx_.axial_strain_rate);
+            log_->flush();
+            break;
+          }
       const auto now = clock::now();
       if (log_ && std::chrono::duration<double>(now - last_print).count() > tx_.progress_seconds) {
         last_print = now;
@@ -195,7 +217,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
                              double(k - k0) / secs, eta);
         log_->flush();
       }
-      if (done(m, eps)) {
+      if (finished) {
         res.steps = k;
         res.strain = eps;
         if (!out) row(stage, m, eps);
@@ -344,6 +366,14 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                         "{:.3e} s ({:.3f} of the critical estimate), {} case(s)\n",
                         s.particles.n_owned(), d_mean * 1e3, mpi.size(), s.params.dt,
                         s.params.dt / s.critical_dt, cases.size());
+  // The servo holds the lateral stresses by lateral strain rates of about half the axial rate
+  // (more while the specimen dilates); a cap below the axial rate may not suffice.
+  if (log && tx.max_strain_rate < tx.axial_strain_rate)
+    *log << fmt::format("warning: {}: [triaxial] max_strain_rate = {} 1/s is below axial_strain_rate = "
+                        "{} 1/s: the servo may not hold the lateral stresses at {} Pa during the shear "
+                        "(it needs lateral rates of about half the axial rate, more while the specimen "
+                        "dilates); raise max_strain_rate\n",
+                        scene.path, tx.max_strain_rate, tx.axial_strain_rate, tx.confining_pressure);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   const auto t0 = clock::now();
   // On a restart: the case (-1: consolidation) and stage the checkpoint was taken in, the

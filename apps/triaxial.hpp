@@ -50,8 +50,9 @@ struct StageResult {
   std::int64_t steps = 0;
   MacroState state;
   Vec3 strain = Vec3::Zero();  // eps_i = ln(l_i0 / l_i), compression positive
-  // Shear only, over the output instants: the largest q/p and eps_1 there, and the largest
-  // relative error of the lateral stresses, max |sigma_ii - target| / target, i = 2, 3.
+  // Shear only, over every row of the series (the output instants and the stage's last row):
+  // the largest q/p and eps_1 there, and the largest relative error of the lateral stresses,
+  // max |sigma_ii - target| / target, i = 2, 3.
   real_t peak_q_p = 0;
   real_t peak_eps1 = 0;
   real_t max_lateral_error = 0;
