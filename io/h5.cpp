@@ -31,6 +31,7 @@ std::string error_stack_text() {
   return acc.outer.empty() || acc.outer.ends_with(acc.inner) ? acc.inner : acc.outer + " (" + acc.inner + ")";
 }
 
+constexpr unsigned kIstoreK = 2;  // chunk-index B-tree: nodes of 2 K = 4 entries
 constexpr hsize_t kChunkBytes = hsize_t(1) << 20;  // at most 1 MiB per chunk of a fixed-size dataset
 
 Handle dataspace(std::span<const hsize_t> dims, std::span<const hsize_t> maxdims = {}) {
@@ -396,7 +397,11 @@ File File::create_parallel(const std::string& path, MPI_Comm comm, bool truncate
   // only one rank reads metadata and writes it in one collective operation.
   H5Pset_all_coll_metadata_ops(fapl.get(), true);
   H5Pset_coll_metadata_write(fapl.get(), true);
-  Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl.get()),
+  // Small B-tree nodes for the chunk indexes: every dataset is chunked (for its checksum), most
+  // have a chunk or a few, and HDF5's default node (K = 32) reserves about 2 KB per dataset.
+  Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
+  H5Pset_istore_k(fcpl.get(), kIstoreK);
+  Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, fcpl.get(), fapl.get()),
            H5Fclose);
   File file(std::move(f), path, "/", comm);
   file.check_all(file.valid() ? 0 : -1, "cannot create the HDF5 file");

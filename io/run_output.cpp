@@ -12,6 +12,7 @@
 #include <cctype>
 #include <limits>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -25,6 +26,9 @@ namespace fabrica {
 namespace {
 
 using clock_type = std::chrono::steady_clock;
+
+constexpr hsize_t kSeriesChunk = 256;   // rows per chunk of a series column
+constexpr hsize_t kVertexChunk = 4096;  // rows per chunk of /xdmf/vertices
 
 // The unit of a series column (docs/output.md): stresses in Pa, energies in J, time in s,
 // everything else (strains, ratios, counts, coordination numbers) dimensionless "1".
@@ -310,7 +314,7 @@ void RunOutput::write_header(const Scene& scene) {
   file_.create_group("snapshots");
   file_.create_group("series");
   file_.create_group("xdmf");
-  file_.create_dataset(layout::kVertexIndex, h5::Type::I64, 0, 0, 4096).set_attr("unit", std::string("1"));
+  file_.create_dataset(layout::kVertexIndex, h5::Type::I64, 0, 0, kVertexChunk).set_attr("unit", std::string("1"));
   file_.flush();
   agree(comm_, [&] {
     if (rank_ == 0) write_xmf();
@@ -368,15 +372,16 @@ void RunOutput::flush_series() {
     h5::Group g = b.created ? file_.open_group(gp) : file_.create_group(gp);
     if (!b.created) {
       g.set_attr("columns", b.header);
-      g.create_dataset("step", h5::Type::I64, 0, 0, 256).set_attr("unit", std::string("1"));
-      if (b.has_stage) g.create_dataset("stage", h5::Type::U8, 0, 0, 256).set_attr("unit", std::string("code"));
+      g.create_dataset("step", h5::Type::I64, 0, 0, kSeriesChunk).set_attr("unit", std::string("1"));
+      if (b.has_stage) g.create_dataset("stage", h5::Type::U8, 0, 0, kSeriesChunk).set_attr("unit", std::string("code"));
       for (const std::string& c : b.columns)
-        g.create_dataset(c, h5::Type::F64, 0, 0, 256).set_attr("unit", series_unit(c));
+        g.create_dataset(c, h5::Type::F64, 0, 0, kSeriesChunk).set_attr("unit", series_unit(c));
       b.created = true;
     }
     const hsize_t rows = b.written + n;
-    agree(comm_, [&] {  // as for a snapshot (write_snapshot): room first
-      if (rank_ == 0) check_room(path_, 1.25 * double(n) * 8.0 * double(b.columns.size() + 2) + 32768);
+    agree(comm_, [&] {  // as for a snapshot (write_snapshot): room first, for the new chunks
+      const double new_chunks = std::ceil(double(rows) / kSeriesChunk) - std::ceil(double(b.written) / kSeriesChunk);
+      if (rank_ == 0) check_room(path_, new_chunks * kSeriesChunk * 8.0 * double(b.columns.size() + 2) + 32768);
     });
     auto append = [&](const std::string& c, h5::Type t, const void* data) {
       h5::Dataset d = g.open_dataset(c);
@@ -443,8 +448,15 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   // flushed after it): a write that fails part-way would leave run.h5 unreadable (its superblock
   // would name an end of file that never reached the disk), so a snapshot that cannot fit is
   // refused before anything of it is written, and the file keeps every earlier snapshot.
+  // The XDMF connectivity grows by whole chunks of kVertexChunk rows of 8 bytes.
+  const auto chunks = [](double rows, double per) { return std::ceil(rows / per); };
+  const double vertex_bytes =
+      std::int64_t(np) > vertices_
+          ? (chunks(double(np), kVertexChunk) - chunks(double(vertices_), kVertexChunk)) * kVertexChunk * 8
+          : 0.0;
   agree(comm_, [&] {
-    if (rank_ == 0) check_room(path_, 1.25 * (double(np) * 112 + double(nc) * 130) + 24576);
+    if (rank_ == 0)
+      check_room(path_, 1.25 * (double(np) * 112 + double(nc) * 130) + vertex_bytes + 24576);
   });
   h5::Group g = file_.create_group(gp);
   const Vec3 L = sim.cell().lengths();

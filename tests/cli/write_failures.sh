@@ -14,9 +14,16 @@ set -u
 kind=$1 work=$2 scene=$3; shift 3
 fabrica=${FABRICA:-${@: -1}}  # the executable (the last word of CMD), for checkpoint-info
 timeout=${TIMEOUT:-120}
+# Mounts left by an earlier, interrupted run of this test go first.
+for m in "$work"/mnt-* "$work"/ro; do mountpoint -q "$m" 2>/dev/null && { umount "$m" || umount -l "$m"; }; done
 rm -rf "$work"; mkdir -p "$work"
 mounted=()
-cleanup() { for m in "${mounted[@]}"; do umount "$m" 2>/dev/null; done; }
+cleanup() {
+  for m in "${mounted[@]}"; do
+    for _ in 1 2 3 4 5; do umount "$m" 2>/dev/null && break; sleep 0.5; done
+    mountpoint -q "$m" && umount -l "$m"
+  done
+}
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; exit 1; }
 
