@@ -248,6 +248,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
       for (; k < scene.compress.max_steps; ++k) {
         const bool measure = k % 10 == 0;
         sim.step(measure);
+        if (!sim.step_guard().empty()) throw BlowUpError(sim.step_guard());  // every step
         snapshot(false);
         if (measure) {
           const MacroState m = sim.macro();
@@ -271,6 +272,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
     for (std::int64_t k = at.phase == 1 ? at.k + 1 : 1; k <= scene.steps; ++k) {
       const bool measure = k % scene.output_every == 0 || k == scene.steps;
       sim.step(measure);
+      if (!sim.step_guard().empty()) throw BlowUpError(sim.step_guard());  // every step
       snapshot(false);
       if (measure) {
         const MacroState m = sim.macro();

@@ -160,6 +160,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     // Boundary work of this step: -V sum_i sigma_ii edot_i dt, with the latest stress.
     const Vec3 rate = sim_.cell().strain_rate();
     sim_.step(measure);
+    if (!sim_.step_guard().empty()) throw BlowUpError(sim_.step_guard());  // every step
     work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
     if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
     if (measure) {
