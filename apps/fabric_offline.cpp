@@ -4,10 +4,13 @@
 #include "core/fabric.hpp"
 #include "io/errors.hpp"
 #include "io/snapshot.hpp"
+#include "io/write_check.hpp"
+#include "parallel/guard.hpp"
 #include "parallel/mpi_domain.hpp"
 
 #include <fmt/core.h>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -21,8 +24,12 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
     throw InputError(fmt::format("--strong-ratio = {}: must be positive", a.strong_ratio));
   if (a.bins < 1 || a.bins > 3600) throw InputError(fmt::format("--bins = {}: must lie in [1, 3600]", a.bins));
   // Which snapshots: by case, in step order (list_snapshots sorts them so).
+  // Every rank reads run.h5 itself; the ranks agree on the outcome of each read, so that a read
+  // that fails on one rank ends every rank with its message (parallel/guard.hpp).
   std::map<std::string, std::vector<SnapshotInfo>> chosen;
-  for (const SnapshotInfo& s : list_snapshots(a.file))
+  std::vector<SnapshotInfo> listed;
+  agree(mpi.comm(), [&] { listed = list_snapshots(a.file); });
+  for (const SnapshotInfo& s : listed)
     if (a.case_name.empty() || s.case_name == a.case_name) chosen[s.case_name].push_back(s);
   if (chosen.empty())
     throw InputError(a.case_name.empty()
@@ -48,30 +55,46 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
   std::size_t analysed = 0;
   for (const auto& [name, list] : chosen) {
     if (list.empty()) continue;
+    // Each file is written to PATH.tmp, checked, synced and renamed over PATH at the end
+    // (io/write_check.hpp): a failed write leaves an earlier analysis as it was.
     std::ofstream f, s, r;
+    const std::array<std::string, 3> paths{(out / name / "fabric.csv").string(),
+                                           (out / name / "sff.csv").string(),
+                                           (out / name / "rose.csv").string()};
+    std::array<std::ofstream*, 3> files{&f, &s, &r};
     FabricStreams streams;
-    if (root) {
-      fs::create_directories(out / name);
-      f.open(out / name / "fabric.csv");
-      s.open(out / name / "sff.csv");
-      r.open(out / name / "rose.csv");
+    agree(mpi.comm(), [&] {
+      if (!root) return;
+      make_output_directory((out / name).string());
+      for (int k = 0; k < 3; ++k) open_checked(*files[k], paths[k] + ".tmp");
       streams = {&f, &s, &r};
       write_fabric_headers(streams, int(a.bins));
-    }
+      for (int k = 0; k < 3; ++k) check_stream(*files[k], paths[k] + ".tmp");
+    });
     for (const SnapshotInfo& info : list) {
-      const ContactSnapshot snap = read_contact_snapshot(a.file, name, info.step);
+      ContactSnapshot snap;
+      agree(mpi.comm(), [&] { snap = read_contact_snapshot(a.file, name, info.step); });
       std::vector<ContactRecord> mine;
       for (std::size_t c = std::size_t(mpi.rank()); c < snap.contacts.size(); c += std::size_t(mpi.size()))
         mine.push_back(snap.contacts[c]);
       const Vec3& L = snap.info.cell_lengths;
       const FabricResult res = analyse_fabric(mine, L[0] * L[1] * L[2], opt, *domain);
+      agree(mpi.comm(), [&] {
+        if (!root) return;
+        write_fabric_rows(streams, "snapshot", info.step, snap.info.strain[0], res);
+        for (int k = 0; k < 3; ++k) check_stream(*files[k], paths[k] + ".tmp");
+      });
       if (!root) continue;
-      write_fabric_rows(streams, "snapshot", info.step, snap.info.strain[0], res);
       fmt::print("{} step {}: eps1 {:.4f}, {} contacts, q/p {:.4f}, (q/p)* all {:.4f}, "
                  "ns-sf/ns-wf/s-sf/s-wf {:.4f}\n", name, info.step, snap.info.strain[0],
                  res.contacts, res.q_p, res.q_p_star[kPartAll], res.q_p_star[kPartSlideForce]);
       ++analysed;
     }
+    agree(mpi.comm(), [&] {
+      if (!root) return;
+      for (int k = 0; k < 3; ++k) close_checked(*files[k], paths[k] + ".tmp");
+      for (int k = 0; k < 3; ++k) replace_file(paths[k] + ".tmp", paths[k]);
+    });
   }
   if (root) fmt::print("{} snapshot(s) analysed; fabric.csv, sff.csv, rose.csv written under {}\n",
                        analysed, out.string());

@@ -10,6 +10,8 @@
 #include "io/checkpoint.hpp"
 #include "io/run_output.hpp"
 #include "io/snapshot.hpp"
+#include "io/verify.hpp"
+#include "io/write_check.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
 #include "parallel/guard.hpp"
@@ -20,7 +22,9 @@
 #include <memory>
 #include <optional>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -84,7 +88,10 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
 int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir,
         bool overwrite, const std::string& restart) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Scene scene = scene_path.empty() ? default_scene() : load_scene(scene_path);
+  // Every rank reads the scene (and below the data file) itself: the ranks agree on the outcome,
+  // so that a read that fails on one rank ends all of them with its message (parallel/guard.hpp).
+  Scene scene;
+  agree(mpi.comm(), [&] { scene = scene_path.empty() ? default_scene() : load_scene(scene_path); });
   // A restart reads and checks the whole checkpoint before anything is written.
   std::optional<Checkpoint> ckpt;
   if (!restart.empty()) {
@@ -93,14 +100,19 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     ex.app = scene.triaxial.enabled ? "triaxial" : "run";
     ckpt = Checkpoint::read(mpi.comm(), restart, ex);
   }
-  if (mpi.rank() != 0 && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 speaks for all
+  agree(mpi.comm(), [&] {  // rank 0 speaks for all
+    if (mpi.rank() != 0 && !std::freopen("/dev/null", "w", stdout))
+      throw std::runtime_error(std::string("/dev/null: cannot redirect the standard output of rank ") +
+                               std::to_string(mpi.rank()) + " there: " + std::strerror(errno));
+  });
   // run.h5: a new file, or on a restart the existing one, continued (docs/output.md); a damaged
   // one stops the restart here, before any file is touched.
   // Bad input in the particle set-up (a missing or malformed data file, overlapping spheres, a
   // time step above the critical one) is found before any output file is created or replaced.
   // The set-up made here is the run's (made once).
   std::optional<Setup> setup;
-  if (!ckpt) setup = make_setup(scene.triaxial.enabled ? triaxial_setup_scene(scene) : scene);
+  if (!ckpt)
+    agree(mpi.comm(), [&] { setup = make_setup(scene.triaxial.enabled ? triaxial_setup_scene(scene) : scene); });
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
@@ -118,10 +130,10 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
              : run_plain(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, restart,
                          setup ? &*setup : nullptr);
   } catch (const CollectiveError&) {  // met by every rank: the file can be closed (collective)
-    if (out) out->close();
+    if (out) out->close_after_error();
     throw;
   } catch (const InputError&) {
-    if (out) out->close();
+    if (out) out->close_after_error();
     throw;
   }
   if (out) {
@@ -160,16 +172,27 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
              mpi.size() > 1 ? ", " + scene.parallel.decomposition + " decomposition" : "");
   std::ofstream csv;
   const fs::path series_path = fs::path(outdir) / "series.csv";
-  if (root) {
-    fs::create_directories(outdir);
+  const std::string csv_path = series_path.string();
+  // Rank 0 writes the CSV; every write is checked (io/write_check.hpp) and the ranks agree on
+  // the outcome, so that a failed write (full disk, read-only directory) ends every rank. The
+  // output directory exists before any rank writes to it.
+  agree(mpi.comm(), [&] {
+    if (!root) return;
+    make_output_directory(outdir);
     // On a restart the rows after the checkpoint's step go (the run writes them again).
-    if (ckpt && keep_series_through(series_path.string(), 0, ckpt->header().step))
-      csv.open(series_path, std::ios::app);
+    if (ckpt && keep_series_through(csv_path, 0, ckpt->header().step))
+      open_checked(csv, csv_path, std::ios::app);
     else
-      csv.open(series_path);
-  }
-  MPI_Barrier(mpi.comm());  // the output directory exists before any rank writes to it
-  if (csv.tellp() == 0) csv << kSeriesHeader;
+      open_checked(csv, csv_path);
+    if (csv.tellp() == 0) csv << kSeriesHeader;
+    check_stream(csv, csv_path);
+  });
+  auto check_csv = [&](bool sync) {
+    agree(mpi.comm(), [&] {
+      if (root && sync) sync_stream(csv, csv_path);
+      else if (root) check_stream(csv, csv_path);
+    });
+  };
 
   const ContactLawParams law = scene.law;
   const auto t0 = std::chrono::steady_clock::now();
@@ -198,7 +221,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
                               sim.step_count());
   auto save = [&](std::int32_t phase, std::int64_t k, bool blowup = false) {
-    if (root) csv.flush();
+    check_csv(true);  // on disk: a checkpoint never refers to rows that are not
     // run.h5 on disk up to here: a checkpoint never refers to output that is not (collective).
     if (out) out->flush();
     const auto t = std::chrono::steady_clock::now();
@@ -225,6 +248,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
       for (; k < scene.compress.max_steps; ++k) {
         const bool measure = k % 10 == 0;
         sim.step(measure);
+        if (!sim.step_guard().empty()) throw BlowUpError(sim.step_guard());  // every step
         snapshot(false);
         if (measure) {
           const MacroState m = sim.macro();
@@ -248,11 +272,13 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
     for (std::int64_t k = at.phase == 1 ? at.k + 1 : 1; k <= scene.steps; ++k) {
       const bool measure = k % scene.output_every == 0 || k == scene.steps;
       sim.step(measure);
+      if (!sim.step_guard().empty()) throw BlowUpError(sim.step_guard());  // every step
       snapshot(false);
       if (measure) {
         const MacroState m = sim.macro();
         check_sane(sim, m, scene);
         print_row(sim, m, root ? &csv : nullptr, out);
+        check_csv(false);
       }
       if (k < scene.steps && schedule.due(sim)) save(1, k);
     }
@@ -262,6 +288,9 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
     throw CollectiveError(std::string(e.what()) + "; the state at detection is saved in " + path +
                           " (for post-mortem: a run cannot restart from it)");
   }
+  agree(mpi.comm(), [&] {
+    if (root) close_checked(csv, csv_path);
+  });
   const std::int64_t steps_done = sim.step_count() - first_step;
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double n_total = double(sim.macro().particles);
@@ -274,11 +303,19 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
 
 // Describes a run file; a missing, truncated or foreign file is an InputError naming it.
 int info(const MpiContext& mpi, const std::string& path) {
-  const RunFileInfo ri = read_run_info(path);
-  const std::vector<SnapshotInfo> snaps = list_snapshots(path);
-  const std::vector<std::string> cases = list_series(path);
+  // Every rank reads the file; they agree on the outcome (a read failing on one rank ends all).
+  RunFileInfo ri;
+  std::vector<SnapshotInfo> snaps;
+  std::vector<std::string> cases;
   std::vector<std::size_t> rows;
-  for (const std::string& c : cases) rows.push_back(read_series(path, c).rows());
+  VerifyReport ver;
+  agree(mpi.comm(), [&] {
+    if (mpi.rank() == 0) ver = verify_run_file(path);  // every dataset's checksum, first
+    ri = read_run_info(path);
+    snaps = list_snapshots(path);
+    cases = list_series(path);
+    for (const std::string& c : cases) rows.push_back(read_series(path, c).rows());
+  });
   if (mpi.rank() != 0) return 0;
   fmt::print("file: {}\nfabrica version: {} (git {}), written by {} MPI rank(s)\nscene: {}\n", path,
              ri.version, ri.git_describe, ri.ranks, ri.scene_path);
@@ -289,6 +326,9 @@ int info(const MpiContext& mpi, const std::string& path) {
   for (const SnapshotInfo& s : snaps)
     fmt::print("  {:<16} {:>12} {:>13.6e} {:>10} {:>10}\n", s.case_name, s.step, s.time, s.particles,
                s.contacts);
+  fmt::print("data: {} datasets read without error, {} of them carrying a Fletcher-32 checksum, "
+             "verified ({:.2f} MB in {:.3f} s)\n", ver.datasets, ver.checksummed, ver.bytes / 1e6,
+             ver.seconds);
   return 0;
 }
 

@@ -6,6 +6,8 @@
 #include "io/checkpoint.hpp"
 #include "io/run_output.hpp"
 #include "io/setup.hpp"
+#include "io/write_check.hpp"
+#include "parallel/guard.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
 
@@ -133,6 +135,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     return e;
   };
   StageResult res;
+  bool servo_warned = false;
   real_t last_servo = sim_.time();
   std::int64_t k = 1;
   if (resume) {  // the rates are the checkpoint's
@@ -157,6 +160,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     // Boundary work of this step: -V sum_i sigma_ii edot_i dt, with the latest stress.
     const Vec3 rate = sim_.cell().strain_rate();
     sim_.step(measure);
+    if (!sim_.step_guard().empty()) throw BlowUpError(sim_.step_guard());  // every step
     work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
     if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
     if (measure) {
@@ -167,7 +171,10 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       if (!bad.empty()) throw BlowUpError(bad);
       const Vec3 eps = strain();
       res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
-      if (stage == Stage::Shear && out) {  // at the output instants, as in the series
+      const bool finished = done(m, eps);
+      // Over every row of the series: the output instants and the stage's last row (a stage
+      // shorter than output_every has only that one).
+      if (stage == Stage::Shear && (out || finished)) {
         const real_t qp = m.p > 0 ? m.q / m.p : 0;
         if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
         for (int a = 1; a < 3; ++a)
@@ -176,8 +183,27 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       }
       if (out) row(stage, m, eps);
       if (out && stage == Stage::Shear) fabric_row(stage, eps);
-      sim_.cell().set_strain_rate(servo.update(m.stress, sim_.time() - last_servo));
+      if (out && row_check_) row_check_();
+      const Vec3 rates = servo.update(m.stress, sim_.time() - last_servo);
+      sim_.cell().set_strain_rate(rates);
       last_servo = sim_.time();
+      // A servo that cannot follow the loading: a lateral axis at the rate cap while its stress
+      // is far from the target (10 x the stage's tolerance). Said once per stage.
+      if (stage == Stage::Shear && !servo_warned && log_)
+        for (int a = 1; a < 3; ++a)
+          if (std::abs(rates[a]) >= tx_.max_strain_rate &&
+              std::abs(m.stress(a, a) - target) > 10 * tx_.stress_tolerance * target) {
+            servo_warned = true;
+            *log_ << fmt::format("  warning: step {}: the servo is at its rate cap ([triaxial] "
+                                 "max_strain_rate = {} 1/s) on axis {} and s{}{} = {:.4g} Pa is {:.1f} % "
+                                 "from the target {:.4g} Pa: it cannot follow the axial loading "
+                                 "({} 1/s); raise max_strain_rate or lower axial_strain_rate\n",
+                                 sim_.step_count(), tx_.max_strain_rate, a + 1, a + 1, a + 1,
+                                 m.stress(a, a), 100 * std::abs(m.stress(a, a) - target) / target,
+                                 target, tx_.axial_strain_rate);
+            log_->flush();
+            break;
+          }
       const auto now = clock::now();
       if (log_ && std::chrono::duration<double>(now - last_print).count() > tx_.progress_seconds) {
         last_print = now;
@@ -192,11 +218,12 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
                              double(k - k0) / secs, eta);
         log_->flush();
       }
-      if (done(m, eps)) {
+      if (finished) {
         res.steps = k;
         res.strain = eps;
         if (!out) row(stage, m, eps);
         if ((!out && stage == Stage::Shear) || stage == Stage::Consolidation) fabric_row(stage, eps);
+        if (row_check_) row_check_();
         if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
         return res;
       }
@@ -259,7 +286,7 @@ StageResult TriaxialRun::resume(const StageCursor& at) {
 FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix,
                          int rose_bins, std::int64_t resume_step) {
   if (!open) return;
-  std::filesystem::create_directories(dir);
+  make_output_directory(dir.string());
   const std::filesystem::path f = dir / (prefix + "fabric.csv"), s = dir / (prefix + "sff.csv"),
                               r = dir / (prefix + "rose.csv");
   // On a restart, the rows after the checkpoint's step go (column 1 is the step), as in the
@@ -271,16 +298,29 @@ FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std:
       if (!keep_series_through(p.string(), 1, resume_step)) kept = false;
   }
   const auto mode = kept ? std::ios::app : std::ios::trunc;
-  fabric_.open(f, std::ios::out | mode);
-  sff_.open(s, std::ios::out | mode);
-  rose_.open(r, std::ios::out | mode);
+  paths_ = {f.string(), s.string(), r.string()};
+  open_checked(fabric_, paths_[0], mode);
+  open_checked(sff_, paths_[1], mode);
+  open_checked(rose_, paths_[2], mode);
   streams_ = {&fabric_, &sff_, &rose_};
   if (!kept) write_fabric_headers(streams_, rose_bins);
+  check();
+}
+
+void FabricFiles::check() {
+  if (!streams_.fabric) return;
+  check_stream(fabric_, paths_[0]), check_stream(sff_, paths_[1]), check_stream(rose_, paths_[2]);
 }
 
 void FabricFiles::flush() {
   if (!streams_.fabric) return;
-  fabric_.flush(), sff_.flush(), rose_.flush();
+  sync_stream(fabric_, paths_[0]), sync_stream(sff_, paths_[1]), sync_stream(rose_, paths_[2]);
+}
+
+void FabricFiles::close() {
+  if (!streams_.fabric) return;
+  close_checked(fabric_, paths_[0]), close_checked(sff_, paths_[1]), close_checked(rose_, paths_[2]);
+  streams_ = {};
 }
 
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
@@ -327,6 +367,14 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                         "{:.3e} s ({:.3f} of the critical estimate), {} case(s)\n",
                         s.particles.n_owned(), d_mean * 1e3, mpi.size(), s.params.dt,
                         s.params.dt / s.critical_dt, cases.size());
+  // The servo holds the lateral stresses by lateral strain rates of about half the axial rate
+  // (more while the specimen dilates); a cap below the axial rate may not suffice.
+  if (log && tx.max_strain_rate < tx.axial_strain_rate)
+    *log << fmt::format("warning: {}: [triaxial] max_strain_rate = {} 1/s is below axial_strain_rate = "
+                        "{} 1/s: the servo may not hold the lateral stresses at {} Pa during the shear "
+                        "(it needs lateral rates of about half the axial rate, more while the specimen "
+                        "dilates); raise max_strain_rate\n",
+                        scene.path, tx.max_strain_rate, tx.axial_strain_rate, tx.confining_pressure);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   const auto t0 = clock::now();
   // On a restart: the case (-1: consolidation) and stage the checkpoint was taken in, the
@@ -365,37 +413,57 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
   }
   const fs::path out(outdir);
   // A series file; on a restart in its stage, its rows after the checkpoint's step are dropped.
+  // Rank 0 writes the CSV files; every write is checked (io/write_check.hpp) and the ranks agree
+  // on the outcome (parallel/guard.hpp), so that a failed write ends every rank.
   auto open_series = [&](const fs::path& p, std::ofstream& f, bool resuming) {
-    if (!root) return;
-    fs::create_directories(p.parent_path());
-    if (resuming && keep_series_through(p.string(), 1, restart_step)) {
-      f.open(p, std::ios::app);
-    } else {
-      f.open(p);
-      write_series_header(f);
-    }
+    agree(mpi.comm(), [&] {
+      if (!root) return;
+      make_output_directory(p.parent_path().string());
+      if (resuming && keep_series_through(p.string(), 1, restart_step)) {
+        open_checked(f, p.string(), std::ios::app);
+      } else {
+        open_checked(f, p.string());
+        write_series_header(f);
+      }
+      check_stream(f, p.string());
+    });
   };
   std::ofstream cons_series;
-  if (root) fs::create_directories(out);
-  if (start_case < 0) open_series(out / "consolidation.csv", cons_series, restart != nullptr);
+  const std::string cons_series_path = (out / "consolidation.csv").string();
+  agree(mpi.comm(), [&] {  // the output directory exists before any rank writes a checkpoint
+    if (root) make_output_directory(out.string());
+  });
+  if (start_case < 0) open_series(cons_series_path, cons_series, restart != nullptr);
   std::optional<FabricFiles> cons_fabric;
   if (start_case < 0)
-    cons_fabric.emplace(root && scene.fabric.enabled, out, "consolidation_", int(scene.fabric.rose_bins),
-                        restart ? restart_step : -1);
-  MPI_Barrier(mpi.comm());  // the output directory exists before any rank writes a checkpoint
+    agree(mpi.comm(), [&] {
+      cons_fabric.emplace(root && scene.fabric.enabled, out, "consolidation_",
+                          int(scene.fabric.rose_bins), restart ? restart_step : -1);
+    });
 
   // Checkpoints: the current simulation, the consolidated one (inside a case) and the state of
   // the protocol, at rebuild steps (TriaxialRun::on_step).
   Simulation* current = prepared.get();
   std::ofstream* current_series = &cons_series;
+  std::string current_series_path = cons_series_path;
   FabricFiles* current_fabric = cons_fabric ? &*cons_fabric : nullptr;
+  // After every series row, on every rank: the rows so far are written (rank 0's check, agreed).
+  auto row_check = [&] {
+    agree(mpi.comm(), [&] {
+      if (!root) return;
+      if (current_series) check_stream(*current_series, current_series_path);
+      if (current_fabric) current_fabric->check();
+    });
+  };
   StageCursor prep_acc;
   StageResult e_res;
   CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
                               prepared->step_count());
   auto save = [&](const StageCursor& cur, bool blowup) {
-    if (root && current_series) current_series->flush();
-    if (root && current_fabric) current_fabric->flush();
+    agree(mpi.comm(), [&] {  // on disk: a checkpoint never refers to rows that are not
+      if (root && current_series) sync_stream(*current_series, current_series_path);
+      if (root && current_fabric) current_fabric->flush();
+    });
     // run.h5 on disk up to here: a checkpoint never refers to output that is not (collective).
     if (output) output->flush();
     const auto t = clock::now();
@@ -433,6 +501,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     TriaxialRun prep(scene, *prepared, d_mean, density, root ? &cons_series : nullptr, log);
     if (cons_fabric) prep.set_fabric_output(cons_fabric->streams());
     prep.set_output(output, "consolidation");
+    prep.on_row(row_check);
     if (start_case < 0) {
       prep.on_step(hook);
       c = restart ? prep.resume(at) : prep.consolidate();
@@ -441,7 +510,11 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
       // checkpoint restores exactly (docs/checkpoint.md), for the cases after a restart.
       prepared->rebuild();
       t_cons = std::chrono::duration<double>(clock::now() - t0).count();
-      cons_series.close();  // complete on disk before any checkpoint of a case
+      agree(mpi.comm(), [&] {  // complete on disk before any checkpoint of a case
+        if (root) close_checked(cons_series, cons_series_path);
+        if (cons_fabric) cons_fabric->close();
+      });
+      current_series = nullptr;
       current_fabric = nullptr;
       cons_fabric.reset();
     } else {
@@ -453,13 +526,18 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                           "Z {:.3f}, mean overlap {:.3f} % of the mean diameter\n",
                           c.state.p / 1e3, c.steps, t_cons, c.state.void_ratio, c.state.coordination,
                           100 * c.state.mean_overlap / d_mean);
-    std::ofstream summary;
-    if (root) {
-      summary.open(out / "summary.csv");
-      summary << "case,rolling_friction,void_ratio_consolidated,peak_q_p,eps1_at_peak,eps_v_end,"
-                 "q_p_end,max_lateral_error,max_energy_error,max_inertial_number,wall_seconds\n"
-              << summary_rows;
-    }
+    // summary.csv is written whole after every case (path.tmp, checked, synced, renamed).
+    const std::string summary_path = (out / "summary.csv").string();
+    auto write_summary = [&] {
+      agree(mpi.comm(), [&] {
+        if (root)
+          write_file_atomic(summary_path,
+                            "case,rolling_friction,void_ratio_consolidated,peak_q_p,eps1_at_peak,"
+                            "eps_v_end,q_p_end,max_lateral_error,max_energy_error,"
+                            "max_inertial_number,wall_seconds\n" + summary_rows);
+      });
+    };
+    write_summary();
     for (std::size_t i = std::size_t(std::max(0, start_case)); i < cases.size(); ++i) {
       const TriaxialCase& tc = cases[i];
       const bool resuming = restart && std::int32_t(i) == start_case;
@@ -470,17 +548,23 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                    : std::make_unique<Simulation>(*prepared, d2.get());
       Simulation& sim = *simp;
       std::ofstream series;
-      open_series(out / tc.name / "series.csv", series, resuming);
-      FabricFiles fabric(root && scene.fabric.enabled, out / tc.name, "", int(scene.fabric.rose_bins),
-                         resuming ? restart_step : -1);
+      const std::string series_path = (out / tc.name / "series.csv").string();
+      open_series(series_path, series, resuming);
+      std::optional<FabricFiles> fabric;
+      agree(mpi.comm(), [&] {
+        fabric.emplace(root && scene.fabric.enabled, out / tc.name, "", int(scene.fabric.rose_bins),
+                       resuming ? restart_step : -1);
+      });
       current = &sim;
       current_series = &series;
-      current_fabric = &fabric;
+      current_series_path = series_path;
+      current_fabric = &*fabric;
       current_case = std::int32_t(i);
       schedule.rebase(sim.step_count());
       TriaxialRun run(scene, sim, d_mean, density, root ? &series : nullptr, log, &prep);
       run.on_step(hook);
-      run.set_fabric_output(fabric.streams());
+      run.set_fabric_output(fabric->streams());
+      run.on_row(row_check);
       run.set_output(output, tc.name);
       if (log) *log << fmt::format("case {}: mu_s = {}, mu_r = {}{}\n", tc.name, scene.law.friction,
                                    tc.rolling_friction,
@@ -519,7 +603,11 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                       sh.strain.sum(), qp_end, sh.max_lateral_error,
                       std::max(e.max_energy_error, sh.max_energy_error), inertial, secs);
       summary_rows += row;
-      if (root) summary << row << std::flush;
+      agree(mpi.comm(), [&] {
+        if (root) close_checked(series, series_path);
+        fabric->close();
+      });
+      write_summary();
       current = prepared.get();  // the case's simulation and series end here
       current_series = nullptr;
       current_fabric = nullptr;

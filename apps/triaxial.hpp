@@ -8,6 +8,7 @@
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -49,8 +50,9 @@ struct StageResult {
   std::int64_t steps = 0;
   MacroState state;
   Vec3 strain = Vec3::Zero();  // eps_i = ln(l_i0 / l_i), compression positive
-  // Shear only, over the output instants: the largest q/p and eps_1 there, and the largest
-  // relative error of the lateral stresses, max |sigma_ii - target| / target, i = 2, 3.
+  // Shear only, over every row of the series (the output instants and the stage's last row):
+  // the largest q/p and eps_1 there, and the largest relative error of the lateral stresses,
+  // max |sigma_ii - target| / target, i = 2, 3.
   real_t peak_q_p = 0;
   real_t peak_eps1 = 0;
   real_t max_lateral_error = 0;
@@ -86,6 +88,8 @@ class TriaxialRun {
   StageResult resume(const StageCursor& at);
   // Called at the end of every step of a stage that does not end there (to take checkpoints).
   void on_step(std::function<void(const StageCursor&)> hook) { hook_ = std::move(hook); }
+  // Called on every rank after every series row (to check and agree that it was written).
+  void on_row(std::function<void()> check) { row_check_ = std::move(check); }
 
   real_t boundary_work() const { return work_; }
   // The run's account (strain reference, boundary work, initial energy, last stress) in the
@@ -125,6 +129,7 @@ class TriaxialRun {
   real_t e0_ = 0;    // kinetic + elastic energy at the start [J]
   Mat3 last_stress_ = Mat3::Zero();
   std::function<void(const StageCursor&)> hook_;
+  std::function<void()> row_check_;
   const FabricStreams* fabric_out_ = nullptr;
   double fabric_seconds_ = 0;
   RunOutput* output_ = nullptr;
@@ -141,9 +146,13 @@ class FabricFiles {
   FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins,
               std::int64_t resume_step = -1);
   const FabricStreams* streams() const { return streams_.fabric ? &streams_ : nullptr; }
+  // Each throws a WriteError naming the file if a write so far failed (io/write_check.hpp).
+  void check();  // the rows so far written
   void flush();  // the rows so far on disk (before a checkpoint)
+  void close();  // synced and closed
 
  private:
+  std::array<std::string, 3> paths_;
   std::ofstream fabric_, sff_, rose_;
   FabricStreams streams_;
 };

@@ -27,7 +27,7 @@ class Domain {
   // Element-wise maximum over all ranks, in place.
   virtual void max_all(std::span<double> values) { (void)values; }
 
-  // Element-wise sum over all ranks, in place.
+  // Element-wise sum over all ranks, in place; the same bits on every rank (rank 0's result).
   virtual void sum_all(std::span<double> values) { (void)values; }
 
   // Element-wise sum of integers over all ranks, in place: exact, so the same on any number of

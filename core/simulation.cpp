@@ -3,6 +3,9 @@
 #include "core/integrator.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <limits>
+#include <span>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -147,11 +150,50 @@ void Simulation::set_law(const ContactLawParams& law) {
 
 bool Simulation::needs_rebuild() {
   const Vec3& L = cell_.lengths();
-  real_t max2 = 0;
-  for (std::size_t a = 0; a < p_.n_owned(); ++a)
-    max2 = std::max(max2, (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm());
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  // m[0]: the largest displacement^2 since the last rebuild; m[1]: the largest speed^2 (the
+  // step guard). A non-finite value counts as infinite (an exact maximum on every rank).
+  double m[2] = {0, 0};
+  for (std::size_t a = 0; a < p_.n_owned(); ++a) {
+    const real_t d2 = (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm();
+    const real_t v2 = p_.v[a].squaredNorm();
+    m[0] = d2 <= m[0] ? m[0] : (d2 < inf ? d2 : inf);
+    m[1] = v2 <= m[1] ? m[1] : (v2 < inf ? v2 : inf);
+  }
+  domain_->max_all(std::span<double>(m, 2));
+  if (guard_rmin_ == 0) {  // once: the smallest radius over every rank
+    real_t r = inf;
+    for (std::size_t a = 0; a < p_.n_owned(); ++a) r = std::min(r, p_.radius[a]);
+    guard_rmin_ = -domain_->max_all(-r);
+  }
+  const real_t bound = 0.5 * guard_rmin_ / par_.dt;  // half the smallest radius in one step
+  if (m[0] == inf || !(m[1] <= bound * bound)) set_step_guard(m[1], bound);
   const real_t strain = (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
-  return 2.0 * std::sqrt(domain_->max_all(max2)) + strain * cutoff_max_ > par_.skin;
+  return 2.0 * std::sqrt(m[0]) + strain * cutoff_max_ > par_.skin;
+}
+
+void Simulation::set_step_guard(real_t max_v2, real_t bound) {
+  // Only when the guard trips: the particle (the highest id among equals) and its velocity,
+  // from a second reduction; non-holders send -inf.
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  double w[4] = {-inf, -inf, -inf, -inf};
+  for (std::size_t a = 0; a < p_.n_owned(); ++a) {
+    const real_t v2 = p_.v[a].squaredNorm();
+    const bool bad = !std::isfinite(v2) || !p_.x[a].allFinite() || (v2 >= max_v2 && std::isfinite(max_v2));
+    if (bad && double(p_.id[a]) > w[0]) w[0] = double(p_.id[a]), w[1] = p_.v[a][0], w[2] = p_.v[a][1], w[3] = p_.v[a][2];
+  }
+  domain_->max_all(std::span<double>(w, 4));
+  char b[400];
+  if (!std::isfinite(max_v2))
+    std::snprintf(b, sizeof b, "numerical blow-up at step %lld: particle %.0f has a non-finite position "
+                  "or velocity (velocity (%.6g, %.6g, %.6g) m/s)", (long long)(step_ + 1), w[0], w[1], w[2], w[3]);
+  else
+    std::snprintf(b, sizeof b, "numerical blow-up at step %lld: particle %.0f moves at %.6g m/s, more than "
+                  "half the smallest radius (%.6g m) per time step (%.6g s), %.6g m/s: an overlap can "
+                  "jump past any bound in one step (velocity (%.6g, %.6g, %.6g) m/s)",
+                  (long long)(step_ + 1), w[0], std::sqrt(max_v2), guard_rmin_, par_.dt, bound, w[1],
+                  w[2], w[3]);
+  guard_ = b;
 }
 
 void Simulation::rebuild() {

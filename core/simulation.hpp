@@ -11,6 +11,7 @@
 #include "core/particles.hpp"
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace fabrica {
@@ -123,6 +124,14 @@ class Simulation {
   // checkpoint can be taken (and restored bit for bit).
   bool rebuilt_last_step() const { return rebuilt_last_; }
 
+  // The guard of every step (in the displacement check every step makes anyway, in its one
+  // reduction): empty, or - when a particle's position or velocity is not finite, or a particle
+  // moves more than half the smallest radius in one step (an overlap could then jump past any
+  // bound between two steps) - "numerical
+  // blow-up at step N: particle ID ..." with its speed and velocity. The same on every rank;
+  // the executables stop the run with it (and save the state, OUT/blowup.ckpt).
+  const std::string& step_guard() const { return guard_; }
+
   // Calls fn(id_a, id_b, history) once per touching contact over all ranks: here, those whose
   // lower-id body is owned by this rank (walls: b = -1 - wall index).
   template <class F>
@@ -141,6 +150,7 @@ class Simulation {
   // True once particles (on any rank) have moved, or the cell has strained, enough that a pair
   // outside the list could be touching. Collective.
   bool needs_rebuild();
+  void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
   void rebuild();
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable
@@ -182,6 +192,8 @@ class Simulation {
   real_t gravity_work_local_ = 0;       // work of gravity on the owned particles [J]
   bool timing_ = false;
   bool rebuilt_last_ = true;
+  std::string guard_;      // step_guard()
+  real_t guard_rmin_ = 0;  // the smallest radius over all ranks (set at the first check)
   double last_migrate_seconds_ = 0;  // communication time of the last rebuild (when timing)
   PhaseTimes times_;
 };

@@ -1,5 +1,8 @@
 #include "io/checkpoint.hpp"
 
+#include "io/fault.hpp"
+#include "io/write_check.hpp"
+
 #include "io/errors.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/properties.hpp"
@@ -130,18 +133,30 @@ std::string decode_header(const std::string& in, CheckpointHeader& h) {
   return "";
 }
 
-void check_mpi(int err, MPI_Comm comm, const std::string& what, const std::string& path) {
-  int bad = err != MPI_SUCCESS, any = 0;
-  MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, comm);
-  if (!any) return;
-  std::string msg = "unknown error";
-  if (bad) {
+// The ranks agree on the outcome of an MPI-IO call; if it failed on any rank, every rank throws
+// the message of the lowest such rank ('detail' adds to MPI's own text).
+void check_mpi(int err, MPI_Comm comm, const std::string& what, const std::string& path,
+               const std::string& detail = "") {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  int first = err != MPI_SUCCESS ? rank : size;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm);
+  if (first == size) return;
+  std::string msg;
+  if (err != MPI_SUCCESS) {
     char text[MPI_MAX_ERROR_STRING];
     int len = 0;
     MPI_Error_string(err, text, &len);
-    msg.assign(text, std::size_t(len));
+    msg = what + ": " + std::string(text, std::size_t(len)) + detail;
+    if (size > 1) msg += " on rank " + std::to_string(rank);
   }
-  throw CollectiveError(path + ": cannot write the checkpoint (" + what + ": " + msg + ")");
+  int len = int(msg.size());
+  MPI_Bcast(&len, 1, MPI_INT, first, comm);
+  msg.resize(std::size_t(len));
+  MPI_Bcast(msg.data(), len, MPI_CHAR, first, comm);
+  throw CollectiveError(path + ": cannot write the checkpoint (" + msg +
+                        "); the previous checkpoint, if any, is kept");
 }
 
 }  // namespace
@@ -282,8 +297,19 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
     if (b.size() > std::size_t(std::numeric_limits<int>::max()))
       throw std::runtime_error(path + ": a checkpoint block above 2 GiB on one rank");
     MPI_Status st;
-    check_mpi(MPI_File_write_at_all(fh, MPI_Offset(offset), b.data(), int(b.size()), MPI_BYTE, &st),
-              comm_, "write " + what, path);
+    int err = MPI_File_write_at_all(fh, MPI_Offset(offset), b.data(), int(b.size()), MPI_BYTE, &st);
+    // A write can succeed short (a full disk, a file-size limit): the count must be the size.
+    int count = 0;
+    if (err == MPI_SUCCESS) MPI_Get_count(&st, MPI_BYTE, &count);
+    std::string detail;
+    if (err == MPI_SUCCESS && (count != int(b.size()) || fault_injected("ckpt_write"))) {
+      err = MPI_ERR_IO;
+      detail = fault_injected("ckpt_write")
+                   ? " (" + fault_text("ckpt_write") + ")"
+                   : " (" + std::to_string(count) + " of " + std::to_string(b.size()) +
+                         " bytes written: is the disk full?)";
+    }
+    check_mpi(err, comm_, "write " + what + " to " + tmp, path, detail);
   };
   try {
     check_mpi(MPI_File_set_size(fh, 0), comm_, "truncate " + tmp, path);
@@ -294,10 +320,25 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
     check_mpi(MPI_File_sync(fh), comm_, "sync " + tmp, path);
   } catch (const CollectiveError&) {  // every rank is here: close, keep the last checkpoint
     MPI_File_close(&fh);
+    if (rank_ == 0) std::remove(tmp.c_str());  // the partial file gives its space back
     throw;
   }
   check_mpi(MPI_File_close(&fh), comm_, "close " + tmp, path);
-  MPI_Barrier(comm_);
+  // The complete file is on disk before it replaces the previous checkpoint: rank 0 checks the
+  // size of the temporary, and every rank learns the outcome.
+  int short_file = 0;
+  std::uint64_t on_disk = 0;
+  if (rank_ == 0) {
+    std::error_code ec;
+    on_disk = std::filesystem::file_size(tmp, ec);
+    short_file = ec || on_disk != head_.file_bytes;
+  }
+  MPI_Bcast(&short_file, 1, MPI_INT, 0, comm_);
+  if (short_file && rank_ == 0) std::remove(tmp.c_str());
+  if (short_file)
+    check_mpi(rank_ == 0 ? MPI_ERR_IO : MPI_SUCCESS, comm_, "check " + tmp, path,
+              " (" + std::to_string(on_disk) + " bytes on disk, " +
+                  std::to_string(head_.file_bytes) + " written)");
   // Rank 0 replaces the previous checkpoint (atomic rename) and syncs the directory entry.
   int err = 0;
   if (rank_ == 0) {
@@ -328,7 +369,9 @@ Checkpoint Checkpoint::read(MPI_Comm comm, const std::string& path, const Expect
   std::string error;
   if (rank == 0) {
     std::ifstream in(path, std::ios::binary);
-    if (!in) {
+    if (fault_injected("checkpoint")) {
+      error = "cannot read the checkpoint (" + fault_text("checkpoint") + ")";
+    } else if (!in) {
       error = "cannot open the checkpoint (" + std::string(std::strerror(errno)) + ")";
     } else {
       std::ostringstream s;
@@ -546,13 +589,7 @@ bool keep_series_through(const std::string& path, int step_column, std::int64_t 
     }
     kept += line;
   }
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << kept;
-    if (!out) throw std::runtime_error(tmp + ": cannot write");
-  }
-  std::filesystem::rename(tmp, path);
+  write_file_atomic(path, kept);  // path.tmp, checked, synced, renamed (io/write_check.hpp)
   return true;
 }
 

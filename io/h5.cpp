@@ -1,6 +1,11 @@
 #include "io/h5.hpp"
 
+#include "io/fault.hpp"
+#include "parallel/guard.hpp"
+
 #include <array>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 
 namespace fabrica::h5 {
@@ -25,6 +30,9 @@ std::string error_stack_text() {
   if (acc.inner.empty()) return acc.outer.empty() ? "HDF5 call failed" : acc.outer;
   return acc.outer.empty() || acc.outer.ends_with(acc.inner) ? acc.inner : acc.outer + " (" + acc.inner + ")";
 }
+
+constexpr unsigned kIstoreK = 2;  // chunk-index B-tree: nodes of 2 K = 4 entries
+constexpr hsize_t kChunkBytes = hsize_t(1) << 20;  // at most 1 MiB per chunk of a fixed-size dataset
 
 Handle dataspace(std::span<const hsize_t> dims, std::span<const hsize_t> maxdims = {}) {
   return Handle(H5Screate_simple(int(dims.size()), dims.data(), maxdims.empty() ? nullptr : maxdims.data()),
@@ -63,6 +71,12 @@ std::string read_str(const Object& o, hid_t type, const std::string& what, ReadF
 
 void quiet() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
 
+namespace {
+bool g_checksums = true;
+}  // namespace
+void set_checksums(bool on) { g_checksums = on; }
+bool checksums_enabled() { return g_checksums; }
+
 hid_t native(Type t) {
   switch (t) {
     case Type::F64: return H5T_NATIVE_DOUBLE;
@@ -78,6 +92,23 @@ void Object::fail(const std::string& what) const {
 
 void Object::check(herr_t status, const std::string& what) const {
   if (status < 0) fail(what + ": " + error_stack_text());
+}
+
+void Object::check_all(herr_t status, const std::string& what) const {
+  if (comm_ == MPI_COMM_NULL) return check(status, what);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm_, &rank);
+  MPI_Comm_size(comm_, &size);
+  std::string msg;
+  if (status < 0) msg = file_ + ": " + name_ + ": " + what + ": " + error_stack_text();
+  int first = status < 0 ? rank : size;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm_);
+  if (first == size) return;
+  int len = int(msg.size());
+  MPI_Bcast(&len, 1, MPI_INT, first, comm_);
+  msg.resize(std::size_t(len));
+  MPI_Bcast(msg.data(), len, MPI_CHAR, first, comm_);
+  throw Error(msg);
 }
 
 // ---- attributes ----------------------------------------------------------------------------
@@ -162,14 +193,14 @@ Group Group::create_group(const std::string& rel) const {
   H5Pset_create_intermediate_group(lcpl.get(), 1);
   Handle g(H5Gcreate2(id(), rel.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
   if (!g.valid()) check(-1, "creating group " + rel);
-  return Group(std::move(g), file_, child_name(rel));
+  return Group(std::move(g), file_, child_name(rel), comm_);
 }
 
 Group Group::open_group(const std::string& rel) const {
   if (!exists(rel)) fail("no group '" + rel + "'");
   Handle g(H5Gopen2(id(), rel.c_str(), H5P_DEFAULT), H5Gclose);
   if (!g.valid()) check(-1, "opening group " + rel);
-  return Group(std::move(g), file_, child_name(rel));
+  return Group(std::move(g), file_, child_name(rel), comm_);
 }
 
 bool Group::exists(const std::string& rel) const {
@@ -206,24 +237,35 @@ void Group::remove(const std::string& rel) const {
 
 Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols,
                               hsize_t chunk_rows) const {
-  std::vector<hsize_t> dims{rows}, maxd{chunk_rows > 0 ? H5S_UNLIMITED : rows}, chunk{chunk_rows};
+  // Every dataset with data is chunked and carries HDF5's Fletcher-32 checksum of each chunk,
+  // verified by every read (docs/output.md, "Checksums"). A fixed-size dataset gets chunks of
+  // at most kChunkBytes; an empty fixed-size one stays contiguous (nothing to check).
+  const hsize_t width = std::max<hsize_t>(cols, 1) * H5Tget_size(native(t));
+  const bool extendible = chunk_rows > 0;
+  const hsize_t chunk_n = extendible ? chunk_rows
+                          : rows > 0 ? std::clamp<hsize_t>(kChunkBytes / width, 1, rows)
+                                     : 0;
+  std::vector<hsize_t> dims{rows}, maxd{extendible ? H5S_UNLIMITED : rows}, chunk{chunk_n};
   if (cols > 0) dims.push_back(cols), maxd.push_back(cols), chunk.push_back(cols);
   Handle space = dataspace(dims, maxd);
   Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
-  if (chunk_rows > 0) check(H5Pset_chunk(dcpl.get(), int(chunk.size()), chunk.data()), "chunking " + rel);
+  if (chunk_n > 0) {
+    check(H5Pset_chunk(dcpl.get(), int(chunk.size()), chunk.data()), "chunking " + rel);
+    if (checksums_enabled()) check(H5Pset_fletcher32(dcpl.get()), "adding the Fletcher-32 checksum to " + rel);
+  }
   // No fill: every element is written (saves a pass over the file under MPI-IO).
   H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER);
   Handle d(H5Dcreate2(id(), rel.c_str(), native(t), space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
            H5Dclose);
   if (!d.valid()) check(-1, "creating dataset " + rel);
-  return Dataset(std::move(d), file_, child_name(rel));
+  return Dataset(std::move(d), file_, child_name(rel), comm_);
 }
 
 Dataset Group::open_dataset(const std::string& rel) const {
   if (!exists(rel)) fail("no dataset '" + rel + "'");
   Handle d(H5Dopen2(id(), rel.c_str(), H5P_DEFAULT), H5Dclose);
   if (!d.valid()) check(-1, "opening dataset " + rel);
-  return Dataset(std::move(d), file_, child_name(rel));
+  return Dataset(std::move(d), file_, child_name(rel), comm_);
 }
 
 void Group::write_string(const std::string& rel, const std::string& text, bool writer) const {
@@ -275,13 +317,26 @@ void Dataset::write_rows(Type t, hsize_t row0, hsize_t n, const void* data, bool
   }
   Handle xfer(H5Pcreate(H5P_DATASET_XFER), H5Pclose);
   if (collective) H5Pset_dxpl_mpio(xfer.get(), H5FD_MPIO_COLLECTIVE);
-  check(H5Dwrite(id(), native(t), ms.get(), fs.get(), xfer.get(), data), "writing");
+  errno = 0;
+  herr_t st = H5Dwrite(id(), native(t), ms.get(), fs.get(), xfer.get(), data);
+  const int err = errno;
+  std::string what = "cannot write the data";
+  // The system's reason, when the failure was the disk's (HDF5's own text does not say).
+  if (st < 0 && (err == ENOSPC || err == EFBIG || err == EDQUOT || err == EIO || err == EROFS))
+    what += " (" + std::string(std::strerror(err)) + ")";
+  if (st >= 0 && fault_injected("h5")) {
+    H5Epush2(H5E_DEFAULT, __FILE__, __func__, __LINE__, H5E_ERR_CLS, H5E_DATASET, H5E_WRITEERROR, "%s",
+             fault_text("h5").c_str());
+    st = -1;
+  }
+  if (collective) check_all(st, what);
+  else check(st, what);
 }
 
 void Dataset::extend(hsize_t rows) const {
   std::vector<hsize_t> dims = shape();
   dims[0] = rows;
-  check(H5Dset_extent(id(), dims.data()), "extending");
+  check_all(H5Dset_extent(id(), dims.data()), "extending");
 }
 
 namespace {
@@ -290,10 +345,43 @@ std::vector<T> read_all(const Dataset& d, hid_t type) {
   std::size_t n = 1;
   for (hsize_t k : d.shape()) n *= k;
   std::vector<T> v(n);
-  if (n > 0) d.check(H5Dread(d.id(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), "reading");
+  if (n > 0 && H5Dread(d.id(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0) d.fail_read();
   return v;
 }
 }  // namespace
+
+std::size_t Dataset::verify() const {
+  Handle t(H5Dget_type(id()), H5Tclose);
+  Handle s(H5Dget_space(id()), H5Sclose);
+  const hssize_t n = H5Sget_simple_extent_npoints(s.get());
+  if (n < 0) check(-1, "reading the data");
+  const std::size_t bytes = std::size_t(n) * H5Tget_size(t.get());
+  if (bytes == 0) return 0;
+  std::vector<unsigned char> buf(bytes);
+  if (H5Dread(id(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail_read();
+  return bytes;
+}
+
+void Dataset::fail_read() const {
+  const std::string text = error_stack_text();
+  fail("the data do not match their checksum or cannot be read (" + text +
+       "): the file is damaged; its other datasets may still be read");
+}
+
+bool Dataset::has_checksum() const {
+  Handle p(H5Dget_create_plist(id()), H5Pclose);
+  const int n = H5Pget_nfilters(p.get());
+  for (int k = 0; k < n; ++k) {
+    unsigned flags = 0;
+    std::size_t nel = 0;
+    unsigned cd[4];
+    char name[64];
+    unsigned config = 0;
+    if (H5Pget_filter2(p.get(), unsigned(k), &flags, &nel, cd, sizeof name, name, &config) == H5Z_FILTER_FLETCHER32)
+      return true;
+  }
+  return false;
+}
 
 std::vector<double> Dataset::read_doubles() const { return read_all<double>(*this, H5T_NATIVE_DOUBLE); }
 std::vector<std::int64_t> Dataset::read_ints() const { return read_all<std::int64_t>(*this, H5T_NATIVE_INT64); }
@@ -309,10 +397,15 @@ File File::create_parallel(const std::string& path, MPI_Comm comm, bool truncate
   // only one rank reads metadata and writes it in one collective operation.
   H5Pset_all_coll_metadata_ops(fapl.get(), true);
   H5Pset_coll_metadata_write(fapl.get(), true);
-  Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl.get()),
+  // Small B-tree nodes for the chunk indexes: every dataset is chunked (for its checksum), most
+  // have a chunk or a few, and HDF5's default node (K = 32) reserves about 2 KB per dataset.
+  Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
+  H5Pset_istore_k(fcpl.get(), kIstoreK);
+  Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, fcpl.get(), fapl.get()),
            H5Fclose);
-  if (!f.valid()) throw Error(path + ": cannot create the HDF5 file: " + error_stack_text());
-  return File(std::move(f), path, "/");
+  File file(std::move(f), path, "/", comm);
+  file.check_all(file.valid() ? 0 : -1, "cannot create the HDF5 file");
+  return file;
 }
 
 File File::open_parallel(const std::string& path, MPI_Comm comm) {
@@ -322,8 +415,9 @@ File File::open_parallel(const std::string& path, MPI_Comm comm) {
   H5Pset_all_coll_metadata_ops(fapl.get(), true);
   H5Pset_coll_metadata_write(fapl.get(), true);
   Handle f(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose);
-  if (!f.valid()) throw Error(path + ": cannot open the HDF5 file for writing: " + error_stack_text());
-  return File(std::move(f), path, "/");
+  File file(std::move(f), path, "/", comm);
+  file.check_all(file.valid() ? 0 : -1, "cannot open the HDF5 file for writing");
+  return file;
 }
 
 File File::open_read(const std::string& path) {
@@ -342,12 +436,24 @@ File File::open_read(const std::string& path) {
   return File(std::move(f), path, "/");
 }
 
-void File::flush() const { check(H5Fflush(id(), H5F_SCOPE_GLOBAL), "flushing"); }
+void File::abandon() {
+  if (!h_.valid()) return;
+  h_.release();
+  exit_without_finalize_on_error();  // HDF5 would close it at MPI_Finalize, and crash
+}
+
+void File::flush() const {
+  errno = 0;
+  const herr_t st = H5Fflush(id(), H5F_SCOPE_GLOBAL);
+  const int err = errno;
+  check_all(st, std::string("cannot flush the file to disk") +
+                    (st < 0 && err ? " (" + std::string(std::strerror(err)) + ")" : ""));
+}
 
 void File::close() {
   if (!h_.valid()) return;
   const herr_t s = H5Fclose(h_.release());
-  if (s < 0) throw Error(file_ + ": closing the file: " + error_stack_text());
+  check_all(s, "closing the file");
 }
 
 }  // namespace fabrica::h5

@@ -61,8 +61,8 @@ hid_t native(Type t);
 class Object {
  public:
   Object() = default;
-  Object(Handle h, std::string file, std::string name)
-      : h_(std::move(h)), file_(std::move(file)), name_(std::move(name)) {}
+  Object(Handle h, std::string file, std::string name, MPI_Comm comm = MPI_COMM_NULL)
+      : h_(std::move(h)), file_(std::move(file)), name_(std::move(name)), comm_(comm) {}
   hid_t id() const { return h_.get(); }
   bool valid() const { return h_.valid(); }
   const std::string& file() const { return file_; }
@@ -73,6 +73,11 @@ class Object {
   // Throws Error("<file>: <object>: <what>: <HDF5 message>") if status < 0.
   void check(herr_t status, const std::string& what) const;
   [[noreturn]] void fail(const std::string& what) const;
+  // For a collective call of a file opened over a communicator: the ranks agree on 'status';
+  // if it failed on any rank, every rank throws the Error of the lowest such rank. Serially,
+  // check(). A write that fails on one rank (its part of a full disk) so ends every rank alike.
+  void check_all(herr_t status, const std::string& what) const;
+  MPI_Comm comm() const { return comm_; }  // MPI_COMM_NULL: a serial file
 
   // Attributes (scalars, 1-D arrays, strings), on this object.
   void set_attr(const std::string& attr, double v) const;
@@ -88,6 +93,7 @@ class Object {
  protected:
   Handle h_;
   std::string file_, name_;
+  MPI_Comm comm_ = MPI_COMM_NULL;
 };
 
 class Dataset;
@@ -125,6 +131,11 @@ class Dataset : public Object {
   std::vector<double> read_doubles() const;
   std::vector<std::int64_t> read_ints() const;
   std::vector<std::uint8_t> read_bytes() const;
+  // Reads every element (in the file's own type, discarded), so that HDF5 verifies each chunk's
+  // Fletcher-32 checksum; throws Error naming the dataset on a mismatch. Returns the bytes read.
+  std::size_t verify() const;
+  bool has_checksum() const;  // the dataset carries the Fletcher-32 filter
+  [[noreturn]] void fail_read() const;  // after a failed H5Dread: Error naming the dataset
 };
 
 class File : public Group {
@@ -142,7 +153,7 @@ class File : public Group {
   // Forgets the file without closing it: for a rank that unwinds from an error the other ranks
   // do not share (closing is collective under MPI-IO and would wait for them forever); the
   // process then ends through MPI_Abort (parallel/guard.hpp).
-  void abandon() { h_.release(); }
+  void abandon();
 
  private:
   using Group::Group;
@@ -150,5 +161,10 @@ class File : public Group {
 
 // Switches off HDF5's printing of its error stack (the messages go into h5::Error instead).
 void quiet();
+
+// Whether datasets created from now on carry the Fletcher-32 checksum (default: yes). Only
+// benchmarks/bench_io switches it off, to measure what the checksum costs.
+void set_checksums(bool on);
+bool checksums_enabled();
 
 }  // namespace fabrica::h5

@@ -1,6 +1,13 @@
 #include "io/lammps_data.hpp"
 
+#include "io/fault.hpp"
+#include "io/memory_check.hpp"
+#include "io/scene.hpp"
+
 #include <algorithm>
+#include <charconv>
+#include <filesystem>
+#include <optional>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -29,11 +36,43 @@ bool parse_numbers(const std::string& body, int n, double* val) {
   return k == n;
 }
 
+// A whole number written as digits (an optional '+'), e.g. an id or the atom count; nullopt if
+// the token is anything else (1.5, 1e3, -2, 99999999999999999999).
+std::optional<long long> whole(const std::string& tok) {
+  const char* b = tok.data() + (tok.starts_with('+') ? 1 : 0);
+  const char* e = tok.data() + tok.size();
+  if (b == e || !std::isdigit(static_cast<unsigned char>(*b))) return std::nullopt;
+  long long v = 0;
+  const auto [ptr, ec] = std::from_chars(b, e, v);
+  if (ec != std::errc() || ptr != e) return std::nullopt;
+  return v;
+}
+
+std::string first_token(const std::string& body) {
+  std::istringstream s(body);
+  std::string t;
+  s >> t;
+  return t;
+}
+
 }  // namespace
 
+GlobalId parse_particle_id(const std::string& token, const std::string& where) {
+  const std::optional<long long> v = whole(token);
+  if (!v || *v < 1 || *v > kMaxParticleId)
+    throw InputError(where + ": particle id '" + token + "': must be a whole number in [1, " +
+                     std::to_string(kMaxParticleId) + "]");
+  return GlobalId(*v);
+}
+
 DataFile read_lammps_data(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": is a directory, not a particle data file");
   std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open the particle data file");
+  if (!in || fault_injected("data"))
+    throw InputError(path + ": cannot open the particle data file" +
+                     (in ? " (" + fault_text("data") + ")" : std::string()));
   DataFile out;
   long long natoms = -1;
   bool have_box[3] = {false, false, false};
@@ -57,6 +96,13 @@ DataFile read_lammps_data(const std::string& path) {
       if (w1 == "Atoms" || w1 == "Velocities") {
         if (natoms < 0) throw InputError(where(path, lineno) + ": section '" + w1 +
                                          "' before the 'N atoms' line of the header");
+        for (int k = 0; k < 3; ++k)
+          if (!have_box[k]) {
+            const std::string axis(1, char('x' + k));
+            throw InputError(where(path, lineno) + ": section '" + w1 + "' before the box bounds '" +
+                             axis + "lo " + axis + "hi' of the header (each of x, y, z needs a "
+                             "line 'LO HI " + axis + "lo " + axis + "hi')");
+          }
         bool& seen = w1 == "Atoms" ? seen_atoms : seen_velocities;
         if (seen) throw InputError(where(path, lineno) + ": section '" + w1 + "' appears twice");
         seen = true;
@@ -83,11 +129,20 @@ DataFile read_lammps_data(const std::string& path) {
         return v;
       };
       if (w2 == "atoms") {
-        natoms = static_cast<long long>(number(w1));
+        const std::optional<long long> n = whole(w1);
+        if (!n || *n < 1)
+          throw InputError(where(path, lineno) + ": '" + w1 + " atoms': the atom count must be a "
+                           "whole number of at least 1, in '" + line + "'");
+        check_memory(where(path, lineno) + ": '" + w1 + " atoms'", double(*n) * kBytesPerSphere,
+                     "1 KB per sphere at least");
+        natoms = *n;
       } else if (w3 == "xlo" || w3 == "ylo" || w3 == "zlo") {
         const int k = w3[0] - 'x';
         out.lo[k] = number(w1);
         out.hi[k] = number(w2);
+        if (!(out.hi[k] > out.lo[k]))
+          throw InputError(where(path, lineno) + ": " + w3[0] + "hi = " + w2 + " must exceed " + w3 +
+                           " = " + w1 + ", in '" + line + "'");
         have_box[k] = true;
       }
       continue;
@@ -97,7 +152,7 @@ DataFile read_lammps_data(const std::string& path) {
       if (!parse_numbers(body, 7, val))
         throw InputError(where(path, lineno) +
                          ": expected 'id type diameter density x y z', got '" + line + "'");
-      const long long id = static_cast<long long>(val[0]);
+      const GlobalId id = parse_particle_id(first_token(body), where(path, lineno));
       const double dia = val[2], rho = val[3];
       auto bad = [&](const char* field, double v, const char* why) {
         std::ostringstream m;
@@ -105,6 +160,7 @@ DataFile read_lammps_data(const std::string& path) {
         throw InputError(m.str());
       };
       if (!std::isfinite(dia) || dia <= 0) bad("diameter", dia, "must be positive and finite");
+      if (dia < kMinDiameter || dia > kMaxDiameter) bad("diameter", dia, "must lie in [1e-09, 1000] m");
       if (!std::isfinite(rho) || rho <= 0) bad("density", rho, "must be positive and finite");
       const char* names[3] = {"x", "y", "z"};
       for (int k = 0; k < 3; ++k) {
@@ -122,7 +178,7 @@ DataFile read_lammps_data(const std::string& path) {
     double val[7];
     if (!parse_numbers(body, 7, val))
       throw InputError(where(path, lineno) + ": expected 'id vx vy vz wx wy wz', got '" + line + "'");
-    const long long id = static_cast<long long>(val[0]);
+    const GlobalId id = parse_particle_id(first_token(body), where(path, lineno));
     static const char* vnames[6] = {"vx", "vy", "vz", "wx", "wy", "wz"};
     for (int k = 0; k < 6; ++k)
       if (!std::isfinite(val[1 + k])) {

@@ -18,7 +18,17 @@ struct DataFile {
   bool has_velocities = false;
 };
 
-// Throws InputError naming the file, the line and the offending value.
+// Throws InputError naming the file, the line and the offending value. Checked: the atom count
+// (a whole number >= 1, within the machine's memory), each box axis (present before Atoms, hi >
+// lo), ids (kMaxParticleId), diameters (kMinDiameter, kMaxDiameter in io/scene.hpp), densities,
+// positions inside the box, every atom once, the count.
 DataFile read_lammps_data(const std::string& path);
+
+// Particle ids are whole numbers in [1, 2^53]: exact in a double (Python readers of run.h5) and
+// never an internal marker (core/history_map.hpp keys negative ids for walls and the most
+// negative one for an empty slot).
+constexpr long long kMaxParticleId = 9007199254740992LL;
+// 'token' as an id; InputError("<where>: particle id '<token>': must be ...") otherwise.
+GlobalId parse_particle_id(const std::string& token, const std::string& where);
 
 }  // namespace fabrica

@@ -4,13 +4,17 @@
 #include "core/exact_sum.hpp"
 #include "io/layout.hpp"
 #include "io/snapshot.hpp"
+#include "io/verify.hpp"
 #include "io/version.hpp"
+#include "io/write_check.hpp"
+#include "parallel/guard.hpp"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <limits>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -24,6 +28,9 @@ namespace fabrica {
 namespace {
 
 using clock_type = std::chrono::steady_clock;
+
+constexpr hsize_t kSeriesChunk = 256;   // rows per chunk of a series column
+constexpr hsize_t kVertexChunk = 4096;  // rows per chunk of /xdmf/vertices
 
 // The unit of a series column (docs/output.md): stresses in Pa, energies in J, time in s,
 // everything else (strains, ratios, counts, coordination numbers) dimensionless "1".
@@ -132,17 +139,6 @@ std::string xml_escape(const std::string& s) {
   return r;
 }
 
-// Written to a temporary file and renamed: a reader (or a crash) never sees half a file.
-void replace_file(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f << text;
-    if (!f) throw std::runtime_error(tmp + ": cannot write the XDMF sidecar");
-  }
-  std::filesystem::rename(tmp, path);
-}
-
 }  // namespace
 
 std::string RunOutput::file_name(const std::string& outdir) {
@@ -156,10 +152,11 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
   int exists = 0;
-  if (rank_ == 0) {
-    std::filesystem::create_directories(outdir);
+  agree(comm, [&] {
+    if (rank_ != 0) return;
+    make_output_directory(outdir);
     exists = std::filesystem::exists(path_) ? 1 : 0;
-  }
+  });
   MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
   if (exists && !overwrite)
     throw InputError(path_ + ": the output file exists already; give --overwrite to replace it "
@@ -191,6 +188,8 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
         const RunFileInfo ri = read_run_info(path_);
         if (ri.scene_text != scene.text)
           error = path_ + ": the output file holds another scene than " + scene.path;
+        else
+          verify_run_file(path_);  // every dataset's checksum, before anything is appended
       } catch (const std::exception& e) {
         error = e.what();
       }
@@ -206,7 +205,9 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
   if (len > 0) MPI_Bcast(error.data(), len, MPI_CHAR, 0, comm);
   if (!error.empty()) throw InputError(error);
   if (!exists) {
-    if (rank_ == 0) std::filesystem::create_directories(outdir);
+    agree(comm, [&] {
+      if (rank_ == 0) make_output_directory(outdir);
+    });
     created_anew_ = true;
     file_ = h5::File::create_parallel(path_, comm, false);
     try {
@@ -320,14 +321,17 @@ void RunOutput::write_header(const Scene& scene) {
   file_.create_group("snapshots");
   file_.create_group("series");
   file_.create_group("xdmf");
-  file_.create_dataset(layout::kVertexIndex, h5::Type::I64, 0, 0, 4096).set_attr("unit", std::string("1"));
+  file_.create_dataset(layout::kVertexIndex, h5::Type::I64, 0, 0, kVertexChunk).set_attr("unit", std::string("1"));
   file_.flush();
-  if (rank_ == 0) write_xmf();
+  agree(comm_, [&] {
+    if (rank_ == 0) write_xmf();
+  });
 }
 
 RunOutput::~RunOutput() {
-  if (std::uncaught_exceptions() > 0 && size_ > 1) {
-    file_.abandon();
+  if (std::uncaught_exceptions() > 0) {
+    if (size_ > 1) file_.abandon();
+    else close_after_error();
     return;
   }
   try {
@@ -360,7 +364,7 @@ void RunOutput::series_row(const std::string& case_name, const std::string& csv_
   for (std::size_t c = 0; c < values.size(); ++c) b.values[c].push_back(values[c]);
   if (b.step.size() >= 256) {  // every rank has the same count: the flush is collective
     const auto t0 = clock_type::now();
-    flush_series();
+    mark_failure([&] { flush_series(); });
     seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
   }
 }
@@ -375,13 +379,17 @@ void RunOutput::flush_series() {
     h5::Group g = b.created ? file_.open_group(gp) : file_.create_group(gp);
     if (!b.created) {
       g.set_attr("columns", b.header);
-      g.create_dataset("step", h5::Type::I64, 0, 0, 256).set_attr("unit", std::string("1"));
-      if (b.has_stage) g.create_dataset("stage", h5::Type::U8, 0, 0, 256).set_attr("unit", std::string("code"));
+      g.create_dataset("step", h5::Type::I64, 0, 0, kSeriesChunk).set_attr("unit", std::string("1"));
+      if (b.has_stage) g.create_dataset("stage", h5::Type::U8, 0, 0, kSeriesChunk).set_attr("unit", std::string("code"));
       for (const std::string& c : b.columns)
-        g.create_dataset(c, h5::Type::F64, 0, 0, 256).set_attr("unit", series_unit(c));
+        g.create_dataset(c, h5::Type::F64, 0, 0, kSeriesChunk).set_attr("unit", series_unit(c));
       b.created = true;
     }
     const hsize_t rows = b.written + n;
+    agree(comm_, [&] {  // as for a snapshot (write_snapshot): room first, for the new chunks
+      const double new_chunks = std::ceil(double(rows) / kSeriesChunk) - std::ceil(double(b.written) / kSeriesChunk);
+      if (rank_ == 0) check_room(path_, new_chunks * kSeriesChunk * 8.0 * double(b.columns.size() + 2) + 32768);
+    });
     auto append = [&](const std::string& c, h5::Type t, const void* data) {
       h5::Dataset d = g.open_dataset(c);
       d.extend(rows);
@@ -403,6 +411,10 @@ void RunOutput::flush_series() {
 }
 
 void RunOutput::snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain) {
+  mark_failure([&] { write_snapshot(case_name, sim, strain); });
+}
+
+void RunOutput::write_snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain) {
   const auto t0 = clock_type::now();
   const std::string gp = layout::snapshot_path(case_name, sim.step_count());
   if (file_.exists(gp)) return;  // same answer on every rank
@@ -460,9 +472,23 @@ void RunOutput::snapshot(const std::string& case_name, const Simulation& sim, co
     if (buf.back() > 0) strong_threshold = strong_ratio_ * (s.value(0) / double(buf.back()));
   }
 
-  h5::Group g = file_.create_group(gp);
   const auto [p0, np] = slab(comm_, parts.size());
   const auto [c0, nc] = slab(comm_, conts.size());
+  // Room on the disk for the snapshot first (data, HDF5's objects for it, the file's metadata
+  // flushed after it): a write that fails part-way would leave run.h5 unreadable (its superblock
+  // would name an end of file that never reached the disk), so a snapshot that cannot fit is
+  // refused before anything of it is written, and the file keeps every earlier snapshot.
+  // The XDMF connectivity grows by whole chunks of kVertexChunk rows of 8 bytes.
+  const auto chunks = [](double rows, double per) { return std::ceil(rows / per); };
+  const double vertex_bytes =
+      std::int64_t(np) > vertices_
+          ? (chunks(double(np), kVertexChunk) - chunks(double(vertices_), kVertexChunk)) * kVertexChunk * 8
+          : 0.0;
+  agree(comm_, [&] {
+    if (rank_ == 0)
+      check_room(path_, 1.25 * (double(np) * 112 + double(nc) * 130) + vertex_bytes + 24576);
+  });
+  h5::Group g = file_.create_group(gp);
   const Vec3 L = sim.cell().lengths();
   const double Ld[3] = {L[0], L[1], L[2]}, ed[3] = {strain[0], strain[1], strain[2]};
   g.set_attr("step", std::int64_t(sim.step_count()));
@@ -527,10 +553,16 @@ void RunOutput::snapshot(const std::string& case_name, const Simulation& sim, co
 }
 
 void RunOutput::flush() {
+  mark_failure([&] { flush_all(); });
+}
+
+void RunOutput::flush_all() {
   const auto t0 = clock_type::now();
   flush_series();
   file_.flush();
-  if (rank_ == 0) write_xmf();
+  agree(comm_, [&] {
+    if (rank_ == 0) write_xmf();
+  });
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
 }
 
@@ -538,6 +570,27 @@ void RunOutput::close() {
   if (!file_.valid()) return;
   flush();
   file_.close();
+}
+
+void RunOutput::mark_failure(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (...) {
+    failed_ = true;
+    throw;
+  }
+}
+
+void RunOutput::close_after_error() {
+  // After a failed write of the file itself, nothing more is written to it: a flush now would
+  // record in the superblock data that never reached the disk. The file keeps what the last
+  // successful flush wrote.
+  if (failed_) return file_.abandon();
+  try {
+    close();
+  } catch (const std::exception&) {  // the error being reported is the earlier one
+    file_.abandon();
+  }
 }
 
 void RunOutput::write_xmf() const {
@@ -613,7 +666,9 @@ void write_xdmf(const std::string& path, const std::string& h5file,
     x << "    </Grid>\n";
   }
   x << "  </Domain>\n</Xdmf>\n";
-  replace_file(path, x.str());
+  // Written to a temporary file, checked, synced and renamed (io/write_check.hpp): a reader (or
+  // a crash, or a full disk) never sees half a file, and a failed write keeps the previous one.
+  write_file_atomic(path, x.str(), "xdmf");
 }
 
 void write_contacts_xdmf(const std::string& path, const std::string& h5file,
@@ -665,7 +720,9 @@ void write_contacts_xdmf(const std::string& path, const std::string& h5file,
     x << "    </Grid>\n";
   }
   x << "  </Domain>\n</Xdmf>\n";
-  replace_file(path, x.str());
+  // Written to a temporary file, checked, synced and renamed (io/write_check.hpp): a reader (or
+  // a crash, or a full disk) never sees half a file, and a failed write keeps the previous one.
+  write_file_atomic(path, x.str(), "xdmf");
 }
 
 }  // namespace fabrica

@@ -17,6 +17,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <span>
 #include <string>
@@ -71,6 +72,9 @@ class RunOutput {
   // with several cases, run_<case>.xmf).
   void flush();
   void close();  // flush() and close the file; idempotent
+  // close() on an error every rank has met (collective): a second failure (the disk is still
+  // full) is not reported again; the file keeps what the last successful flush wrote.
+  void close_after_error();
 
   double seconds() const { return seconds_; }    // wall time spent in output so far
   double bytes() const { return bytes_; }        // bytes of data written so far (all ranks)
@@ -96,7 +100,10 @@ class RunOutput {
     std::int64_t particles;
     std::int64_t contacts;  // 0: not in the contacts' sidecar
   };
-  void write_header(const Scene& scene);  // version attributes, /scene, empty groups
+  void write_header(const Scene& scene);
+  void write_snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
+  void flush_all();
+  void mark_failure(const std::function<void()>& f);  // failed_ = true if f throws  // version attributes, /scene, empty groups
   void flush_series();
   void write_xmf() const;
 
@@ -111,6 +118,7 @@ class RunOutput {
   double seconds_ = 0, bytes_ = 0;
   std::int64_t vertices_ = 0;  // length of /xdmf/vertices
   bool created_anew_ = false;
+  bool failed_ = false;  // a write of this file failed: it is not flushed again
 };
 
 // The XDMF 3 sidecar for the snapshots of 'entries' (case, step, time, particles) in h5file (a

@@ -1,5 +1,7 @@
 #include "io/scene.hpp"
 
+#include "io/fault.hpp"
+
 #include <toml++/toml.h>
 
 #include <cmath>
@@ -167,9 +169,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(P, "fractal_dimension", g.fractal_dimension,
           g.fractal_dimension > 0 && g.fractal_dimension < 3, "must lie in (0, 3)");
   g.d_min = P.number("d_min", g.d_min);
-  require(P, "d_min", g.d_min, g.d_min > 0, "must be positive");
+  require(P, "d_min", g.d_min, g.d_min >= kMinDiameter && g.d_min <= kMaxDiameter,
+          "must be positive and lie in [1e-09, 1000] m (a sphere diameter in metres)");
   g.d_max = P.number("d_max", g.d_max);
   require(P, "d_max", g.d_max, g.d_max >= g.d_min, "must be >= d_min = " + fmt_num(g.d_min));
+  require(P, "d_max", g.d_max, g.d_max <= kMaxDiameter, "must be at most 1000 m (a sphere diameter in metres)");
   if (auto s = P.integer("seed")) {
     if (*s < 0) P.fail("seed", std::to_string(*s), "must be >= 0");
     g.seed = std::uint64_t(*s);
@@ -358,8 +362,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
 }
 
 Scene load_scene(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": is a directory, not a scene file (TOML)");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the scene file");
+  if (!in || fault_injected("scene"))
+    throw InputError(path + ": cannot open the scene file" +
+                     (in ? " (" + fault_text("scene") + ")" : std::string()));
   std::ostringstream s;
   s << in.rdbuf();
   return parse_scene(s.str(), path);

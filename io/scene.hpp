@@ -13,6 +13,12 @@
 
 namespace fabrica {
 
+// The sphere diameters Fabrica accepts, in metres ([particles] d_min, d_max; data files): a
+// nanometre to a kilometre. Outside, a value is taken for a unit slip (or a denormal number,
+// whose cube underflows and makes the cell size not a number).
+constexpr double kMinDiameter = 1e-9;
+constexpr double kMaxDiameter = 1e3;
+
 enum class ParticleSource { Generate, File };
 
 struct GenerateSpec {

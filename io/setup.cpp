@@ -1,5 +1,7 @@
 #include "io/setup.hpp"
 
+#include "io/memory_check.hpp"
+
 #include "core/generate.hpp"
 #include "core/neighbor.hpp"
 #include "core/timestep.hpp"
@@ -7,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <new>
 #include <numbers>
 #include <sstream>
 
@@ -78,9 +81,12 @@ Setup make_setup(const Scene& sc) {
                            num(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
                            " of " + sc.data_file + " lies outside the cell (coordinate " +
                            std::to_string(k + 1) + " = " + num(s.particles.x[a][k] + df.lo[k]) + ")");
+    check_neighbour_grid(sc.data_file, L, s.particles.min_radius(), sc.skin);
     s.cell = PeriodicCell(L);
   } else {
     const GenerateSpec& g = sc.generate;
+    check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
+                 double(g.count) * kBytesPerSphere, "1 KB per sphere at least");
     Random rng(g.seed);
     const auto d = fractal_diameters(std::size_t(g.count), g.fractal_dimension, g.d_min, g.d_max, rng);
     real_t vs = 0;
@@ -92,10 +98,13 @@ Setup make_setup(const Scene& sc) {
       const real_t V = vs / g.solid_fraction;
       L = g.aspect * std::cbrt(V / g.aspect.prod());
     }
+    check_neighbour_grid(sc.path + ": [particles] d_min = " + num(g.d_min), L, 0.5 * g.d_min, sc.skin);
     s.cell = PeriodicCell(L);
     try {
       check_cell_size(s.cell, 0.5 * g.d_max, sc.skin);
       s.particles = random_packing(d, sc.density, s.cell, rng);
+    } catch (const std::bad_alloc&) {
+      throw;  // not the input's fault as such: reported as what it is
     } catch (const std::exception& e) {
       throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
     }

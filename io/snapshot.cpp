@@ -1,5 +1,7 @@
 #include "io/snapshot.hpp"
 
+#include "io/fault.hpp"
+
 #include "io/h5.hpp"
 #include "io/layout.hpp"
 
@@ -112,6 +114,9 @@ std::vector<std::string> list_series(const std::string& path) {
 ContactSnapshot read_contact_snapshot(const std::string& path, const std::string& case_name,
                                       std::int64_t step) {
   h5::File f = open_run(path);
+  if (fault_injected("snapshot"))
+    throw InputError(path + ": cannot read the snapshot of case \"" + case_name + "\" at step " +
+                     std::to_string(step) + " (" + fault_text("snapshot") + ")");
   return guarded([&] {
     h5::Group g = open_snapshot(f, case_name, step);
     ContactSnapshot r;

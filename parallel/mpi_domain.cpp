@@ -53,6 +53,9 @@ void MpiDomain::max_all(std::span<double> values) {
 
 void MpiDomain::sum_all(std::span<double> values) {
   MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  // MPI does not promise that a floating-point sum rounds the same on every rank; the decisions
+  // taken from these sums (stage ends, guards, the servo) must be, so every rank takes rank 0's.
+  MPI_Bcast(values.data(), int(values.size()), MPI_DOUBLE, 0, comm_);
 }
 
 void MpiDomain::sum_all(std::span<std::int64_t> values) {

@@ -120,3 +120,93 @@ TEST(LammpsData, ParticleOutsideTheSceneCellIsRefused) {
     EXPECT_NE(m.find("1.9"), std::string::npos) << m;
   }
 }
+
+namespace {
+// A whole file 'text' (header included) must be refused with every fragment and the path.
+void expect_file_error(const std::string& text, std::initializer_list<std::string> fragments) {
+  const std::string path = write_tmp("fabrica_bad_whole.data", text);
+  try {
+    read_lammps_data(path);
+    FAIL() << "no error for:\n" << text;
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(path), std::string::npos) << m;
+    for (const auto& f : fragments) EXPECT_NE(m.find(f), std::string::npos) << "missing '" << f << "' in: " << m;
+  }
+}
+std::string header(const std::string& atoms_line, const std::string& box) {
+  return "test data\n\n" + atoms_line + "\n1 atom types\n\n" + box + "\nAtoms\n\n";
+}
+const char* kBox = "0 1 xlo xhi\n0 1 ylo yhi\n0 2 zlo zhi\n";
+const char* kOne = "1 1 0.02 2650 0.5 0.5 0.5\n";
+}  // namespace
+
+// The bad-input corpus of issue 16: each case named with the file, the line, the value and what
+// was expected (before, several were silent or reported as something else).
+TEST(LammpsData, AtomCountIsAWholeNumberOfAtLeastOneWithinMemory) {
+  expect_file_error(header("0 atoms", kBox), {":3", "'0 atoms'", "at least 1"});
+  expect_file_error(header("-5 atoms", kBox) + kOne, {":3", "'-5 atoms'", "whole number"});
+  expect_file_error(header("1e30 atoms", kBox) + kOne, {":3", "'1e30 atoms'", "whole number"});
+  expect_file_error(header("2.5 atoms", kBox) + kOne, {":3", "'2.5 atoms'", "whole number"});
+  expect_file_error(header("99999999999999999 atoms", kBox) + kOne,
+                    {":3", "'99999999999999999 atoms'", "needs at least", "of memory", "the machine has"});
+}
+
+TEST(LammpsData, IdsAreWholeNumbersInRange) {
+  const std::string h = header("3 atoms", kBox);
+  const std::string rest = "2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n";
+  expect_file_error(h + "1.5 1 0.02 2650 0.5 0.5 0.5\n" + rest,
+                    {":12", "particle id '1.5'", "whole number in [1, 9007199254740992]"});
+  expect_file_error(h + "1e30 1 0.02 2650 0.5 0.5 0.5\n" + rest, {":12", "particle id '1e30'"});
+  expect_file_error(h + "0 1 0.02 2650 0.5 0.5 0.5\n" + rest, {":12", "particle id '0'"});
+  expect_file_error(h + "-3 1 0.02 2650 0.5 0.5 0.5\n" + rest, {":12", "particle id '-3'"});
+  expect_file_error(h + "9007199254740993 1 0.02 2650 0.5 0.5 0.5\n" + rest,
+                    {":12", "particle id '9007199254740993'"});
+  expect_file_error(h + "-9223372036854775808 1 0.02 2650 0.5 0.5 0.5\n" + rest,
+                    {":12", "particle id '-9223372036854775808'"});
+  // The largest id is accepted, and read exactly.
+  const std::string ok = write_tmp("fabrica_max_id.data", h + "9007199254740992 1 0.02 2650 0.5 0.5 0.5\n" + rest);
+  EXPECT_EQ(read_lammps_data(ok).particles.id[0], 9007199254740992LL);
+  const std::string atoms = h + kOne + rest + "\nVelocities\n\n";
+  expect_file_error(atoms + "1 0 0 0 0 0 0\n2.5 0 0 0 0 0 0\n3 0 0 0 0 0 0\n", {":19", "particle id '2.5'"});
+}
+
+TEST(LammpsData, BoxAxesArePresentAndNotInverted) {
+  expect_file_error(header("1 atoms", "1 0 xlo xhi\n0 1 ylo yhi\n0 2 zlo zhi\n") + kOne,
+                    {":6", "xhi = 0 must exceed xlo = 1"});
+  expect_file_error(header("1 atoms", "0 1 xlo xhi\n0 0 ylo yhi\n0 2 zlo zhi\n") + kOne,
+                    {":7", "yhi = 0 must exceed ylo = 0"});
+  expect_file_error(header("1 atoms", "0 1 xlo xhi\n0 2 zlo zhi\n") + kOne,
+                    {":9", "section 'Atoms' before the box bounds 'ylo yhi'"});
+}
+
+TEST(LammpsData, DiametersInRangeAndADirectoryIsRefused) {
+  expect_file_error(header("1 atoms", kBox) + "1 1 1e-310 2650 0.5 0.5 0.5\n",
+                    {":12", "particle 1 diameter = 1e-310", "[1e-09, 1000] m"});
+  expect_file_error(header("1 atoms", kBox) + "1 1 5000 2650 0.5 0.5 0.5\n", {":12", "diameter = 5000"});
+  const auto dir = std::filesystem::temp_directory_path() / "fabrica_data_dir.data";
+  std::filesystem::create_directories(dir);
+  try {
+    read_lammps_data(dir.string());
+    FAIL() << "a directory was read as a data file";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(dir.string() + ": is a directory, not a particle data file"),
+              std::string::npos) << e.what();
+  }
+}
+
+TEST(LammpsData, BoxFarLargerThanItsSpheresIsRefusedBeforeAllocation) {
+  const std::string data = write_tmp(
+      "fabrica_huge_box.data", header("2 atoms", "0 1e6 xlo xhi\n0 1e6 ylo yhi\n0 1e6 zlo zhi\n") +
+                                   "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 100 100 100\n");
+  const std::string scene = write_tmp("fabrica_huge_box.toml", "[particles]\nsource = \"file\"\nfile = \"" + data + "\"\n");
+  try {
+    make_setup(load_scene(scene));
+    FAIL() << "a grid of 10^21 cells was accepted";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(data), std::string::npos) << m;
+    EXPECT_NE(m.find("neighbour grid"), std::string::npos) << m;
+    EXPECT_NE(m.find("more than 2^31 cells"), std::string::npos) << m;
+  }
+}

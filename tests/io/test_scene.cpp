@@ -175,3 +175,22 @@ TEST(Scene, CheckpointKeys) {
   expect_error("[run]\ncheckpoint_seconds = -60\n", {"[run]", "checkpoint_seconds", "-60", ">= 0"});
   expect_error("[run]\ncheckpoint_seconds = nan\n", {"checkpoint_seconds", "finite"});
 }
+
+// The bad-input corpus of issue 16 (scene side): sizes outside what a sphere can be, and a count
+// whose memory the machine does not have, refused with the field and the value.
+TEST(Scene, DiametersOutsideTheirRangeAreRefused) {
+  expect_error("[particles]\nd_min = 1e-310\n", {"[particles]", "d_min", "1e-310", "[1e-09, 1000] m"});
+  expect_error("[particles]\nd_min = 0.01\nd_max = 5000\n", {"d_max", "5000", "at most 1000 m"});
+}
+
+TEST(Scene, CountBeyondTheMachinesMemoryIsRefusedBeforeAllocation) {
+  try {
+    make_setup(parse_scene("[particles]\ncount = 1000000000000000\n", "bad.toml"));
+    FAIL() << "count = 1e15 accepted";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    for (const char* f : {"bad.toml", "[particles] count = 1000000000000000", "needs at least", "of memory",
+                          "the machine has"})
+      EXPECT_NE(m.find(f), std::string::npos) << "missing '" << f << "' in: " << m;
+  }
+}

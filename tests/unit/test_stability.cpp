@@ -91,6 +91,11 @@ Outcome run_checked(Simulation& sim, std::int64_t steps, real_t kinetic_runaway 
   for (std::int64_t s = 1; s <= steps; ++s) {
     const bool check = s % kCheck == 0 || s == steps;
     sim.step(check);
+    if (!sim.step_guard().empty()) {  // the guard of every step (Simulation::step_guard)
+      o.message = sim.step_guard();
+      o.steps = s;
+      return o;
+    }
     if (!check) continue;
     const MacroState& m = sim.macro();
     o.message = diagnose(m, sim.step_count(), 1.0, kinetic_runaway);
@@ -286,6 +291,32 @@ TEST(Guards, DiagnoseEnergyBounds) {
   EXPECT_NE(diagnose(m, 3, 1.0, 2.0).find("overlap of particles 1 and 2"), std::string::npos);
   m.first_nonfinite = 9;
   EXPECT_NE(diagnose(m, 3, 1.0, 2.0).find("particle 9 has a non-finite"), std::string::npos);
+}
+
+// The guard of every step (Simulation::step_guard): a particle faster than half the smallest
+// radius per step is named at the first step, with its speed, the bound and its velocity; one just below
+// the bound runs 200 steps without it; a non-finite velocity is named as such.
+TEST(Guards, EveryStepCatchesAFastOrNonFiniteParticle) {
+  const real_t dt = 1e-4, skin = 0.001;  // bound: 0.5 r_min / dt = 0.5 0.01 / 1e-4 = 50 m/s
+  auto gas = [&](const Vec3& v1) {
+    Particles p = test::make_particles({{0, 0.01, test::kRho, Vec3(0.2, 0.5, 0.5), Vec3(1, 0, 0)},
+                                        {1, 0.01, test::kRho, Vec3(0.7, 0.5, 0.5), v1}});
+    return test::make_sim(std::move(p), test::direct_law(1e5, 0.3), dt, skin);
+  };
+  Simulation fast = gas(Vec3(0, 60, 0));
+  EXPECT_EQ(fast.step_guard(), "");
+  fast.step();
+  EXPECT_EQ(fast.step_guard(),
+            "numerical blow-up at step 1: particle 1 moves at 60 m/s, more than half the smallest "
+            "radius (0.01 m) per time step (0.0001 s), 50 m/s: an overlap can jump past any bound in "
+            "one step (velocity (0, 60, 0) m/s)");
+  Simulation sane = gas(Vec3(0, 49, 0));
+  for (int s = 0; s < 200; ++s) sane.step();
+  EXPECT_EQ(sane.step_guard(), "");
+  Simulation nan = gas(Vec3(std::nan(""), 0, 0));
+  nan.step();
+  EXPECT_NE(nan.step_guard().find("numerical blow-up at step 1: particle 1 has a non-finite position or velocity"),
+            std::string::npos) << nan.step_guard();
 }
 
 // The kinetic-energy guard does not fire on a sane run: a free particle gas (no contacts)

@@ -1,0 +1,27 @@
+// Memory requests checked against the machine before anything is allocated (a huge [particles]
+// count, a data-file box far larger than its spheres): an InputError naming the input and the
+// estimate, instead of std::bad_alloc or a length error from deep inside the set-up.
+#pragma once
+#include "core/types.hpp"
+
+#include <cstdint>
+#include <string>
+
+namespace fabrica {
+
+// Bytes of memory the machine has (physical pages x page size); 0 if unknown.
+double machine_memory_bytes();
+
+// A lower bound of what a run of 'spheres' spheres needs: 1 KB per sphere (the particle record,
+// its ghosts, neighbour pairs and contacts; measured 0.36 KB for a loose gas, more when dense).
+constexpr double kBytesPerSphere = 1024;
+
+// Throws InputError("<what>: needs at least B of memory (<why>), the machine has M") if 'bytes'
+// exceeds the machine's memory.
+void check_memory(const std::string& what, double bytes, const std::string& why);
+
+// The neighbour search's cells for a cell of lengths L and the smallest sphere radius rmin
+// (cell edge 2 rmin + skin); refused (InputError naming 'what') above 2^31 cells or the memory.
+void check_neighbour_grid(const std::string& what, const Vec3& L, real_t rmin, real_t skin);
+
+}  // namespace fabrica
