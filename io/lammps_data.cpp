@@ -134,7 +134,7 @@ DataFile read_lammps_data(const std::string& path) {
           throw InputError(where(path, lineno) + ": '" + w1 + " atoms': the atom count must be a "
                            "whole number of at least 1, in '" + line + "'");
         check_memory(where(path, lineno) + ": '" + w1 + " atoms'", double(*n) * kBytesPerSphere,
-                     "1 KB per sphere at least");
+                     "320 B per sphere at least");
         natoms = *n;
       } else if (w3 == "xlo" || w3 == "ylo" || w3 == "zlo") {
         const int k = w3[0] - 'x';

@@ -12,9 +12,10 @@ namespace fabrica {
 // Bytes of memory the machine has (physical pages x page size); 0 if unknown.
 double machine_memory_bytes();
 
-// A lower bound of what a run of 'spheres' spheres needs: 1 KB per sphere (the particle record,
-// its ghosts, neighbour pairs and contacts; measured 0.36 KB for a loose gas, more when dense).
-constexpr double kBytesPerSphere = 1024;
+// A lower bound of what a run of 'spheres' spheres needs: 320 B per sphere (the particle record
+// alone is 168 B; measured: about 360 B for a loose gas, 510 B for the dense 869,376-sphere
+// packing of docs/large.md, both with neighbour pairs and contact history).
+constexpr double kBytesPerSphere = 320;
 
 // Throws InputError("<what>: needs at least B of memory (<why>), the machine has M") if 'bytes'
 // exceeds the machine's memory.

@@ -86,7 +86,7 @@ Setup make_setup(const Scene& sc) {
   } else {
     const GenerateSpec& g = sc.generate;
     check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
-                 double(g.count) * kBytesPerSphere, "1 KB per sphere at least");
+                 double(g.count) * kBytesPerSphere, "320 B per sphere at least");
     Random rng(g.seed);
     const auto d = fractal_diameters(std::size_t(g.count), g.fractal_dimension, g.d_min, g.d_max, rng);
     real_t vs = 0;

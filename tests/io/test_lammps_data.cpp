@@ -6,6 +6,7 @@
 #include "io/setup.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -14,8 +15,10 @@ using namespace fabrica;
 
 namespace {
 
+// Under the process id: ctest runs the tests of this file as concurrent processes, and two of
+// them writing the same file name would read each other's text.
 std::string write_tmp(const std::string& name, const std::string& text) {
-  const auto p = std::filesystem::temp_directory_path() / name;
+  const auto p = std::filesystem::temp_directory_path() / (std::to_string(getpid()) + "_" + name);
   std::ofstream(p) << text;
   return p.string();
 }
