@@ -620,10 +620,12 @@ void RunOutput::write_xmf() const {
     }
 }
 
-void write_xdmf(const std::string& path, const std::string& h5file,
-                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
-                std::int64_t vertices) {
-  std::ostringstream x;
+namespace {
+// The XML prologue of a sidecar into x (full precision for the times); returns the cases of
+// 'entries' in their first-seen order.
+std::vector<std::string> xdmf_begin(
+    std::ostringstream& x,
+    const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries) {
   x.precision(17);
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
        "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
@@ -631,18 +633,33 @@ void write_xdmf(const std::string& path, const std::string& h5file,
   std::vector<std::string> cases;
   for (const auto& e : entries)
     if (std::find(cases.begin(), cases.end(), std::get<0>(e)) == cases.end()) cases.push_back(std::get<0>(e));
+  return cases;
+}
+
+// An HDF DataItem of 'rows' (x 'cols' when non-zero) values at 'dataset' (file:/path).
+std::string hdf_item(const std::string& dataset, std::int64_t rows, int cols, const char* type,
+                     int prec) {
+  std::ostringstream d;
+  d << "<DataItem Dimensions=\"" << rows;
+  if (cols) d << ' ' << cols;
+  d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">"
+    << xml_escape(dataset) << "</DataItem>";
+  return d.str();
+}
+}  // namespace
+
+void write_xdmf(const std::string& path, const std::string& h5file,
+                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
+                std::int64_t vertices) {
+  std::ostringstream x;
+  const std::vector<std::string> cases = xdmf_begin(x, entries);
   for (const std::string& c : cases) {
     x << "    <Grid Name=\"" << xml_escape(c) << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
     for (const auto& [cn, step, time, n] : entries) {
       if (cn != c) continue;
       const std::string base = h5file + ":/" + layout::snapshot_path(cn, step) + "/particles/";
       auto item = [&](const std::string& ds, int cols, const char* type, int prec) {
-        std::ostringstream d;
-        d << "<DataItem Dimensions=\"" << n;
-        if (cols) d << ' ' << cols;
-        d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">"
-          << xml_escape(base + ds) << "</DataItem>";
-        return d.str();
+        return hdf_item(base + ds, n, cols, type, prec);
       };
       x << "      <Grid Name=\"" << xml_escape(c) << "_" << layout::step_name(step) << "\" GridType=\"Uniform\">\n"
         << "        <Time Value=\"" << time << "\"/>\n"
@@ -675,25 +692,14 @@ void write_contacts_xdmf(const std::string& path, const std::string& h5file,
                          const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
                          std::int64_t vertices) {
   std::ostringstream x;
-  x.precision(17);
-  x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-       "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-       "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n  <Domain>\n";
-  std::vector<std::string> cases;
-  for (const auto& e : entries)
-    if (std::find(cases.begin(), cases.end(), std::get<0>(e)) == cases.end()) cases.push_back(std::get<0>(e));
+  const std::vector<std::string> cases = xdmf_begin(x, entries);
   for (const std::string& c : cases) {
     x << "    <Grid Name=\"" << xml_escape(c) << "_contacts\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
     for (const auto& [cn, step, time, m] : entries) {
       if (cn != c) continue;
       const std::string base = h5file + ":/" + layout::snapshot_path(cn, step) + "/contacts/";
       auto item = [&](const std::string& ds, int cols, const char* type, int prec) {
-        std::ostringstream d;
-        d << "<DataItem Dimensions=\"" << m;
-        if (cols) d << ' ' << cols;
-        d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">"
-          << xml_escape(base + ds) << "</DataItem>";
-        return d.str();
+        return hdf_item(base + ds, m, cols, type, prec);
       };
       auto attribute = [&](const char* name, const std::string& ds, const char* type, int prec) {
         return std::string("        <Attribute Name=\"") + name +

@@ -7,6 +7,8 @@
 #include "io/setup.hpp"
 #include "parallel/mpi_domain.hpp"
 
+#include "mpi_test_helpers.hpp"
+
 #include <gtest/gtest.h>
 #include <mpi.h>
 
@@ -18,24 +20,10 @@ using namespace fabrica;
 
 namespace {
 
-int comm_size() {
-  int s;
-  MPI_Comm_size(MPI_COMM_WORLD, &s);
-  return s;
-}
-int comm_rank() {
-  int r;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
-  return r;
-}
-double max_all(double v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-  return v;
-}
-double sum_all(double v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-  return v;
-}
+using test::comm_rank;
+using test::comm_size;
+using test::max_all;
+using test::sum_all;
 
 fabrica::Setup dense_setup() {
   const std::string path = std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";

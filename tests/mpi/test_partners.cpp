@@ -12,6 +12,8 @@
 #include "core/timestep.hpp"
 #include "parallel/mpi_domain.hpp"
 
+#include "mpi_test_helpers.hpp"
+
 #include <gtest/gtest.h>
 #include <mpi.h>
 
@@ -23,19 +25,10 @@ using namespace fabrica;
 
 namespace {
 
-int comm_size() {
-  int s;
-  MPI_Comm_size(MPI_COMM_WORLD, &s);
-  return s;
-}
-double max_all(double v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-  return v;
-}
-long long sum_all(long long v) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-  return v;
-}
+using test::comm_rank;
+using test::comm_size;
+using test::max_all;
+using test::sum_all;
 
 struct Scene {
   Particles p;
@@ -103,7 +96,7 @@ TEST(Partners, SameTrajectoryAndNeighbourOnlyExchangesUnderLargeDeformation) {
   const int P_ = comm_size();
   const DomainStats& st = domain.stats();
   if (P_ > 1) {
-    EXPECT_GT(sum_all(st.particles_migrated), 20) << "the particles did cross subdomains";
+    EXPECT_GT(sum_all((long long)st.particles_migrated), 20) << "the particles did cross subdomains";
     EXPECT_GE(st.migrations_all_to_all, 1) << "the deformation made a new decomposition";
     EXPECT_LE(st.migrations_all_to_all, 3) << "a new decomposition survives 20 % of strain";
     EXPECT_GT(st.migrations - st.migrations_all_to_all, 4 * st.migrations_all_to_all)
