@@ -284,6 +284,65 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
     agree(comm, [&] { check_neighbour_grid(sc.data_file, L, rmin, sc.skin); });
     s.cell = PeriodicCell(L);
+  } else if (sc.generate.placement == GenerateSpec::Placement::Regions) {
+    // Region by region: each rank its block of regions; after each colour, the spheres placed
+    // go to the ranks of the adjacent regions (core/region_packing.hpp).
+    const GenerateSpec& g = sc.generate;
+    const int node = ranks_on_this_node(comm);
+    agree(comm, [&] {
+      check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
+                   double(g.count) * kBytesPerSphere / ranks * node,
+                   "320 B per sphere at least, " + std::to_string(g.count / ranks) +
+                       " spheres on each of " + std::to_string(node) + " rank(s) of this node");
+    });
+    std::optional<RegionCut> cut;
+    agree(comm, [&] { cut = region_cut(sc); });
+    const int G = cut->grid.regions();
+    auto owner = [&](int region) {  // contiguous blocks of regions
+      return int(std::int64_t(region) * ranks / G);
+    };
+    std::vector<int> mine;
+    for (int q = 0; q < G; ++q)
+      if (owner(q) == rank) mine.push_back(q);
+    ExactSums V(1);
+    for (int q : mine)
+      for (real_t x : region_diameters(cut->spec, cut->grid, q)) V.add(0, std::numbers::pi / 6 * x * x * x);
+    V.normalize();
+    MPI_Allreduce(MPI_IN_PLACE, V.words().data(), int(V.words().size()), MPI_INT64_T, MPI_SUM, comm);
+    V.normalize();
+    agree(comm, [&] { s.cell = region_cell(sc, *cut, V.value(0)); });
+    const RegionExchange exchange = [&](const Particles& placed, const std::vector<int>& region_of) {
+      std::vector<std::vector<char>> out(static_cast<std::size_t>(ranks));
+      for (std::size_t a = 0; a < placed.n_owned(); ++a) {
+        std::vector<int> to;
+        for (int h : cut->grid.neighbours(region_of[a]))
+          if (const int r = owner(h); r != rank && std::find(to.begin(), to.end(), r) == to.end())
+            to.push_back(r);
+        for (int r : to) {
+          put(out[std::size_t(r)], placed.id[a]);
+          put(out[std::size_t(r)], placed.radius[a]);
+          put(out[std::size_t(r)], placed.x[a]);
+        }
+      }
+      const auto in = exchange_all(comm, out);
+      Particles got;
+      for (const auto& b : in)
+        for (const char *c = b.data(), *e = c + b.size(); c < e;) {
+          const auto id = get<GlobalId>(c);
+          const auto rad = get<real_t>(c);
+          got.add({id, rad, sc.density, get<Vec3>(c)});
+        }
+      return got;
+    };
+    // A sphere with no room is reported after the last round (every rank goes through every
+    // round's exchange), and agreed.
+    agree(comm, [&] {
+      try {
+        s.particles = region_packing(cut->spec, cut->grid, s.cell, mine, exchange);
+      } catch (const std::runtime_error& e) {
+        throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
+      }
+    });
   } else {
     // The generator is sequential: every rank makes the whole specimen (identical), and keeps
     // its share in the adoption below.
