@@ -10,6 +10,7 @@
 #include "parallel/guard.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -53,6 +54,18 @@ struct MotionLine {
   DataMotion m;
   std::int64_t line;
 };
+
+// Squared periodic distance from x to the box [lo, lo + side).
+double box_distance2(const Vec3& x, const Vec3& lo, const Vec3& side, const Vec3& L) {
+  double d2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    double t = std::fmod(x[k] - lo[k], L[k]);
+    if (t < 0) t += L[k];
+    const double d = t <= side[k] ? 0.0 : std::min(t - side[k], L[k] - t);
+    d2 += d * d;
+  }
+  return d2;
+}
 
 int ranks_on_this_node(MPI_Comm comm) {
   MPI_Comm node;
@@ -314,10 +327,16 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     const RegionExchange exchange = [&](const Particles& placed, const std::vector<int>& region_of) {
       std::vector<std::vector<char>> out(static_cast<std::size_t>(ranks));
       for (std::size_t a = 0; a < placed.n_owned(); ++a) {
+        // Only to the ranks of adjacent boxes it can reach: a later sphere of box h overlaps it
+        // only if it lies within d_max of h (the boxes are 4 d_max wide or more: a thin layer).
         std::vector<int> to;
-        for (int h : cut->grid.neighbours(region_of[a]))
-          if (const int r = owner(h); r != rank && std::find(to.begin(), to.end(), r) == to.end())
+        for (int h : cut->grid.neighbours(region_of[a])) {
+          const int r = owner(h);
+          if (r == rank || std::find(to.begin(), to.end(), r) != to.end()) continue;
+          if (box_distance2(placed.x[a], cut->grid.lower(h), cut->grid.side(), s.cell.lengths()) <
+              g.d_max * g.d_max)
             to.push_back(r);
+        }
         for (int r : to) {
           put(out[std::size_t(r)], placed.id[a]);
           put(out[std::size_t(r)], placed.radius[a]);
