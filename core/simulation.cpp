@@ -14,7 +14,7 @@ namespace fabrica {
 
 Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
                        Domain* domain)
-    : domain_(domain ? domain : &serial_), p_(std::move(particles)), cell_(cell),
+    : domain_(domain ? domain : &serial_domain()), p_(std::move(particles)), cell_(cell),
       par_(std::move(params)) {
   const real_t rmax = p_.max_radius();  // every rank still holds every particle
   cutoff_max_ = 2 * rmax + par_.skin;
@@ -50,11 +50,11 @@ class PhaseClock {
 }  // namespace
 
 Simulation::Simulation(const Simulation& other, Domain* domain) : Simulation(other) {
-  domain_ = domain ? domain : &serial_;
+  domain_ = domain ? domain : &serial_domain();
 }
 
 Simulation::Simulation(SimulationSnapshot s, Domain* domain)
-    : domain_(domain ? domain : &serial_), p_(std::move(s.particles)), cell_(s.cell),
+    : domain_(domain ? domain : &serial_domain()), p_(std::move(s.particles)), cell_(s.cell),
       par_(std::move(s.params)), diss_(s.dissipation), macro_(s.macro), step_(s.step),
       time_(s.time) {
   const real_t rmax = p_.max_radius();

@@ -9,6 +9,7 @@
 #include "core/measures.hpp"
 #include "core/neighbor.hpp"
 #include "core/particles.hpp"
+#include "core/serial_domain.hpp"
 
 #include <cstdint>
 #include <string>
@@ -70,13 +71,18 @@ class Simulation {
   // Builds the contact lists and the initial forces. Throws std::invalid_argument if the cell
   // is too small for the largest sphere and the skin. With a domain (MPI), every rank passes
   // the same complete set of particles and keeps its own; the domain must outlive the
-  // simulation. Without one, the run is serial.
+  // simulation. Without one, the run is serial (serial_domain()).
   Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
              Domain* domain = nullptr);
 
   // A copy of 'other' that communicates through 'domain' (a clone of other's domain, or null
-  // for a serial run): to branch several runs from one prepared state.
+  // for a serial run): to branch several runs from one prepared state. The only copy: a plain
+  // copy would share other's domain (its decomposition and ghost plan), so it is not public.
   Simulation(const Simulation& other, Domain* domain);
+  Simulation& operator=(const Simulation&) = delete;
+  // A move keeps the domain (the serial one is shared and stateless).
+  Simulation(Simulation&&) = default;
+  Simulation& operator=(Simulation&&) = default;
 
   // A run restored from a snapshot (every rank passes the same particles and history; the
   // dissipation is this rank's). Forces are not recomputed: the next step() is the one the
@@ -159,6 +165,8 @@ class Simulation {
   const PhaseTimes& phase_times() const { return times_; }
 
  private:
+  Simulation(const Simulation&) = default;  // member-wise, for the branching constructor only
+
   // Forces at the current positions; the contact springs advance by the relative motion over
   // dt (0 for the initial forces, which must not change the contact history).
   void compute(bool measure, real_t dt);
@@ -167,8 +175,7 @@ class Simulation {
   // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
   void rebuild_lists();
 
-  Domain serial_;
-  Domain* domain_;
+  Domain* domain_;  // never null: the caller's domain, or serial_domain()
   Particles p_;
   PeriodicCell cell_;
   SimulationParams par_;
