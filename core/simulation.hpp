@@ -131,11 +131,14 @@ class Simulation {
   bool rebuilt_last_step() const { return rebuilt_last_; }
 
   // The guard of every step (in the displacement check every step makes anyway, in its one
-  // reduction): empty, or - when a particle's position or velocity is not finite, or a particle
-  // moves more than half the smallest radius in one step (an overlap could then jump past any
-  // bound between two steps) - "numerical
-  // blow-up at step N: particle ID ..." with its speed and velocity. The same on every rank;
-  // the executables stop the run with it (and save the state, OUT/blowup.ckpt).
+  // reduction): empty, or - when the force loop of the previous step found an overlap beyond
+  // kMaxOverlapRatio of the smaller radius (core/forces.hpp) - "numerical blow-up at step N:
+  // overlap of particles A and B is ..." with the step of that force computation (0: the
+  // initial forces), the ratio, the overlap and the radius; or - when a particle's position or
+  // velocity is not finite, or a particle moves more than half the smallest radius in one step
+  // (an overlap could then jump past any bound between two steps) - "numerical blow-up at step
+  // N: particle ID ..." with its speed and velocity. The same on every rank; the executables
+  // stop the run with it (and save the state, OUT/blowup.ckpt).
   const std::string& step_guard() const { return guard_; }
 
   // Calls fn(id_a, id_b, history) once per touching contact over all ranks: here, those whose
@@ -157,6 +160,7 @@ class Simulation {
   // outside the list could be touching. Collective.
   bool needs_rebuild();
   void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
+  void set_overlap_guard(real_t max_ratio);          // the same for the overlap (collective)
   void rebuild();
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable
@@ -201,6 +205,7 @@ class Simulation {
   bool rebuilt_last_ = true;
   std::string guard_;      // step_guard()
   real_t guard_rmin_ = 0;  // the smallest radius over all ranks (set at the first check)
+  OverlapAlarm overlap_;   // the largest overlap beyond the limit in the last force computation
   double last_migrate_seconds_ = 0;  // communication time of the last rebuild (when timing)
   PhaseTimes times_;
 };

@@ -319,6 +319,72 @@ TEST(Guards, EveryStepCatchesAFastOrNonFiniteParticle) {
             std::string::npos) << nan.step_guard();
 }
 
+// The overlap guard of every step (kMaxOverlapRatio, core/forces.hpp): spheres 7 (R = 1 cm)
+// and 12 (R = 2 cm) meet head-on at 1 m/s on a soft spring (k_n = 20 N/m: the overlap would
+// peak at v sqrt(m_eff / k_n) = 2.2 cm, beyond the smaller radius), far below the speed bound
+// (0.5 r_min / dt = 50 m/s), so only the overlap guard can fire. Independently, after every
+// step the overlap is computed from the positions (the force loop's positions: the second
+// half-kick moves none): the first step N whose overlap exceeds 1 cm is the one the force loop
+// finds; the guard must be silent before and fire at step N + 1 (in that step's one
+// reduction) naming step N, particles 7 and 12, the ratio (to 6 digits), the overlap and the
+// radius.
+TEST(Guards, EveryStepCatchesAnOverlapBeyondTheGeometricLimit) {
+  const real_t R1 = 0.01, R2 = 0.02, dt = 1e-4;
+  Particles p = test::make_particles(
+      {{7, R1, test::kRho, Vec3(0.3, 0.5, 0.5), Vec3(0.5, 0, 0)},
+       {12, R2, test::kRho, Vec3(0.3 + R1 + R2 + 0.001, 0.5, 0.5), Vec3(-0.5, 0, 0)}});
+  Simulation sim = test::make_sim(std::move(p), test::direct_law(20, 0.3), dt, 0.002);
+  std::int64_t first = -1;
+  real_t ratio = 0, un = 0;
+  for (int s = 1; s <= 400; ++s) {
+    sim.step();
+    if (first > 0) {
+      EXPECT_EQ(s, first + 1);
+      break;
+    }
+    ASSERT_EQ(sim.step_guard(), "") << "at step " << s;
+    const Particles& q = sim.particles();
+    const std::size_t a = test::index_of(q, 7), b = test::index_of(q, 12);
+    un = R1 + R2 - (q.x[b] - q.x[a]).norm();
+    if (un > R1) first = s, ratio = un / R1;
+  }
+  ASSERT_GT(first, 0) << "the spheres never passed the limit";
+  const std::string& m = sim.step_guard();
+  std::printf("[overlap guard] first beyond the limit at step %lld (ratio %.6f): %s\n",
+              (long long)first, ratio, m.c_str());
+  char expect[200];
+  std::snprintf(expect, sizeof expect, "numerical blow-up at step %lld: overlap of particles 7 and 12 is %.6g "
+                "of the smaller radius (%.6g m, radius 0.01 m)", (long long)first, ratio, un);
+  EXPECT_EQ(m.rfind(expect, 0), 0u) << m << "\nexpected to start with: " << expect;
+  EXPECT_LT(ratio, 1.1);  // caught in the step it crossed, not later
+}
+
+// The overlap guard stays silent on a normal dense run: the pushed-together packing (initial
+// overlaps up to 0.54 of the smaller radius) and the 1:10 one (up to 0.97) run 2000 steps at
+// 0.25 of the critical estimate with no guard, and their largest overlap, measured every step,
+// stays below the limit.
+TEST(Guards, OverlapGuardSilentOnADenseRun) {
+  for (real_t ratio_d : {3.0, 10.0}) {
+    Packing k = dense_packing(ratio_d);
+    SimulationParams sp;
+    sp.law.youngs_modulus = 100e6;
+    sp.law.friction = 0.5;
+    sp.skin = 0.02 * 0.03;
+    sp.dt = 0.25 * critical_time_step(k.p, sp.law, false);
+    Simulation sim(std::move(k.p), k.cell, sp);
+    real_t largest = 0;
+    for (int s = 1; s <= 2000; ++s) {
+      sim.step(true);
+      ASSERT_EQ(sim.step_guard(), "") << "d_max/d_min " << ratio_d << ", step " << s;
+      largest = std::max(largest, sim.macro().max_overlap_ratio);
+    }
+    std::printf("[overlap guard] d_max/d_min %.0f: largest overlap %.3f of the smaller radius over "
+                "2000 steps, Z %.2f\n", ratio_d, largest, sim.macro().coordination);
+    EXPECT_GT(largest, 0.1);  // loaded contacts, so the guard was exercised
+    EXPECT_LT(largest, kMaxOverlapRatio);
+  }
+}
+
 // The kinetic-energy guard does not fire on a sane run: a free particle gas (no contacts)
 // keeps KE = energy input exactly; a fixed factor 1 is the tightest allowed value.
 TEST(Guards, NoRunawayForAFreeGas) {
