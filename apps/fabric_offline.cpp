@@ -2,6 +2,7 @@
 
 #include "apps/fabric_output.hpp"
 #include "core/fabric.hpp"
+#include "core/serial_domain.hpp"
 #include "io/errors.hpp"
 #include "io/snapshot.hpp"
 #include "io/write_check.hpp"
@@ -49,8 +50,9 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
   }
   const fs::path out = a.outdir.empty() ? fs::path(a.file).parent_path() / "fabric" : fs::path(a.outdir);
   const bool root = mpi.rank() == 0;
-  std::unique_ptr<Domain> domain =
-      mpi.size() > 1 ? std::make_unique<MpiDomain>(mpi.comm()) : std::make_unique<Domain>();
+  std::unique_ptr<Domain> domain;
+  if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(mpi.comm());
+  else domain = std::make_unique<SerialDomain>();
   const FabricOptions opt{a.strong_ratio, int(a.bins)};
   std::size_t analysed = 0;
   for (const auto& [name, list] : chosen) {

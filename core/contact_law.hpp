@@ -15,7 +15,7 @@
 // The Coulomb and rolling limits use the elastic normal force k_n u_n (PFC convention), so a
 // dashpot never changes the slip limit. Viscous dashpots: c = 2 beta sqrt(m_eff k) (critical
 // damping ratio beta) or c = eta m_eff (mass-proportional rate eta, LAMMPS/LIGGGHTS style);
-// the shear dashpot is switched off while the contact slides (PFC "slip" convention).
+// the shear dashpot is switched off while the shear spring is capped (PFC "slip" convention).
 //
 // The law is a stateless function of (parameters, geometry, history&). Rolling resistance and
 // viscous damping are template switches so that a kernel built without them contains none of it.
@@ -96,12 +96,24 @@ struct ContactKinematics {
   Vec3 w1, w2;   // spins [rad/s]
 };
 
+// The one classification of a contact into the sub-networks of spec section 5, shared by the
+// force loop's counts (ContactSums) and the contact records (core/contact_snapshot.cpp): a
+// spring of squared length 'norm2' is at its limit when |spring| >= (1 - 1e-9) limit (a capped
+// spring equals the limit up to the rounding of one rescaling). With a zero limit every
+// contact is at it: at mu_s = 0 every contact slides (no tangential force can be held, the
+// friction is fully mobilised whatever the tangential motion), at mu_r = 0 every contact rolls.
+constexpr real_t kLimitTolerance = 1e-9;
+inline bool at_limit(real_t norm2, real_t limit) {
+  const real_t l = (1.0 - kLimitTolerance) * limit;
+  return norm2 >= l * l;
+}
+
 struct ContactResult {
   real_t fn;          // normal force (elastic + dashpot, >= 0) on body 2 along n [N]
   Vec3 fs;            // total shear force on body 2 (spring + dashpot) [N]
   Vec3 mr;            // rolling moment on body 2 [N m]
-  bool sliding;
-  bool rolling;
+  bool sliding;       // the shear spring at the Coulomb limit (at_limit)
+  bool rolling;       // the rolling spring at its limit (at_limit; always true when mu_r = 0)
   real_t e_friction;  // energy dissipated by slip this step [J]
   real_t e_rolling;   // energy dissipated by rolling slip this step [J]
   real_t e_viscous;   // energy dissipated by the dashpots this step [J]
@@ -142,8 +154,12 @@ inline ContactResult contact_law(const ContactLawParams& p, const PairConstants&
   Vec3 fs = fs_rot - c.ks * du;
   const real_t cap = p.friction * fn_el;
   const real_t fs2 = fs.squaredNorm();
-  r.sliding = fs2 > cap * cap;
-  if (r.sliding) {
+  // Capped when the trial force exceeds the cap; classified from the trial force, which is the
+  // spring itself when not capped and beyond the limit when capped (the same as at_limit of
+  // the capped spring, the test contact_records applies).
+  const bool capped = fs2 > cap * cap;
+  r.sliding = at_limit(fs2, cap);
+  if (capped) {
     fs *= cap / std::sqrt(fs2);
     const Vec3 slip = du + (fs - fs_rot) / c.ks;
     r.e_friction = -0.5 * (fs_rot + fs).dot(slip);
@@ -151,7 +167,7 @@ inline ContactResult contact_law(const ContactLawParams& p, const PairConstants&
   h.fs = fs;
   r.fs = fs;
   if constexpr (Viscous) {
-    if (!r.sliding) {
+    if (!capped) {
       r.fs -= c.cs * vt;
       r.e_viscous += c.cs * vt.squaredNorm() * dt;
     }
@@ -165,7 +181,7 @@ inline ContactResult contact_law(const ContactLawParams& p, const PairConstants&
     Vec3 mr = mr_rot - c.kr * dth;
     const real_t rcap = p.rolling_friction * c.rbar * fn_el;
     const real_t mr2 = mr.squaredNorm();
-    r.rolling = mr2 >= rcap * rcap;
+    r.rolling = at_limit(mr2, rcap);  // as for sliding
     if (mr2 > rcap * rcap) {
       mr *= rcap / std::sqrt(mr2);
       const Vec3 slip = dth + (mr - mr_rot) / c.kr;

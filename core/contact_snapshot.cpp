@@ -10,8 +10,6 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
   std::array<Vec3, 27> shift;
   for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
   const bool rolling = law.rolling() && pairs.mr.size() == pairs.size();
-  // The springs were capped to the limit exactly, up to the rounding of one rescaling.
-  constexpr real_t kAtLimit = 1.0 - 1e-9;
   std::vector<ContactRecord> out;
   for (std::size_t q = 0; q < pairs.size(); ++q) {
     const Index i = pairs.i[q], j = pairs.j[q];
@@ -32,10 +30,10 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
     c.fn = k.kn * c.overlap;
     c.ft = pairs.fs[q];
     const real_t cap = law.friction * c.fn;
-    c.sliding = c.ft.norm() >= kAtLimit * cap;
+    c.sliding = at_limit(c.ft.squaredNorm(), cap);  // the force loop's classification
     if (rolling) {
       c.mr = pairs.mr[q];
-      c.rolling = c.mr.norm() >= kAtLimit * law.rolling_friction * k.rbar * c.fn;
+      c.rolling = at_limit(c.mr.squaredNorm(), law.rolling_friction * k.rbar * c.fn);
     } else {
       c.rolling = true;  // no rolling resistance: every contact rolls freely (spec section 5)
     }

@@ -1,5 +1,6 @@
 // The seam between the physics (core/) and the communication (parallel/). Simulation::step()
-// calls these hooks at fixed points; the serial domain does nothing, the MPI domain
+// calls these hooks at fixed points; the serial domain (core/serial_domain.hpp) does nothing,
+// the MPI domain
 // (parallel/mpi_domain.hpp) exchanges ghosts, migrates particles with their contact history and
 // reduces sums. Every rank calls every hook at the same point of every step, so the
 // collectives inside are never behind data-dependent control flow.
@@ -25,20 +26,20 @@ class Domain {
   virtual ~Domain() = default;
 
   // Before: owned particles' x, v, w are current. After: every ghost has its owner's x, v, w.
-  virtual void update_ghosts(Particles& p) { (void)p; }
+  virtual void update_ghosts(Particles& p) = 0;
 
   // The largest value over all ranks (every rank calls it once per step).
-  virtual real_t max_all(real_t local) { return local; }
+  virtual real_t max_all(real_t local) = 0;
 
   // Element-wise maximum over all ranks, in place.
-  virtual void max_all(std::span<double> values) { (void)values; }
+  virtual void max_all(std::span<double> values) = 0;
 
   // Element-wise sum over all ranks, in place; the same bits on every rank (rank 0's result).
-  virtual void sum_all(std::span<double> values) { (void)values; }
+  virtual void sum_all(std::span<double> values) = 0;
 
   // Element-wise sum of integers over all ranks, in place: exact, so the same on any number of
   // ranks (with core/exact_sum.hpp, exact sums of doubles; used by core/fabric.cpp).
-  virtual void sum_all(std::span<std::int64_t> values) { (void)values; }
+  virtual void sum_all(std::span<std::int64_t> values) = 0;
 
   // At start-up. Before, with Holding::Whole: every rank holds the same complete set of
   // particles, as generated, wrapped into the cell; with Holding::Share: each rank holds a part
@@ -52,35 +53,35 @@ class Domain {
   // so that every rank owns what it owned when saved.
   virtual void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
                      const Vec3* decomposed_for = nullptr, Holding holding = Holding::Whole,
-                     HistoryMap* history = nullptr) {
-    (void)p, (void)cell, (void)cutoff, (void)decomposed_for, (void)holding, (void)history;
-  }
+                     HistoryMap* history = nullptr) = 0;
 
   // The cell lengths the current decomposition was made for (zero for the serial domain or a
   // decomposition that cannot be remade from them, METIS).
-  virtual Vec3 decomposition_lengths() const { return Vec3::Zero(); }
+  virtual Vec3 decomposition_lengths() const = 0;
 
   // At a rebuild, with owned positions wrapped into the cell. Before: 'history' holds the
   // springs of this rank's touching contacts, keyed by the two global ids. After: every owned
   // particle lies in this rank's subdomain; particles that left were sent to their new owners
   // with the springs of their contacts, and those received were added to 'history'. Ghosts are
   // dropped (they are rebuilt by build_ghosts after any reordering of the owned particles).
-  virtual void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) {
-    (void)p, (void)cell, (void)history;
-  }
+  virtual void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) = 0;
 
   // Before: no ghosts, owned particles in their subdomain. After: every particle of another
   // rank within 'cutoff' (2 Rmax + skin, a lower bound on the decomposition bin edge) of this
   // subdomain is a ghost here, at its owner's (wrapped) position, with every property set.
-  virtual void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) {
-    (void)p, (void)cell, (void)cutoff;
-  }
+  virtual void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) = 0;
 
   // A copy of this domain's state (decomposition, ghost plan), for a copy of the simulation.
-  virtual std::unique_ptr<Domain> clone() const { return std::make_unique<Domain>(*this); }
+  virtual std::unique_ptr<Domain> clone() const = 0;
 
-  virtual int rank() const { return 0; }
-  virtual int size() const { return 1; }
+  virtual int rank() const = 0;
+  virtual int size() const = 0;
+
+ protected:
+  // Copied only by a derived class's clone(), never sliced through the base.
+  Domain() = default;
+  Domain(const Domain&) = default;
+  Domain& operator=(const Domain&) = default;
 };
 
 }  // namespace fabrica

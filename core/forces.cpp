@@ -2,11 +2,20 @@
 
 #include "core/contact_law.hpp"
 
+#include <algorithm>
 #include <array>
 #include <limits>
 
 namespace fabrica {
 namespace {
+
+// Out of the loop's way: reached only by an overlap beyond the geometric limit.
+[[gnu::cold, gnu::noinline]] void note_overlap(OverlapAlarm* alarm, real_t un, real_t radius,
+                                               GlobalId a, GlobalId b) {
+  if (!alarm) return;
+  const real_t ratio = un / radius;
+  if (ratio > alarm->ratio) *alarm = OverlapAlarm{ratio, un, radius, a, b};
+}
 
 template <bool Rolling, bool Viscous, bool Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
@@ -71,6 +80,8 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
     ContactKinematics k;
     k.n = d / dist;
     k.un = sum_r - dist;
+    if (k.un > kMaxOverlapRatio * std::min(R[i], R[j]) && std::size_t(i) < n_owned) [[unlikely]]
+      note_overlap(ctx.alarm, k.un, std::min(R[i], R[j]), P.id[i], P.id[j]);
     const real_t a1 = R[i] - 0.5 * k.un, a2 = R[j] - 0.5 * k.un;
     k.w1 = w[i];
     k.w2 = w[j];
@@ -162,6 +173,8 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     ContactKinematics k;
     k.n = -W.normal;
     k.un = R - dist;
+    if (k.un > kMaxOverlapRatio * R) [[unlikely]]
+      note_overlap(ctx.alarm, k.un, R, P.id[i], GlobalId(-1 - wl.wall[q]));
     const real_t a1 = R - 0.5 * k.un;
     k.w1 = P.w[i];
     k.w2 = Vec3::Zero();

@@ -38,11 +38,26 @@ struct Dissipation {
   real_t local = 0;     // local (non-viscous) damping
 };
 
+// The overlap guard of every step: an overlap above kMaxOverlapRatio of the smaller radius
+// (walls: of the sphere's radius) is beyond the geometric limit - the smaller sphere's centre
+// is then inside the other sphere (or behind the wall), the linear law no longer describes the
+// contact, and its force can throw the spheres apart. The force loop notes the largest such
+// overlap of the contacts whose body 1 this rank owns; finding none costs one comparison per
+// contact (benchmarks/README.md, "The overlap guard").
+inline constexpr real_t kMaxOverlapRatio = 1.0;
+struct OverlapAlarm {
+  real_t ratio = 0;    // u_n / smaller radius, 0 when no contact is beyond the limit
+  real_t overlap = 0;  // u_n [m]
+  real_t radius = 0;   // the smaller radius [m]
+  GlobalId a = -1, b = -1;  // the two bodies (b = -1 - wall index for walls)
+};
+
 struct ForceContext {
   const ContactLawParams& law;
   const std::vector<Wall>& walls;
   Vec3 gravity;  // m/s^2
   real_t dt;
+  OverlapAlarm* alarm = nullptr;  // if set, receives the largest overlap beyond the limit
 };
 
 // Sets f = m g and t = 0, then adds every contact. 'sums' may be null (no measurement).

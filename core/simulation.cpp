@@ -14,7 +14,7 @@ namespace fabrica {
 
 Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
                        Domain* domain, Holding holding)
-    : domain_(domain ? domain : &serial_), p_(std::move(particles)), cell_(cell),
+    : domain_(domain ? domain : &serial_domain()), p_(std::move(particles)), cell_(cell),
       par_(std::move(params)) {
   const real_t rmax = domain_->max_all(p_.max_radius());  // of every rank's particles
   cutoff_max_ = 2 * rmax + par_.skin;
@@ -50,11 +50,11 @@ class PhaseClock {
 }  // namespace
 
 Simulation::Simulation(const Simulation& other, Domain* domain) : Simulation(other) {
-  domain_ = domain ? domain : &serial_;
+  domain_ = domain ? domain : &serial_domain();
 }
 
 Simulation::Simulation(SimulationSnapshot s, Domain* domain)
-    : domain_(domain ? domain : &serial_), p_(std::move(s.particles)), cell_(s.cell),
+    : domain_(domain ? domain : &serial_domain()), p_(std::move(s.particles)), cell_(s.cell),
       par_(std::move(s.params)), diss_(s.dissipation), macro_(s.macro), step_(s.step),
       time_(s.time) {
   const real_t rmax = domain_->max_all(p_.max_radius());
@@ -111,7 +111,8 @@ void Simulation::step(bool measure) {
 }
 
 void Simulation::compute(bool measure, real_t dt) {
-  const ForceContext ctx{par_.law, par_.walls, par_.gravity, dt};
+  overlap_ = OverlapAlarm{};
+  const ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_};
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr);
   if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, dt);
 }
@@ -154,21 +155,23 @@ bool Simulation::needs_rebuild() {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   // m[0]: the largest displacement^2 since the last rebuild; m[1]: the largest speed^2 (the
   // step guard). A non-finite value counts as infinite (an exact maximum on every rank).
-  double m[2] = {0, 0};
+  // m[2]: the largest overlap ratio beyond the limit found by the last force computation.
+  double m[3] = {0, 0, overlap_.ratio};
   for (std::size_t a = 0; a < p_.n_owned(); ++a) {
     const real_t d2 = (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm();
     const real_t v2 = p_.v[a].squaredNorm();
     m[0] = d2 <= m[0] ? m[0] : (d2 < inf ? d2 : inf);
     m[1] = v2 <= m[1] ? m[1] : (v2 < inf ? v2 : inf);
   }
-  domain_->max_all(std::span<double>(m, 2));
+  domain_->max_all(std::span<double>(m, 3));
   if (guard_rmin_ == 0) {  // once: the smallest radius over every rank
     real_t r = inf;
     for (std::size_t a = 0; a < p_.n_owned(); ++a) r = std::min(r, p_.radius[a]);
     guard_rmin_ = -domain_->max_all(-r);
   }
   const real_t bound = 0.5 * guard_rmin_ / par_.dt;  // half the smallest radius in one step
-  if (m[0] == inf || !(m[1] <= bound * bound)) set_step_guard(m[1], bound);
+  if (m[2] > 0) set_overlap_guard(m[2]);  // the earlier event (the previous force computation)
+  else if (m[0] == inf || !(m[1] <= bound * bound)) set_step_guard(m[1], bound);
   const real_t strain = (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
   return 2.0 * std::sqrt(m[0]) + strain * cutoff_max_ > par_.skin;
 }
@@ -194,6 +197,24 @@ void Simulation::set_step_guard(real_t max_v2, real_t bound) {
                   "jump past any bound in one step (velocity (%.6g, %.6g, %.6g) m/s)",
                   (long long)(step_ + 1), w[0], std::sqrt(max_v2), guard_rmin_, par_.dt, bound, w[1],
                   w[2], w[3]);
+  guard_ = b;
+}
+
+void Simulation::set_overlap_guard(real_t max_ratio) {
+  // Only when the guard trips: the contact from a second reduction (the highest ids among
+  // equal ratios); non-holders send -inf.
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  const bool mine = overlap_.ratio == max_ratio;
+  double w[4] = {mine ? double(overlap_.a) : -inf, mine ? double(overlap_.b) : -inf,
+                 mine ? overlap_.overlap : -inf, mine ? overlap_.radius : -inf};
+  domain_->max_all(std::span<double>(w, 4));
+  char b[400];
+  const bool wall = w[1] < 0;
+  std::snprintf(b, sizeof b, "numerical blow-up at step %lld: overlap of particle%s %.0f and %s%.0f is %.6g of "
+                "the smaller radius (%.6g m, radius %.6g m), beyond the geometric limit %.6g (a "
+                "centre inside the other body)",
+                (long long)step_, wall ? "" : "s", w[0], wall ? "wall " : "", wall ? -1 - w[1] : w[1],
+                max_ratio, w[2], w[3], kMaxOverlapRatio);
   guard_ = b;
 }
 

@@ -9,6 +9,7 @@
 #include "core/measures.hpp"
 #include "core/neighbor.hpp"
 #include "core/particles.hpp"
+#include "core/serial_domain.hpp"
 
 #include <cstdint>
 #include <string>
@@ -72,13 +73,18 @@ class Simulation {
   // is too small for the largest sphere and the skin. With a domain (MPI), every rank passes
   // the same complete set of particles (Holding::Whole) or a part of them (Holding::Share, see
   // Domain::adopt) and keeps its own; the domain must outlive the simulation. Without one, the
-  // run is serial.
+  // run is serial (serial_domain()).
   Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
              Domain* domain = nullptr, Holding holding = Holding::Whole);
 
   // A copy of 'other' that communicates through 'domain' (a clone of other's domain, or null
-  // for a serial run): to branch several runs from one prepared state.
+  // for a serial run): to branch several runs from one prepared state. The only copy: a plain
+  // copy would share other's domain (its decomposition and ghost plan), so it is not public.
   Simulation(const Simulation& other, Domain* domain);
+  Simulation& operator=(const Simulation&) = delete;
+  // A move keeps the domain (the serial one is shared and stateless).
+  Simulation(Simulation&&) = default;
+  Simulation& operator=(Simulation&&) = default;
 
   // A run restored from a snapshot (every rank passes the same particles and history, or with
   // snapshot.holding = Share a part of each, as io/checkpoint reads them; the dissipation is
@@ -128,11 +134,14 @@ class Simulation {
   bool rebuilt_last_step() const { return rebuilt_last_; }
 
   // The guard of every step (in the displacement check every step makes anyway, in its one
-  // reduction): empty, or - when a particle's position or velocity is not finite, or a particle
-  // moves more than half the smallest radius in one step (an overlap could then jump past any
-  // bound between two steps) - "numerical
-  // blow-up at step N: particle ID ..." with its speed and velocity. The same on every rank;
-  // the executables stop the run with it (and save the state, OUT/blowup.ckpt).
+  // reduction): empty, or - when the force loop of the previous step found an overlap beyond
+  // kMaxOverlapRatio of the smaller radius (core/forces.hpp) - "numerical blow-up at step N:
+  // overlap of particles A and B is ..." with the step of that force computation (0: the
+  // initial forces), the ratio, the overlap and the radius; or - when a particle's position or
+  // velocity is not finite, or a particle moves more than half the smallest radius in one step
+  // (an overlap could then jump past any bound between two steps) - "numerical blow-up at step
+  // N: particle ID ..." with its speed and velocity. The same on every rank; the executables
+  // stop the run with it (and save the state, OUT/blowup.ckpt).
   const std::string& step_guard() const { return guard_; }
 
   // Calls fn(id_a, id_b, history) once per touching contact over all ranks: here, those whose
@@ -154,6 +163,7 @@ class Simulation {
   // outside the list could be touching. Collective.
   bool needs_rebuild();
   void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
+  void set_overlap_guard(real_t max_ratio);          // the same for the overlap (collective)
   void rebuild();
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable
@@ -162,6 +172,8 @@ class Simulation {
   const PhaseTimes& phase_times() const { return times_; }
 
  private:
+  Simulation(const Simulation&) = default;  // member-wise, for the branching constructor only
+
   // Forces at the current positions; the contact springs advance by the relative motion over
   // dt (0 for the initial forces, which must not change the contact history).
   void compute(bool measure, real_t dt);
@@ -170,8 +182,7 @@ class Simulation {
   // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
   void rebuild_lists();
 
-  Domain serial_;
-  Domain* domain_;
+  Domain* domain_;  // never null: the caller's domain, or serial_domain()
   Particles p_;
   PeriodicCell cell_;
   SimulationParams par_;
@@ -197,6 +208,7 @@ class Simulation {
   bool rebuilt_last_ = true;
   std::string guard_;      // step_guard()
   real_t guard_rmin_ = 0;  // the smallest radius over all ranks (set at the first check)
+  OverlapAlarm overlap_;   // the largest overlap beyond the limit in the last force computation
   double last_migrate_seconds_ = 0;  // communication time of the last rebuild (when timing)
   PhaseTimes times_;
 };

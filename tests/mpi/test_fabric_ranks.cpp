@@ -3,8 +3,9 @@
 // sliding / rolling flags) is dealt out over the ranks in an irregular way (contact c to rank
 // (c * 7919) mod P, each rank's records in reverse order) and analysed through MpiDomain; every
 // number of the result must equal, bit for bit, the analysis of the whole snapshot by one
-// process (serial Domain). Registered at 1, 2 and 4 ranks.
+// process (SerialDomain). Registered at 1, 2 and 4 ranks.
 #include "core/fabric.hpp"
+#include "core/serial_domain.hpp"
 #include "parallel/mpi_domain.hpp"
 
 #include <gtest/gtest.h>
@@ -79,7 +80,7 @@ TEST(FabricRanks, SameResultBitForBitOnAnyRankCount) {
   opt.strong_ratio = 1.0;
   MpiDomain domain(MPI_COMM_WORLD);
   const FabricResult par = analyse_fabric(mine, 2.5, opt, domain);
-  Domain serial;
+  SerialDomain serial;
   const FabricResult ser = analyse_fabric(all, 2.5, opt, serial);
   const std::vector<double> a = flatten(par), b = flatten(ser);
   ASSERT_EQ(a.size(), b.size());

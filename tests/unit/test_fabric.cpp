@@ -11,6 +11,7 @@
 // The rank-count independence is tested in tests/mpi/test_fabric_ranks.cpp.
 #include "core/exact_sum.hpp"
 #include "core/fabric.hpp"
+#include "core/serial_domain.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
@@ -149,7 +150,7 @@ Stat stat(std::size_t n, F f) {
 // 5 (s_ratio + max_ij s_c). N = 400,000 contacts: tolerances 0.01-0.03.
 TEST(Fabric, RecoversPrescribedAnisotropy) {
   const Sample s = make_sample(400000, 2021);
-  Domain serial;
+  SerialDomain serial;
   const FabricResult r = analyse_fabric(s.rec, 1.0, FabricOptions{}, serial);
   const NetworkFabric& all = r.net[kAll];
   ASSERT_EQ(all.count, std::int64_t(s.rec.size()));
@@ -229,7 +230,7 @@ TEST(Fabric, StressForceFabricTruncationMatchesClosedForm) {
   const Mat3 D = Vec3(2.0 / 3, -1.0 / 3, -1.0 / 3).asDiagonal();
   const std::vector<ContactRecord> rec = sample_contacts(kBatches * kPerBatch, 7, a * D, b * D,
                                                          Mat3::Zero(), t * D, 10.0, 0.02);
-  Domain serial;
+  SerialDomain serial;
   auto analyse = [&](std::span<const ContactRecord> r) {
     const FabricResult f = analyse_fabric(r, 1.0, FabricOptions{}, serial);
     return std::array<double, 3>{f.q_p, f.q_p_star[kPartAll], f.q_p - f.q_p_star[kPartAll]};
@@ -292,7 +293,7 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
   const int axes[kNetworks] = {/*all*/ 7, /*ns*/ 5, /*s*/ 2, /*r*/ 4, /*nr*/ 3, /*sf*/ 1,
                                /*wf*/ 6, /*ns-nr*/ 1, /*ns-r*/ 4, /*s-nr*/ 2, /*s-r*/ 0,
                                /*ns-sf*/ 1, /*ns-wf*/ 4, /*s-sf*/ 0, /*s-wf*/ 2};
-  Domain serial;
+  SerialDomain serial;
   FabricOptions opt;
   const FabricResult r = analyse_fabric(rec, V, opt, serial);
   EXPECT_DOUBLE_EQ(r.mean_fn, F.sum() / 3);
@@ -401,7 +402,7 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
 // normalisation of xi is 1 for any partition (1e-12).
 TEST(Fabric, PartitionsAddUpToTheWhole) {
   const Sample s = make_sample(50000, 7);
-  Domain serial;
+  SerialDomain serial;
   FabricOptions opt;
   opt.strong_ratio = 1.2;
   const FabricResult r = analyse_fabric(s.rec, 0.5, opt, serial);
@@ -448,7 +449,7 @@ namespace {
 // No contacts at all (a loose cloud): every collective is still made, counts are 0, means nan,
 // and the prediction 0.
 TEST(Fabric, NoContacts) {
-  Domain serial;
+  SerialDomain serial;
   const FabricResult r = analyse_fabric({}, 1.0, FabricOptions{}, serial);
   EXPECT_EQ(r.reductions, 3);
   EXPECT_EQ(r.contacts, 0);

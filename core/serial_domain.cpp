@@ -1,0 +1,25 @@
+#include "core/serial_domain.hpp"
+
+namespace fabrica {
+
+// One process holds every particle: there is nothing to exchange, and a reduction over one
+// rank is the value itself.
+void SerialDomain::update_ghosts(Particles&) {}
+real_t SerialDomain::max_all(real_t local) { return local; }
+void SerialDomain::max_all(std::span<double>) {}
+void SerialDomain::sum_all(std::span<double>) {}
+void SerialDomain::sum_all(std::span<std::int64_t>) {}
+void SerialDomain::adopt(Particles&, const PeriodicCell&, real_t, const Vec3*, Holding, HistoryMap*) {}
+Vec3 SerialDomain::decomposition_lengths() const { return Vec3::Zero(); }
+void SerialDomain::migrate(Particles&, const PeriodicCell&, HistoryMap&) {}
+void SerialDomain::build_ghosts(Particles&, const PeriodicCell&, real_t) {}
+std::unique_ptr<Domain> SerialDomain::clone() const { return std::make_unique<SerialDomain>(); }
+int SerialDomain::rank() const { return 0; }
+int SerialDomain::size() const { return 1; }
+
+SerialDomain& serial_domain() {
+  static SerialDomain d;  // no state: shared by every serial Simulation, on any thread
+  return d;
+}
+
+}  // namespace fabrica
