@@ -57,23 +57,24 @@ TriaxialRun::TriaxialRun(const Scene& scene, Simulation& sim, real_t mean_diamet
                          const TriaxialRun* parent)
     : scene_(scene), tx_(scene.triaxial), sim_(sim), d_mean_(mean_diameter), density_(density),
       series_(series), log_(log), l0_(sim.cell().lengths()) {
-  const MacroState& m = sim_.macro();
-  last_stress_ = m.stress;
-  if (parent) {  // a branch of the parent's simulation: the energy account continues
-    work_ = parent->work_;
-    e0_ = parent->e0_;
+  if (parent) {  // a branch of the parent's simulation: the account continues
+    in_pos_ = parent->in_pos_;
+    input_seen_ = parent->input_seen_;
     l0_ = parent->l0_;
   } else {
-    e0_ = m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
+    input_seen_ = sim_.macro().energy_input - sim_.energy_account().e0;
   }
 }
 
+void TriaxialRun::track_input(const MacroState& m) {
+  const real_t input = m.energy_input - sim_.energy_account().e0;  // boundary + gravity work
+  in_pos_ += std::max<real_t>(0, input - input_seen_);
+  input_seen_ = input;
+}
+
 real_t TriaxialRun::energy_error(const MacroState& m) const {
-  const Dissipation& d = m.dissipated;
-  const real_t stored = m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
-  const real_t spent = d.friction + d.rolling + d.viscous + d.local;
-  // Relative to the work done on the specimen since the simulation started.
-  return work_ > 0 ? (e0_ + work_ - stored - spent) / work_ : 0.0;
+  const real_t in = energy_in();
+  return in > 0 ? (m.energy_input - energy_books(m)) / in : 0.0;
 }
 
 void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
@@ -89,7 +90,7 @@ void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
                            m.void_ratio, m.coordination, m.mech_coordination,
                            real_t(m.sliding) / nc, real_t(m.rolling) / nc, inertial, m.unbalanced,
                            m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
-                           d.viscous, d.local, work_, energy_error(m), m.mean_overlap / d_mean_,
+                           d.viscous, d.local, sim_.boundary_work(), energy_error(m), m.mean_overlap / d_mean_,
                            m.max_overlap_ratio};
   if (output_) {
     static const std::string header = [] {
@@ -118,7 +119,6 @@ void TriaxialRun::fabric_row(Stage stage, const Vec3& eps) {
 StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
   using clock = std::chrono::steady_clock;
   static const char* names[] = {"consolidation", "equilibration", "shear"};
-  const real_t dt = sim_.params().dt;
   const real_t target = tx_.confining_pressure;
   Servo servo = stage == Stage::Shear
                     ? make_servo({false, true, true}, Vec3(-tx_.axial_strain_rate, 0, 0))
@@ -144,7 +144,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     last_servo = resume->last_servo;
     k = resume->k + 1;
   } else {
-    sim_.cell().set_strain_rate(servo.update(last_stress_, 0.0));
+    sim_.cell().set_strain_rate(servo.update(sim_.macro().stress, 0.0));
   }
   const std::int64_t k0 = k - 1;
   const auto t0 = clock::now();
@@ -157,15 +157,12 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
           scene_.path, tx_.max_stage_steps, names[int(stage)], res.state.p, res.state.unbalanced));
     const bool out = k % scene_.output_every == 0;
     const bool measure = out || k % tx_.servo_interval == 0;
-    // Boundary work of this step: -V sum_i sigma_ii edot_i dt, with the latest stress.
-    const Vec3 rate = sim_.cell().strain_rate();
-    sim_.step(measure);
+    sim_.step(measure);  // the boundary work is the simulation's (Simulation::boundary_work)
     if (!sim_.step_guard().empty()) throw BlowUpError(sim_.step_guard());  // every step
-    work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
     if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
     if (measure) {
       const MacroState& m = sim_.macro();
-      last_stress_ = m.stress;
+      track_input(m);
       res.state = m;
       const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap, scene_.kinetic_runaway);
       if (!bad.empty()) throw BlowUpError(bad);
@@ -229,7 +226,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       }
     }
     if (hook_)
-      hook_(StageCursor{stage, k, servo.integral(), last_servo, res, l0_, work_, e0_, last_stress_});
+      hook_(StageCursor{stage, k, servo.integral(), last_servo, res, l0_, in_pos_, input_seen_});
   }
 }
 
@@ -264,17 +261,15 @@ StageResult TriaxialRun::shear() {
 StageCursor TriaxialRun::account() const {
   StageCursor a;
   a.l0 = l0_;
-  a.work = work_;
-  a.e0 = e0_;
-  a.last_stress = last_stress_;
+  a.input_positive = in_pos_;
+  a.input_seen = input_seen_;
   return a;
 }
 
 void TriaxialRun::set_account(const StageCursor& a) {
   l0_ = a.l0;
-  work_ = a.work;
-  e0_ = a.e0;
-  last_stress_ = a.last_stress;
+  in_pos_ = a.input_positive;
+  input_seen_ = a.input_seen;
 }
 
 StageResult TriaxialRun::resume(const StageCursor& at) {
