@@ -29,22 +29,6 @@ namespace {
 const char* const kStageNames[] = {"consolidation", "equilibration", "shear"};
 }  // namespace
 
-Vec3 Servo::update(const Mat3& stress, real_t elapsed) {
-  Vec3 r = fixed_;
-  for (int k = 0; k < 3; ++k) {
-    if (!axes_[k]) continue;
-    // The error is read to 1e-6: the reduced stress differs between rank counts in the last
-    // bits (summation order), and a dense packing amplifies any difference in the imposed
-    // strain rate to O(1) within ~1000 steps; rounded, the servo acts identically on any number
-    // of ranks (tests/regression, SameCurveOnOneAndManyRanks).
-    const real_t e = std::round((stress(k, k) - target_) / target_ * 1e6) * 1e-6;
-    const real_t trial = kp_ * e + ki_ * (integral_[k] + e * elapsed);
-    if (std::abs(trial) < cap_) integral_[k] += e * elapsed;  // anti-windup
-    r[k] = std::clamp(kp_ * e + ki_ * integral_[k], -cap_, cap_);
-  }
-  return r;
-}
-
 void write_series_header(std::ostream& out) {
   out << "stage,step,time,eps1,eps2,eps3,epsv,s11,s22,s33,s12,s23,s13,p,q,q_p,void_ratio,Z,Z_m,"
          "sliding_fraction,rolling_fraction,inertial_number,unbalanced,kinetic,e_normal,e_shear,"
@@ -144,7 +128,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     last_servo = resume->last_servo;
     k = resume->k + 1;
   } else {
-    sim_.cell().set_strain_rate(servo.update(sim_.macro().stress, 0.0));
+    sim_.cell().set_strain_rate(update_servo(servo, stage, sim_.macro(), 0.0));
   }
   const std::int64_t k0 = k - 1;
   const auto t0 = clock::now();
@@ -153,8 +137,11 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     if (k > tx_.max_stage_steps)
       throw CollectiveError(fmt::format(
           "{}: [triaxial] max_stage_steps = {}: the {} stage did not converge (last p = {:.6g} Pa, "
-          "unbalanced-force ratio {:.3g}); raise max_stage_steps, servo_gain or the damping",
-          scene_.path, tx_.max_stage_steps, names[int(stage)], res.state.p, res.state.unbalanced));
+          "target {:.6g} Pa, s11 {:.6g}, s22 {:.6g}, s33 {:.6g} Pa, unbalanced-force ratio {:.3g}; "
+          "servo {}); raise max_stage_steps or the damping",
+          scene_.path, tx_.max_stage_steps, names[int(stage)], res.state.p, target,
+          res.state.stress(0, 0), res.state.stress(1, 1), res.state.stress(2, 2),
+          res.state.unbalanced, servo.describe()));
     const bool out = k % scene_.output_every == 0;
     const bool measure = out || k % tx_.servo_interval == 0;
     sim_.step(measure);  // the boundary work is the simulation's (Simulation::boundary_work)
@@ -181,7 +168,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       if (out) row(stage, m, eps);
       if (out && stage == Stage::Shear) fabric_row(stage, eps);
       if (out && row_check_) row_check_();
-      const Vec3 rates = servo.update(m.stress, sim_.time() - last_servo);
+      const Vec3 rates = update_servo(servo, stage, m, sim_.time() - last_servo);
       sim_.cell().set_strain_rate(rates);
       last_servo = sim_.time();
       // A servo that cannot follow the loading: a lateral axis at the rate cap while its stress
@@ -231,8 +218,19 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
 }
 
 Servo TriaxialRun::make_servo(std::array<bool, 3> axes, Vec3 fixed) const {
-  return Servo(tx_.confining_pressure, tx_.servo_gain, tx_.servo_integral_gain, tx_.max_strain_rate,
-               axes, fixed);
+  return Servo(tx_, real_t(tx_.servo_interval) * sim_.params().dt, axes, fixed);
+}
+
+Vec3 TriaxialRun::update_servo(Servo& servo, Stage stage, const MacroState& m, real_t elapsed) {
+  const Mat3 M = specimen_stiffness(sim_);  // collective: every rank is here
+  try {
+    return servo.update(m.stress, elapsed, M);
+  } catch (const ServoDivergence& e) {  // the same on every rank (reduced values only)
+    throw CollectiveError(fmt::format("{}: [triaxial] the {} stage stopped at step {}: {} (p = "
+                                      "{:.6g} Pa, target {:.6g} Pa; servo {})",
+                                      scene_.path, kStageNames[int(stage)], sim_.step_count(),
+                                      e.what(), m.p, tx_.confining_pressure, servo.describe()));
+  }
 }
 
 StageResult TriaxialRun::consolidate() {

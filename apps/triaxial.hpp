@@ -5,6 +5,7 @@
 // from reduced (identical) values.
 #pragma once
 #include "apps/fabric_output.hpp"
+#include "apps/servo.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
@@ -19,27 +20,6 @@
 namespace fabrica {
 
 class RunOutput;
-
-// The servo: a PI controller per axis. For the axes in 'servo', with e_k = (sigma_kk - target)
-// / target (compression-positive stress), edot_k = gain e_k + integral_gain I_k, capped at
-// +-cap (extension positive: a specimen above the target stress expands); I_k integrates e_k
-// over time except while the rate is capped (anti-windup). Other axes keep 'fixed'.
-class Servo {
- public:
-  Servo(real_t target, real_t gain, real_t integral_gain, real_t cap, std::array<bool, 3> axes,
-        Vec3 fixed)
-      : target_(target), kp_(gain), ki_(integral_gain), cap_(cap), axes_(axes), fixed_(fixed) {}
-  // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one.
-  Vec3 update(const Mat3& stress, real_t elapsed);
-  const Vec3& integral() const { return integral_; }    // for checkpoints
-  void set_integral(const Vec3& i) { integral_ = i; }
-
- private:
-  real_t target_, kp_, ki_, cap_;
-  std::array<bool, 3> axes_;
-  Vec3 fixed_;
-  Vec3 integral_ = Vec3::Zero();
-};
 
 struct TriaxialCase {
   std::string name;        // e.g. "mur_0.05"
@@ -120,6 +100,8 @@ class TriaxialRun {
   void row(Stage stage, const MacroState& m, const Vec3& eps);
   void fabric_row(Stage stage, const Vec3& eps);
   Servo make_servo(std::array<bool, 3> axes, Vec3 fixed) const;
+  // The servo's rates for measurement 'm' (collective: the specimen's stiffness is reduced).
+  Vec3 update_servo(Servo& servo, Stage stage, const MacroState& m, real_t elapsed);
   // (energy put in - stored - dissipated) / energy_in(), from the simulation's one account.
   real_t energy_error(const MacroState& m) const;
   void track_input(const MacroState& m);  // at every measurement: energy_in() grows
