@@ -13,6 +13,7 @@
 #include "io/verify.hpp"
 #include "io/write_check.hpp"
 #include "io/scene.hpp"
+#include "io/distributed_setup.hpp"
 #include "io/setup.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_context.hpp"
@@ -112,7 +113,8 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   // The set-up made here is the run's (made once).
   std::optional<Setup> setup;
   if (!ckpt)
-    agree(mpi.comm(), [&] { setup = make_setup(scene.triaxial.enabled ? triaxial_setup_scene(scene) : scene); });
+    setup = make_run_setup(scene.triaxial.enabled ? triaxial_setup_scene(scene) : scene, mpi.comm(),
+                           domain_options(scene));
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
@@ -162,10 +164,10 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   if (ckpt) saved = ckpt->simulation("sim", mpi.comm());
   // run.h5: the rows and snapshots after the checkpoint's step go (collective).
   if (out && ckpt) out->resume_after(ckpt->header().step, {"run"}, 0);
-  Setup s = setup ? std::move(*setup) : make_setup(scene);
+  Setup s = setup ? std::move(*setup) : make_run_setup(scene, mpi.comm(), domain_options(scene));
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
-             s.particles.n_owned(), s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);
+             specimen_totals(s.particles, mpi.comm()).count, s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);
   fmt::print("critical time step {:.4e} s, time step {:.4e} s (fraction {:.3f})\n", s.critical_dt,
              s.params.dt, s.params.dt / s.critical_dt);
   fmt::print("{} MPI rank(s){}\n", mpi.size(),
@@ -205,7 +207,8 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   const Vec3 l0 = s.cell.lengths();  // the strain reference of the snapshots (also on a restart)
   std::unique_ptr<Simulation> simp =
       ckpt ? std::make_unique<Simulation>(std::move(*saved), domain.get())
-           : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get());
+           : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(),
+                                          s.holding);
   Simulation& sim = *simp;
   const std::int64_t first_step = sim.step_count();
   // A snapshot every [run] snapshot_every steps and at the end of each stage.

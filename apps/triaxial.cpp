@@ -1,5 +1,7 @@
 #include "apps/triaxial.hpp"
 
+#include "io/distributed_setup.hpp"
+
 #include "core/contact_snapshot.hpp"
 #include "core/fabric.hpp"
 
@@ -316,14 +318,18 @@ void FabricFiles::close() {
   streams_ = {};
 }
 
-std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
-  if (mpi.size() == 1) return nullptr;
+MpiDomainOptions domain_options(const Scene& scene) {
   MpiDomainOptions o;
   o.kind = scene.parallel.decomposition == "metis" ? DecompositionKind::Metis
                                                    : DecompositionKind::Cartesian;
   o.rebalance_threshold = scene.parallel.rebalance_threshold;
   o.rebalance_interval = int(scene.parallel.rebalance_interval);
-  return std::make_unique<MpiDomain>(mpi.comm(), o);
+  return o;
+}
+
+std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene) {
+  if (mpi.size() == 1) return nullptr;
+  return std::make_unique<MpiDomain>(mpi.comm(), domain_options(scene));
 }
 
 Scene triaxial_setup_scene(const Scene& scene) {
@@ -347,18 +353,15 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     for (real_t mur : tx.rolling_friction_cases) cases.push_back({fmt::format("mur_{}", mur), mur});
   }
   // The time step must suit the stiffest stage: rolling springs of the largest mu_r included.
-  Setup s = setup ? std::move(*setup) : make_setup(triaxial_setup_scene(scene));
+  Setup s = setup ? std::move(*setup)
+                  : make_run_setup(triaxial_setup_scene(scene), mpi.comm(), domain_options(scene));
   s.params.law = scene.law;
-  real_t dsum = 0, msum = 0, vsum = 0;
-  for (std::size_t a = 0; a < s.particles.n_owned(); ++a) {
-    const real_t R = s.particles.radius[a];
-    dsum += 2 * R, msum += s.particles.mass[a], vsum += 4.0 / 3.0 * std::numbers::pi * R * R * R;
-  }
-  const real_t d_mean = dsum / real_t(s.particles.n_owned()), density = msum / vsum;
+  const SpecimenTotals tot = specimen_totals(s.particles, mpi.comm());  // of every rank's share
+  const real_t d_mean = tot.diameter_sum / real_t(tot.count), density = tot.mass / tot.volume;
   if (log)
     *log << fmt::format("triaxial test: {} spheres, mean diameter {:.2f} mm, {} rank(s), time step "
                         "{:.3e} s ({:.3f} of the critical estimate), {} case(s)\n",
-                        s.particles.n_owned(), d_mean * 1e3, mpi.size(), s.params.dt,
+                        tot.count, d_mean * 1e3, mpi.size(), s.params.dt,
                         s.params.dt / s.critical_dt, cases.size());
   // The servo holds the lateral stresses by lateral strain rates of about half the axial rate
   // (more while the specimen dilates); a cap below the axial rate may not suffice.
@@ -395,7 +398,8 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
   std::optional<SimulationSnapshot> case_snapshot;  // decoded before any file is touched
   if (restart && start_case >= 0) case_snapshot = restart->simulation("sim", mpi.comm());
   std::unique_ptr<Simulation> prepared =
-      !restart ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get())
+      !restart ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(),
+                                              s.holding)
                : std::make_unique<Simulation>(
                      restart->simulation(start_case < 0 ? "sim" : "prep", mpi.comm()), domain.get());
   const std::int64_t restart_step = restart ? restart->header().step : 0;

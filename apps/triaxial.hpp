@@ -4,6 +4,7 @@
 // stresses held by the servo. Every rank runs the same control flow; every decision is taken
 // from reduced (identical) values.
 #pragma once
+#include "parallel/mpi_domain.hpp"
 #include "apps/fabric_output.hpp"
 #include "apps/servo.hpp"
 #include "core/simulation.hpp"
@@ -148,6 +149,8 @@ class MpiContext;
 class Checkpoint;
 struct Setup;
 // The scene's MPI domain ([parallel]) on several ranks; null (serial) on one.
+// The decomposition options of the scene's [parallel] table.
+MpiDomainOptions domain_options(const Scene& scene);
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 
 // The whole test for a scene with [triaxial]: one consolidation, then for each case of the sweep

@@ -14,6 +14,12 @@
 
 namespace fabrica {
 
+// How the particles handed to Domain::adopt are held by the ranks.
+enum class Holding {
+  Whole,  // every rank the same complete set
+  Share,  // each rank a disjoint part
+};
+
 class Domain {
  public:
   virtual ~Domain() = default;
@@ -34,14 +40,20 @@ class Domain {
   // ranks (with core/exact_sum.hpp, exact sums of doubles; used by core/fabric.cpp).
   virtual void sum_all(std::span<std::int64_t> values) { (void)values; }
 
-  // At start-up. Before: every rank holds the same complete set of particles, as read or
-  // generated, wrapped into the cell. After: each rank keeps only the particles of its
-  // subdomain, whose bins are at least 'cutoff' (2 Rmax + skin) wide. With 'decomposed_for'
-  // (a restart on the same rank count), the decomposition is the one made for a cell of those
-  // lengths (see decomposition_lengths()), so that every rank owns what it owned when saved.
+  // At start-up. Before, with Holding::Whole: every rank holds the same complete set of
+  // particles, as generated, wrapped into the cell; with Holding::Share: each rank holds a part
+  // (any part: the parts are disjoint and together the specimen, as read in chunks from a data
+  // file or a checkpoint), and 'history', if given, a part of the contacts' springs (each
+  // contact on at least one rank). After: each rank holds exactly the particles of its
+  // subdomain, whose bins are at least 'cutoff' (2 Rmax + skin) wide, and in 'history' the
+  // springs of every contact one of whose bodies it owns. No rank ever holds more than its
+  // share plus what it read. With 'decomposed_for' (a restart on the same rank count), the
+  // decomposition is the one made for a cell of those lengths (see decomposition_lengths()),
+  // so that every rank owns what it owned when saved.
   virtual void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-                     const Vec3* decomposed_for = nullptr) {
-    (void)p, (void)cell, (void)cutoff, (void)decomposed_for;
+                     const Vec3* decomposed_for = nullptr, Holding holding = Holding::Whole,
+                     HistoryMap* history = nullptr) {
+    (void)p, (void)cell, (void)cutoff, (void)decomposed_for, (void)holding, (void)history;
   }
 
   // The cell lengths the current decomposition was made for (zero for the serial domain or a

@@ -13,14 +13,14 @@
 namespace fabrica {
 
 Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
-                       Domain* domain)
+                       Domain* domain, Holding holding)
     : domain_(domain ? domain : &serial_), p_(std::move(particles)), cell_(cell),
       par_(std::move(params)) {
-  const real_t rmax = p_.max_radius();  // every rank still holds every particle
+  const real_t rmax = domain_->max_all(p_.max_radius());  // of every rank's particles
   cutoff_max_ = 2 * rmax + par_.skin;
   check_cell_size(cell_, rmax, par_.skin);
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
-  domain_->adopt(p_, cell_, cutoff_max_);
+  domain_->adopt(p_, cell_, cutoff_max_, nullptr, holding);
   rebuild();
   compute(true, 0.0);  // initial forces: no time passes, so the springs must not advance
   measure_and_reduce(Vec3::Zero());
@@ -67,12 +67,13 @@ Simulation::Simulation(SimulationSnapshot s, Domain* domain)
     : domain_(domain ? domain : &serial_), p_(std::move(s.particles)), cell_(s.cell),
       par_(std::move(s.params)), diss_(s.dissipation), macro_(s.macro), step_(s.step),
       time_(s.time) {
-  const real_t rmax = p_.max_radius();
+  const real_t rmax = domain_->max_all(p_.max_radius());
   cutoff_max_ = 2 * rmax + par_.skin;
   check_cell_size(cell_, rmax, par_.skin);
-  domain_->adopt(p_, cell_, cutoff_max_,
-                 s.decomposition_lengths.isZero() ? nullptr : &s.decomposition_lengths);
   carry_ = std::move(s.history);
+  domain_->adopt(p_, cell_, cutoff_max_,
+                 s.decomposition_lengths.isZero() ? nullptr : &s.decomposition_lengths,
+                 s.holding, &carry_);
   e0_ = s.energy.e0;
   work_ = s.energy.work;
   volume_prev_ = s.energy.vol_strain[0];

@@ -56,8 +56,8 @@ struct EnergyAccount {
 };
 
 struct SimulationSnapshot {
-  Particles particles;       // every particle (all ranks), forces and torques included
-  HistoryMap history;        // springs of every touching contact, keyed by the two global ids
+  Particles particles;       // every particle (or a part, below), forces and torques included
+  HistoryMap history;        // springs of every touching contact (or a part), keyed by the ids
   PeriodicCell cell;         // lengths and strain rates
   SimulationParams params;   // contact law, time step, skin, damping, walls
   MacroState macro;          // the last measured state
@@ -66,23 +66,26 @@ struct SimulationSnapshot {
   real_t time = 0;
   Vec3 decomposition_lengths = Vec3::Zero();  // see Domain::decomposition_lengths()
   EnergyAccount energy;      // the global part, and this rank's gravity work
+  Holding holding = Holding::Whole;  // particles and history: all of them, or this rank's part
 };
 
 class Simulation {
  public:
   // Builds the contact lists and the initial forces. Throws std::invalid_argument if the cell
   // is too small for the largest sphere and the skin. With a domain (MPI), every rank passes
-  // the same complete set of particles and keeps its own; the domain must outlive the
-  // simulation. Without one, the run is serial.
+  // the same complete set of particles (Holding::Whole) or a part of them (Holding::Share, see
+  // Domain::adopt) and keeps its own; the domain must outlive the simulation. Without one, the
+  // run is serial.
   Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
-             Domain* domain = nullptr);
+             Domain* domain = nullptr, Holding holding = Holding::Whole);
 
   // A copy of 'other' that communicates through 'domain' (a clone of other's domain, or null
   // for a serial run): to branch several runs from one prepared state.
   Simulation(const Simulation& other, Domain* domain);
 
-  // A run restored from a snapshot (every rank passes the same particles and history; the
-  // dissipation is this rank's). Forces are not recomputed: the next step() is the one the
+  // A run restored from a snapshot (every rank passes the same particles and history, or with
+  // snapshot.holding = Share a part of each, as io/checkpoint reads them; the dissipation is
+  // this rank's). Forces are not recomputed: the next step() is the one the
   // saved run would have taken.
   Simulation(SimulationSnapshot snapshot, Domain* domain);
 

@@ -11,8 +11,12 @@ real_t damping_factor(real_t beta) { return std::sqrt(1.0 + beta * beta) - beta;
 }  // namespace
 
 real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls) {
+  return critical_time_step(p, law, walls, p.min_radius(), p.max_radius());
+}
+
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls,
+                          real_t rmin, real_t rmax) {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
-  const real_t rmin = p.min_radius(), rmax = p.max_radius();
   real_t best = inf;
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
     const real_t R = p.radius[a], m = p.mass[a], I = p.inertia[a];

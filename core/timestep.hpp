@@ -17,5 +17,9 @@
 namespace fabrica {
 
 real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls);
+// The same over a part of the particles (one rank's), with the smallest and largest radius of
+// all of them as the partners: the minimum over the ranks of this is the whole set's estimate.
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls,
+                          real_t rmin, real_t rmax);
 
 }  // namespace fabrica

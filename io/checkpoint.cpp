@@ -4,13 +4,16 @@
 #include "io/write_check.hpp"
 
 #include "io/errors.hpp"
+#include "io/fields.hpp"
+#include "io/state_fields.hpp"
 #include "parallel/mpi_context.hpp"
-#include "parallel/properties.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -28,9 +31,11 @@ constexpr char kMagic[8] = {'F', 'A', 'B', 'R', 'C', 'K', 'P', 'T'};
 constexpr char kEndMagic[8] = {'F', 'A', 'B', 'R', 'E', 'N', 'D', '\0'};
 constexpr std::size_t kTrailerBytes = 16;
 constexpr std::size_t kNameBytes = 24;
+constexpr std::size_t kEntryBytes = kNameBytes + 32;  // name, offset, bytes, records, record size, kind
 constexpr std::size_t kTableFirst = 128;  // the section table starts here in the header
-constexpr std::size_t kMaxSections = (kHeaderBytes - kTableFirst) / (kNameBytes + 24);
+constexpr std::size_t kMaxSections = (kHeaderBytes - kTableFirst) / kEntryBytes;
 constexpr std::uint32_t kFlagBlowup = 1;
+constexpr std::uint64_t kChunk = std::uint64_t(1) << 30;  // bytes per MPI-IO call at most
 
 // Position-weighted sum of the bytes, each with an odd weight: a changed byte always changes it.
 // Sums of disjoint ranges add up (unsigned wrap-around), so ranks checksum their own blocks.
@@ -43,20 +48,6 @@ std::uint64_t checksum(const char* data, std::size_t n, std::uint64_t offset) {
   return s;
 }
 
-std::size_t particle_record_bytes() {
-  std::size_t b = 0;
-  Particles probe;
-  for_each_property(probe, [&](const char*, auto& vec, Travel) {
-    b += sizeof(typename std::decay_t<decltype(vec)>::value_type);
-  });
-  return b;
-}
-
-struct ContactRecord {
-  GlobalId a, b;
-  ContactHistory h;
-};
-
 void fixed_string(std::string& out, std::size_t at, const std::string& s, std::size_t width) {
   for (std::size_t k = 0; k < width; ++k) out[at + k] = k < s.size() && k + 1 < width ? s[k] : '\0';
 }
@@ -65,38 +56,47 @@ std::string read_fixed(const char* at, std::size_t width) {
   while (n < width && at[n]) ++n;
   return std::string(at, n);
 }
-template <class T>
-void poke(std::string& out, std::size_t at, const T& v) {
-  std::memcpy(out.data() + at, &v, sizeof(T));
+// Header values, little-endian at fixed offsets.
+void poke(std::string& out, std::size_t at, std::uint64_t v, int bytes) {
+  std::string b;
+  put_le(b, v, bytes);
+  out.replace(at, std::size_t(bytes), b);
 }
-template <class T>
-T peek(const std::string& in, std::size_t at) {
-  T v;
-  std::memcpy(static_cast<void*>(&v), in.data() + at, sizeof(T));
+std::uint64_t peek(const std::string& in, std::size_t at, int bytes) { return get_le(in.data() + at, bytes); }
+std::uint64_t bits(double v) {
+  std::uint64_t b;
+  std::memcpy(&b, &v, 8);
+  return b;
+}
+double from_bits(std::uint64_t b) {
+  double v;
+  std::memcpy(&v, &b, 8);
   return v;
 }
 
 std::string encode_header(const CheckpointHeader& h) {
   std::string out(kHeaderBytes, '\0');
   std::memcpy(out.data(), kMagic, 8);
-  poke(out, 8, h.format);
-  poke(out, 12, std::uint32_t(kHeaderBytes));
+  poke(out, 8, h.format, 4);
+  poke(out, 12, kHeaderBytes, 4);
   fixed_string(out, 16, h.software, 16);
-  poke(out, 32, h.scene_fingerprint);
-  poke(out, 40, h.ranks);
-  poke(out, 44, std::uint32_t(h.blowup ? kFlagBlowup : 0));
-  poke(out, 48, h.step);
-  poke(out, 56, h.time);
+  poke(out, 32, h.scene_fingerprint, 8);
+  poke(out, 40, std::uint32_t(h.ranks), 4);
+  poke(out, 44, h.blowup ? kFlagBlowup : 0, 4);
+  poke(out, 48, std::uint64_t(h.step), 8);
+  poke(out, 56, bits(h.time), 8);
   fixed_string(out, 64, h.app, 16);
-  poke(out, 80, h.file_bytes);
-  poke(out, 88, std::uint32_t(h.sections.size()));
+  poke(out, 80, h.file_bytes, 8);
+  poke(out, 88, h.sections.size(), 4);
   std::size_t at = kTableFirst;
   for (const CheckpointSection& s : h.sections) {
     fixed_string(out, at, s.name, kNameBytes);
-    poke(out, at + kNameBytes, s.offset);
-    poke(out, at + kNameBytes + 8, s.bytes);
-    poke(out, at + kNameBytes + 16, s.records);
-    at += kNameBytes + 24;
+    poke(out, at + kNameBytes, s.offset, 8);
+    poke(out, at + kNameBytes + 8, s.bytes, 8);
+    poke(out, at + kNameBytes + 16, s.records, 8);
+    poke(out, at + kNameBytes + 24, s.record_bytes, 4);
+    poke(out, at + kNameBytes + 28, std::uint32_t(s.kind), 4);
+    at += kEntryBytes;
   }
   return out;
 }
@@ -108,28 +108,38 @@ std::string decode_header(const std::string& in, CheckpointHeader& h) {
   if (in.size() < kHeaderBytes)
     return "truncated: " + std::to_string(in.size()) + " bytes, shorter than the header (" +
            std::to_string(kHeaderBytes) + " bytes)";
-  h.format = peek<std::uint32_t>(in, 8);
+  h.format = std::uint32_t(peek(in, 8, 4));
   if (h.format != kCheckpointFormat)
     return "checkpoint format version " + std::to_string(h.format) + ", this build of Fabrica (" +
            FABRICA_VERSION + ") reads version " + std::to_string(kCheckpointFormat) + " only";
-  if (peek<std::uint32_t>(in, 12) != kHeaderBytes) return "corrupted header (header size)";
+  if (peek(in, 12, 4) != kHeaderBytes) return "corrupted header (header size)";
   h.software = read_fixed(in.data() + 16, 16);
-  h.scene_fingerprint = peek<std::uint64_t>(in, 32);
-  h.ranks = peek<std::int32_t>(in, 40);
-  h.blowup = peek<std::uint32_t>(in, 44) & kFlagBlowup;
-  h.step = peek<std::int64_t>(in, 48);
-  h.time = peek<double>(in, 56);
+  h.scene_fingerprint = peek(in, 32, 8);
+  h.ranks = std::int32_t(std::uint32_t(peek(in, 40, 4)));
+  h.blowup = peek(in, 44, 4) & kFlagBlowup;
+  h.step = std::int64_t(peek(in, 48, 8));
+  h.time = from_bits(peek(in, 56, 8));
   h.app = read_fixed(in.data() + 64, 16);
-  h.file_bytes = peek<std::uint64_t>(in, 80);
-  const auto ns = peek<std::uint32_t>(in, 88);
+  h.file_bytes = peek(in, 80, 8);
+  const auto ns = peek(in, 88, 4);
   if (ns > kMaxSections) return "corrupted header (section count " + std::to_string(ns) + ")";
+  if (h.ranks < 1) return "corrupted header (writer rank count " + std::to_string(h.ranks) + ")";
   h.sections.clear();
   std::size_t at = kTableFirst;
-  for (std::uint32_t k = 0; k < ns; ++k, at += kNameBytes + 24)
-    h.sections.push_back({read_fixed(in.data() + at, kNameBytes),
-                          peek<std::uint64_t>(in, at + kNameBytes),
-                          peek<std::uint64_t>(in, at + kNameBytes + 8),
-                          peek<std::uint64_t>(in, at + kNameBytes + 16)});
+  for (std::uint64_t k = 0; k < ns; ++k, at += kEntryBytes) {
+    CheckpointSection s;
+    s.name = read_fixed(in.data() + at, kNameBytes);
+    s.offset = peek(in, at + kNameBytes, 8);
+    s.bytes = peek(in, at + kNameBytes + 8, 8);
+    s.records = peek(in, at + kNameBytes + 16, 8);
+    s.record_bytes = std::uint32_t(peek(in, at + kNameBytes + 24, 4));
+    const auto kind = peek(in, at + kNameBytes + 28, 4);
+    if (kind > 2) return "corrupted header (kind of section " + s.name + ")";
+    s.kind = SectionKind(kind);
+    if (s.kind != SectionKind::Global && (s.record_bytes == 0 || s.bytes != s.records * s.record_bytes))
+      return "corrupted header (size of section " + s.name + ")";
+    h.sections.push_back(s);
+  }
   return "";
 }
 
@@ -158,6 +168,45 @@ void check_mpi(int err, MPI_Comm comm, const std::string& what, const std::strin
   throw CollectiveError(path + ": cannot write the checkpoint (" + msg +
                         "); the previous checkpoint, if any, is kept");
 }
+
+// The message of the lowest rank whose 'error' is not empty ("" if none), on every rank.
+std::string agreed(MPI_Comm comm, const std::string& error) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  int first = error.empty() ? size : rank;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm);
+  if (first == size) return "";
+  std::string msg = error;
+  int len = int(msg.size());
+  MPI_Bcast(&len, 1, MPI_INT, first, comm);
+  msg.resize(std::size_t(len));
+  MPI_Bcast(msg.data(), len, MPI_CHAR, first, comm);
+  return msg;
+}
+
+// Reads n bytes at 'offset' (independent I/O, in chunks below 2 GiB); "" or what went wrong.
+std::string read_at(MPI_File fh, std::uint64_t offset, std::uint64_t n, std::string& out) {
+  out.resize(std::size_t(n));
+  for (std::uint64_t k = 0; k < n; k += kChunk) {
+    const std::uint64_t len = std::min(n - k, kChunk);
+    MPI_Status st;
+    const int err = MPI_File_read_at(fh, MPI_Offset(offset + k), out.data() + k, int(len), MPI_BYTE, &st);
+    int count = 0;
+    if (err == MPI_SUCCESS) MPI_Get_count(&st, MPI_BYTE, &count);
+    if (err != MPI_SUCCESS || std::uint64_t(count) != len) {
+      char text[MPI_MAX_ERROR_STRING];
+      int tl = 0;
+      if (err != MPI_SUCCESS) MPI_Error_string(err, text, &tl);
+      return "cannot read " + std::to_string(len) + " bytes at offset " + std::to_string(offset + k) +
+             (err != MPI_SUCCESS ? " (" + std::string(text, std::size_t(tl)) + ")"
+                                 : " (" + std::to_string(count) + " read)");
+    }
+  }
+  return "";
+}
+
+void put_f64(std::string& out, double v) { put_le(out, bits(v), 8); }
 
 }  // namespace
 
@@ -195,7 +244,15 @@ CheckpointWriter::CheckpointWriter(MPI_Comm comm, std::uint64_t fingerprint, std
 }
 
 void CheckpointWriter::add_global(const std::string& name, std::string bytes) {
-  staged_.push_back({name, false, 0, std::move(bytes)});
+  staged_.push_back({name, SectionKind::Global, 0, std::move(bytes)});
+}
+
+void CheckpointWriter::add_fields(const std::string& name, const FieldWriter& fields) {
+  std::string b;
+  put_le(b, fields.schema().size(), 8);
+  b += fields.schema();
+  b += fields.bytes();
+  add_global(name, std::move(b));
 }
 
 void CheckpointWriter::add_simulation(const std::string& prefix, const Simulation& sim) {
@@ -204,44 +261,40 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
     head_.time = sim.time();
     have_step_ = true;
   }
-  const Particles& p = sim.particles();
   const SimulationParams& par = sim.params();
-  Bytes g;
-  g.put(std::uint64_t(particle_record_bytes())).put(std::uint64_t(sizeof(ContactRecord)));
-  g.put(std::uint64_t(sizeof(ContactLawParams))).put(std::uint64_t(sizeof(MacroState)));
-  g.put(sim.cell().lengths()).put(sim.cell().strain_rate());
-  g.put(par.law).put(par.dt).put(par.skin).put(par.gravity).put(par.local_damping);
-  g.put(std::uint64_t(par.walls.size()));
-  for (const Wall& w : par.walls) g.put(w.point).put(w.normal);
-  g.put(std::uint8_t(par.spatial_sort));
-  g.put(sim.step_count()).put(sim.rebuild_count()).put(sim.time());
-  g.put(sim.macro());
+  FieldWriter g;
+  g.text("particle_record", particle_record_schema()).text("contact_record", contact_record_schema());
+  g.vec3("cell.lengths", sim.cell().lengths()).vec3("cell.strain_rate", sim.cell().strain_rate());
+  write_law(g, par.law);
+  g.f64("dt", par.dt).f64("skin", par.skin).vec3("gravity", par.gravity);
+  g.f64("local_damping", par.local_damping).u64("walls", par.walls.size());
+  for (const Wall& w : par.walls) g.vec3("wall.point", w.point).vec3("wall.normal", w.normal);
+  g.u8("spatial_sort", par.spatial_sort ? 1 : 0);
+  g.i64("step", sim.step_count()).i64("rebuilds", sim.rebuild_count()).f64("time", sim.time());
+  write_macro(g, sim.macro());
   Simulation& mut = const_cast<Simulation&>(sim);  // Domain accessors are not const
-  g.put(mut.domain().decomposition_lengths());
+  g.vec3("decomposition_lengths", mut.domain().decomposition_lengths());
   const EnergyAccount ea = sim.energy_account();
-  g.put(ea.e0).put(ea.work).put(ea.vol_strain).put(ea.stress_prev);
-  add_global(prefix + ".global", g.str());
+  g.f64("energy.e0", ea.e0).f64("energy.work", ea.work).vec3("energy.vol_strain", ea.vol_strain);
+  g.mat3("energy.stress_prev", ea.stress_prev);
+  add_fields(prefix + ".global", g);
 
   std::string parts;
-  parts.reserve(p.n_owned() * particle_record_bytes());
-  for (std::size_t a = 0; a < p.n_owned(); ++a)
-    for_each_property(p, [&](const char*, const auto& vec, Travel) {
-      parts.append(reinterpret_cast<const char*>(&vec[a]), sizeof(vec[a]));
-    });
-  staged_.push_back({prefix + ".particles", true, particle_record_bytes(), std::move(parts)});
-
+  write_particles(sim.particles(), parts);
+  staged_.push_back({prefix + ".particles", SectionKind::Distributed,
+                     std::uint32_t(particle_record_bytes()), std::move(parts)});
   std::string contacts;
   sim.for_each_contact([&](GlobalId a, GlobalId b, const ContactHistory& h) {
-    const ContactRecord r{a, b, h};
-    contacts.append(reinterpret_cast<const char*>(&r), sizeof r);
+    write_contact(a, b, h, contacts);
   });
-  staged_.push_back({prefix + ".contacts", true, sizeof(ContactRecord), std::move(contacts)});
-
-  const Dissipation& d = sim.dissipation();
-  staged_.push_back({prefix + ".dissipation", true, sizeof(Dissipation),
-                     std::string(reinterpret_cast<const char*>(&d), sizeof d)});
-  staged_.push_back({prefix + ".gravity_work", true, sizeof(real_t),
-                     Bytes().put(ea.gravity_work_local).str()});
+  staged_.push_back({prefix + ".contacts", SectionKind::Distributed,
+                     std::uint32_t(contact_record_bytes()), std::move(contacts)});
+  FieldWriter d;
+  write_dissipation(d, sim.dissipation());
+  staged_.push_back({prefix + ".dissipation", SectionKind::PerRank, 32, d.take_bytes()});
+  std::string gw;
+  put_f64(gw, ea.gravity_work_local);
+  staged_.push_back({prefix + ".gravity_work", SectionKind::PerRank, 8, std::move(gw)});
 }
 
 std::uint64_t CheckpointWriter::write(const std::string& path) {
@@ -255,13 +308,13 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
   head_.sections.clear();
   std::uint64_t at = kHeaderBytes;
   for (std::size_t s = 0; s < ns; ++s) {
-    CheckpointSection sec{staged_[s].name, at, 0, 0};
-    if (staged_[s].collective) {
+    CheckpointSection sec{staged_[s].name, at, 0, 0, staged_[s].record_bytes, staged_[s].kind};
+    if (staged_[s].kind != SectionKind::Global) {
       for (int r = 0; r < size_; ++r) {
         if (r == rank_) my_offset[s] = at + sec.bytes;
         sec.bytes += all[std::size_t(r) * ns + s];
       }
-      sec.records = staged_[s].record_bytes ? sec.bytes / staged_[s].record_bytes : 0;
+      sec.records = sec.bytes / staged_[s].record_bytes;
     } else {
       sec.bytes = mine[s];  // identical on every rank
       my_offset[s] = at;
@@ -276,16 +329,12 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
   std::uint64_t part = 0;
   if (rank_ == 0) part += checksum(header.data(), header.size(), 0);
   for (std::size_t s = 0; s < ns; ++s)
-    if (staged_[s].collective || rank_ == 0)
+    if (staged_[s].kind != SectionKind::Global || rank_ == 0)
       part += checksum(staged_[s].local.data(), staged_[s].local.size(), my_offset[s]);
-  std::vector<std::uint64_t> parts(static_cast<std::size_t>(size_), 0);
-  MPI_Gather(&part, 1, MPI_UINT64_T, parts.data(), 1, MPI_UINT64_T, 0, comm_);
   std::uint64_t sum = 0;
-  for (std::uint64_t v : parts) sum += v;
-  std::string trailer(kTrailerBytes, '\0');
-  std::memcpy(trailer.data(), kEndMagic, 8);
-  poke(trailer, 8, sum);
-
+  MPI_Reduce(&part, &sum, 1, MPI_UINT64_T, MPI_SUM, 0, comm_);  // unsigned: modulo 2^64
+  std::string trailer(kEndMagic, 8);
+  put_le(trailer, sum, 8);
   const std::string tmp = path + ".tmp";
   MPI_File fh;
   check_mpi(MPI_File_open(comm_, tmp.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &fh),
@@ -315,7 +364,8 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
     check_mpi(MPI_File_set_size(fh, 0), comm_, "truncate " + tmp, path);
     write_at(0, header, rank_ == 0, "header");
     for (std::size_t s = 0; s < ns; ++s)
-      write_at(my_offset[s], staged_[s].local, staged_[s].collective || rank_ == 0, staged_[s].name);
+      write_at(my_offset[s], staged_[s].local, staged_[s].kind != SectionKind::Global || rank_ == 0,
+               staged_[s].name);
     write_at(at, trailer, rank_ == 0, "trailer");
     check_mpi(MPI_File_sync(fh), comm_, "sync " + tmp, path);
   } catch (const CollectiveError&) {  // every rank is here: close, keep the last checkpoint
@@ -362,53 +412,86 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
 // ---------------------------------------------------------------------------------- reading
 
 Checkpoint Checkpoint::read(MPI_Comm comm, const std::string& path, const Expect& expect) {
-  int rank = 0;
+  int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
   Checkpoint c;
   c.path_ = path;
+  auto fail = [&](const std::string& error) {
+    if (const std::string e = agreed(comm, error); !e.empty()) throw InputError(path + ": " + e);
+  };
+  // Every rank reads for itself: the header, the small sections, and its share of the records of
+  // the distributed ones (particles, contacts); no rank reads or holds the whole file.
   std::string error;
-  if (rank == 0) {
-    std::ifstream in(path, std::ios::binary);
-    if (fault_injected("checkpoint")) {
-      error = "cannot read the checkpoint (" + fault_text("checkpoint") + ")";
-    } else if (!in) {
-      error = "cannot open the checkpoint (" + std::string(std::strerror(errno)) + ")";
-    } else {
-      std::ostringstream s;
-      s << in.rdbuf();
-      c.data_ = s.str();
-      error = decode_header(c.data_, c.head_);
-      if (error.empty() && c.data_.size() != c.head_.file_bytes)
-        error = "truncated or extended: " + std::to_string(c.data_.size()) +
-                " bytes, the header says " + std::to_string(c.head_.file_bytes) +
-                " (an interrupted copy?)";
-      if (error.empty()) {
-        const std::size_t body = c.data_.size() - kTrailerBytes;
-        if (std::memcmp(c.data_.data() + body, kEndMagic, 8) != 0)
-          error = "corrupted: no trailer at the end";
-        else if (checksum(c.data_.data(), body, 0) != peek<std::uint64_t>(c.data_, body + 8))
-          error = "corrupted: the checksum does not match the contents";
-      }
-      if (error.empty())
-        for (const CheckpointSection& s : c.head_.sections)
-          if (s.offset < kHeaderBytes || s.offset + s.bytes > c.head_.file_bytes - kTrailerBytes)
-            error = "corrupted: section " + s.name + " lies outside the file";
+  if (fault_injected("checkpoint"))
+    error = "cannot read the checkpoint (" + fault_text("checkpoint") + ")";
+  else if (std::error_code ec; std::filesystem::is_directory(path, ec))
+    error = "cannot open the checkpoint (it is a directory)";
+  else if (::access(path.c_str(), R_OK) != 0)
+    error = "cannot open the checkpoint (" + std::string(std::strerror(errno)) + ")";
+  fail(error);
+  MPI_File fh;
+  int err = MPI_File_open(comm, path.c_str(), MPI_MODE_RDONLY, MPI_INFO_NULL, &fh);
+  if (err != MPI_SUCCESS) {
+    char text[MPI_MAX_ERROR_STRING];
+    int len = 0;
+    MPI_Error_string(err, text, &len);
+    error = "cannot open the checkpoint (" + std::string(text, std::size_t(len)) + ")";
+  }
+  const bool opened = err == MPI_SUCCESS;
+  try {
+    fail(error);
+    if (opened) MPI_File_set_errhandler(fh, MPI_ERRORS_RETURN);
+    MPI_Offset on_disk = 0;
+    MPI_File_get_size(fh, &on_disk);
+    std::string head;
+    error = read_at(fh, 0, std::min<std::uint64_t>(std::uint64_t(on_disk), kHeaderBytes), head);
+    if (error.empty()) error = decode_header(head, c.head_);
+    if (error.empty() && std::uint64_t(on_disk) != c.head_.file_bytes)
+      error = "truncated or extended: " + std::to_string(on_disk) + " bytes, the header says " +
+              std::to_string(c.head_.file_bytes) + " (an interrupted copy?)";
+    // The sections follow one another from the header to the trailer, with no gap.
+    std::uint64_t at = kHeaderBytes;
+    for (const CheckpointSection& s : c.head_.sections) {
+      if (!error.empty()) break;
+      if (s.offset != at || s.offset + s.bytes > c.head_.file_bytes - kTrailerBytes)
+        error = "corrupted: section " + s.name + " lies outside its place in the file";
+      at = s.offset + s.bytes;
     }
+    if (error.empty() && at != c.head_.file_bytes - kTrailerBytes)
+      error = "corrupted: the sections do not fill the file";
+    fail(error);
+    // Small sections whole; distributed ones, this rank's range of records.
+    std::uint64_t part = rank == 0 ? checksum(head.data(), head.size(), 0) : 0;
+    for (const CheckpointSection& s : c.head_.sections) {
+      if (!error.empty()) break;
+      if (s.kind == SectionKind::Distributed) {
+        Chunk& ch = c.chunks_[s.name];
+        ch.first = s.records * std::uint64_t(rank) / std::uint64_t(size);
+        const std::uint64_t last = s.records * std::uint64_t(rank + 1) / std::uint64_t(size);
+        const std::uint64_t off = s.offset + ch.first * s.record_bytes;
+        error = read_at(fh, off, (last - ch.first) * s.record_bytes, ch.bytes);
+        part += checksum(ch.bytes.data(), ch.bytes.size(), off);
+      } else {
+        std::string& b = c.small_[s.name];
+        error = read_at(fh, s.offset, s.bytes, b);
+        if (rank == 0) part += checksum(b.data(), b.size(), s.offset);
+      }
+    }
+    std::string trailer;
+    if (error.empty()) error = read_at(fh, c.head_.file_bytes - kTrailerBytes, kTrailerBytes, trailer);
+    fail(error);
+    std::uint64_t sum = 0;
+    MPI_Allreduce(&part, &sum, 1, MPI_UINT64_T, MPI_SUM, comm);  // unsigned: modulo 2^64
+    if (std::memcmp(trailer.data(), kEndMagic, 8) != 0) error = "corrupted: no trailer at the end";
+    else if (sum != get_le(trailer.data() + 8, 8))
+      error = "corrupted: the checksum does not match the contents";
+    fail(error);
+  } catch (...) {
+    if (opened) MPI_File_close(&fh);
+    throw;
   }
-  // Every rank meets the same outcome.
-  std::uint64_t n = error.size();
-  MPI_Bcast(&n, 1, MPI_UINT64_T, 0, comm);
-  error.resize(n);
-  MPI_Bcast(error.data(), int(n), MPI_CHAR, 0, comm);
-  if (!error.empty()) throw InputError(path + ": " + error);
-  n = c.data_.size();
-  MPI_Bcast(&n, 1, MPI_UINT64_T, 0, comm);
-  c.data_.resize(n);
-  for (std::uint64_t k = 0; k < n; k += std::uint64_t(1) << 30) {
-    const std::uint64_t len = std::min<std::uint64_t>(n - k, std::uint64_t(1) << 30);
-    MPI_Bcast(c.data_.data() + k, int(len), MPI_CHAR, 0, comm);
-  }
-  if (rank != 0) decode_header(c.data_, c.head_);
+  MPI_File_close(&fh);
 
   const CheckpointHeader& h = c.head_;
   if (expect.scene_text && h.scene_fingerprint != scene_fingerprint(*expect.scene_text))
@@ -440,108 +523,104 @@ bool Checkpoint::has(const std::string& name) const {
 
 std::string Checkpoint::section(const std::string& name) const {
   const CheckpointSection& s = find(name);
-  return data_.substr(s.offset, s.bytes);
+  if (s.kind == SectionKind::Distributed)
+    throw std::logic_error("checkpoint section " + name + " is distributed: read with simulation()");
+  return small_.at(name);
+}
+
+FieldReader Checkpoint::fields(const std::string& name) const {
+  const std::string& b = small_.at(find(name).name);
+  const std::string where = path_ + ": section " + name;
+  if (b.size() < 8 || get_le(b.data(), 8) > b.size() - 8)
+    throw InputError(where + ": no field layout at its start (corrupted)");
+  const std::size_t n = std::size_t(get_le(b.data(), 8));
+  return FieldReader(b.substr(8, n), b.data() + 8 + n, b.size() - 8 - n, where);
 }
 
 SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm comm) const {
   SimulationSnapshot snap;
+  snap.holding = Holding::Share;
   const std::string where = path_ + ": section " + prefix;
-  BytesIn g(section(prefix + ".global"), where + ".global");
-  const auto prec = g.get<std::uint64_t>(), crec = g.get<std::uint64_t>();
-  const auto lrec = g.get<std::uint64_t>(), mrec = g.get<std::uint64_t>();
-  if (prec != particle_record_bytes() || crec != sizeof(ContactRecord) ||
-      lrec != sizeof(ContactLawParams) || mrec != sizeof(MacroState))
-    throw InputError(where + ".global: written by a build with other record sizes (particle, "
-                     "contact, contact law, measures: " + std::to_string(prec) + ", " +
-                     std::to_string(crec) + ", " + std::to_string(lrec) + ", " +
-                     std::to_string(mrec) + " bytes; this build: " +
-                     std::to_string(particle_record_bytes()) + ", " +
-                     std::to_string(sizeof(ContactRecord)) + ", " +
-                     std::to_string(sizeof(ContactLawParams)) + ", " +
-                     std::to_string(sizeof(MacroState)) + ")");
-  snap.cell = PeriodicCell(g.get<Vec3>());
-  snap.cell.set_strain_rate(g.get<Vec3>());
+  FieldReader g = fields(prefix + ".global");
+  const std::string prec = g.text("particle_record"), crec = g.text("contact_record");
+  if (prec != particle_record_schema() || crec != contact_record_schema())
+    throw InputError(where + ".global: written by a build with other records (particle '" + prec +
+                     "', contact '" + crec + "'; this build: '" + particle_record_schema() +
+                     "', '" + contact_record_schema() + "')");
+  snap.cell = PeriodicCell(g.vec3("cell.lengths"));
+  snap.cell.set_strain_rate(g.vec3("cell.strain_rate"));
   SimulationParams& par = snap.params;
-  par.law = g.get<ContactLawParams>();
-  par.dt = g.get<real_t>();
-  par.skin = g.get<real_t>();
-  par.gravity = g.get<Vec3>();
-  par.local_damping = g.get<real_t>();
-  const auto nw = g.get<std::uint64_t>();
+  par.law = read_law(g);
+  par.dt = g.f64("dt");
+  par.skin = g.f64("skin");
+  par.gravity = g.vec3("gravity");
+  par.local_damping = g.f64("local_damping");
+  const auto nw = g.u64("walls");
   if (nw > 1000000) throw InputError(where + ".global: corrupted (wall count)");
   for (std::uint64_t k = 0; k < nw; ++k) {
     Wall w;
-    w.point = g.get<Vec3>();
-    w.normal = g.get<Vec3>();
+    w.point = g.vec3("wall.point");
+    w.normal = g.vec3("wall.normal");
     par.walls.push_back(w);
   }
-  par.spatial_sort = g.get<std::uint8_t>() != 0;
-  snap.step = g.get<std::int64_t>();
-  snap.rebuilds = g.get<std::int64_t>();
-  snap.time = g.get<real_t>();
-  snap.macro = g.get<MacroState>();
-  snap.decomposition_lengths = g.get<Vec3>();
-  snap.energy.e0 = g.get<real_t>();
-  snap.energy.work = g.get<real_t>();
-  snap.energy.vol_strain = g.get<Vec3>();
-  snap.energy.stress_prev = g.get<Mat3>();
-  if (!g.done()) throw InputError(where + ".global: unexpected extra bytes");
+  par.spatial_sort = g.u8("spatial_sort") != 0;
+  snap.step = g.i64("step");
+  snap.rebuilds = g.i64("rebuilds");
+  snap.time = g.f64("time");
+  snap.macro = read_macro(g);
+  snap.decomposition_lengths = g.vec3("decomposition_lengths");
+  snap.energy.e0 = g.f64("energy.e0");
+  snap.energy.work = g.f64("energy.work");
+  snap.energy.vol_strain = g.vec3("energy.vol_strain");
+  snap.energy.stress_prev = g.mat3("energy.stress_prev");
+  g.done();
 
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
   if (size != head_.ranks) snap.decomposition_lengths = Vec3::Zero();  // a new decomposition
 
-  const std::string parts = section(prefix + ".particles");
-  if (parts.size() % prec) throw InputError(where + ".particles: size is not a whole number of records");
-  const std::size_t n = parts.size() / prec;
-  Particles& p = snap.particles;
-  p.append_owned(n);
-  const char* in = parts.data();
-  for (std::size_t a = 0; a < n; ++a)
-    for_each_property(p, [&](const char*, auto& vec, Travel) {
-      std::memcpy(static_cast<void*>(&vec[a]), in, sizeof(vec[a]));
-      in += sizeof(vec[a]);
-    });
-
-  const std::string contacts = section(prefix + ".contacts");
-  if (contacts.size() % crec) throw InputError(where + ".contacts: size is not a whole number of records");
-  const std::size_t nc = contacts.size() / crec;
+  auto records = [&](const std::string& name, std::size_t bytes) -> const std::string& {
+    const CheckpointSection& s = find(name);
+    if (s.kind != SectionKind::Distributed || s.record_bytes != bytes)
+      throw InputError(where + ": section " + name + " has records of " +
+                       std::to_string(s.record_bytes) + " bytes, this build reads " +
+                       std::to_string(bytes));
+    return chunks_.at(name).bytes;
+  };
+  const std::string& parts = records(prefix + ".particles", particle_record_bytes());
+  read_particles(parts.data(), parts.size() / particle_record_bytes(), snap.particles);
+  const std::string& contacts = records(prefix + ".contacts", contact_record_bytes());
+  const std::size_t nc = contacts.size() / contact_record_bytes();
   snap.history.reset(nc);
-  for (std::size_t k = 0; k < nc; ++k) {
-    ContactRecord r;
-    std::memcpy(static_cast<void*>(&r), contacts.data() + k * crec, crec);
-    snap.history.insert(r.a, r.b, r.h);
-  }
+  read_contacts(contacts.data(), nc, snap.history);
 
-  const std::string diss = section(prefix + ".dissipation");
-  if (diss.size() != std::size_t(head_.ranks) * sizeof(Dissipation))
-    throw InputError(where + ".dissipation: " + std::to_string(diss.size()) + " bytes for " +
-                     std::to_string(head_.ranks) + " ranks");
-  if (size == head_.ranks) {
-    std::memcpy(static_cast<void*>(&snap.dissipation), diss.data() + std::size_t(rank) * sizeof(Dissipation),
-                sizeof(Dissipation));
-  } else if (rank == 0) {  // another rank count: the totals go to rank 0
-    for (int r = 0; r < head_.ranks; ++r) {
-      Dissipation d;
-      std::memcpy(static_cast<void*>(&d), diss.data() + std::size_t(r) * sizeof(Dissipation), sizeof d);
-      snap.dissipation.friction += d.friction;
-      snap.dissipation.rolling += d.rolling;
-      snap.dissipation.viscous += d.viscous;
-      snap.dissipation.local += d.local;
-    }
-  }
-
-  // This rank's work of gravity, like the dissipation (totals to rank 0 on another rank count).
-  const std::string gw = section(prefix + ".gravity_work");
-  if (gw.size() != std::size_t(head_.ranks) * sizeof(real_t))
-    throw InputError(where + ".gravity_work: " + std::to_string(gw.size()) + " bytes for " +
-                     std::to_string(head_.ranks) + " ranks");
+  // Per-rank records: the same ranks' when the rank count is unchanged, else the totals to rank 0.
+  auto per_rank = [&](const std::string& name, std::uint32_t bytes) -> const std::string& {
+    const CheckpointSection& s = find(name);
+    if (s.kind != SectionKind::PerRank || s.record_bytes != bytes ||
+        s.records != std::uint64_t(head_.ranks))
+      throw InputError(where + ": section " + name + ": " + std::to_string(s.records) +
+                       " records of " + std::to_string(s.record_bytes) + " bytes for " +
+                       std::to_string(head_.ranks) + " ranks (corrupted)");
+    return small_.at(name);
+  };
+  const std::string& diss = per_rank(prefix + ".dissipation", 32);
+  const std::string& gw = per_rank(prefix + ".gravity_work", 8);
+  const std::string dschema = [] {
+    FieldWriter w;
+    write_dissipation(w, Dissipation{});
+    return w.schema();
+  }();
   for (int r = 0; r < head_.ranks; ++r) {
     if (size == head_.ranks ? r != rank : rank != 0) continue;
-    real_t w;
-    std::memcpy(&w, gw.data() + std::size_t(r) * sizeof(real_t), sizeof w);
-    snap.energy.gravity_work_local += w;
+    FieldReader dr(dschema, diss.data() + std::size_t(r) * 32, 32, where + ".dissipation");
+    const Dissipation d = read_dissipation(dr);
+    snap.dissipation.friction += d.friction;
+    snap.dissipation.rolling += d.rolling;
+    snap.dissipation.viscous += d.viscous;
+    snap.dissipation.local += d.local;
+    snap.energy.gravity_work_local += from_bits(get_le(gw.data() + std::size_t(r) * 8, 8));
   }
   return snap;
 }
@@ -557,9 +636,11 @@ std::string describe(const CheckpointHeader& h, const std::string& path) {
   s << "  time              " << h.time << " s\n"
     << "  scene fingerprint " << h.scene_fingerprint << "\n"
     << "  size              " << h.file_bytes << " bytes\n"
-    << "  sections (name, offset, bytes, records):\n";
+    << "  sections (name, offset, bytes, records, bytes per record, kind):\n";
+  static const char* kinds[3] = {"global", "per-rank", "distributed"};
   for (const CheckpointSection& c : h.sections)
-    s << "    " << c.name << " " << c.offset << " " << c.bytes << " " << c.records << "\n";
+    s << "    " << c.name << " " << c.offset << " " << c.bytes << " " << c.records << " "
+      << c.record_bytes << " " << kinds[int(c.kind)] << "\n";
   return s.str();
 }
 

@@ -1,41 +1,50 @@
 // Checkpoints: the complete state of a run in one file, written collectively with MPI-IO and
 // readable on any number of ranks (docs/checkpoint.md).
 //
-// File layout (little-endian, as written by this machine):
+// File layout (docs/checkpoint.md#format; every value little-endian whatever the machine):
 //   header (kHeaderBytes): magic "FABRCKPT", format version, header size, software version,
 //     fingerprint of the scene text, writer rank count, flags (blow-up), step, time, the
 //     application ("run" or "triaxial"), file size, and a table of sections (name, offset,
-//     bytes, records);
-//   sections, one after the other. A "collective" section holds one block per writer rank, in
-//     rank order (each rank writes its own block at an offset from the gathered sizes); a
-//     "global" section holds bytes every rank knows identically, written by rank 0;
+//     bytes, records, record size, kind);
+//   sections, one after the other, of three kinds: "global" (bytes every rank knows
+//     identically, written by rank 0: named, typed fields with their layout, io/fields.hpp),
+//     "per-rank" (one record per writer rank, in rank order) and "distributed" (fixed-size
+//     records, each rank's in rank order: particles and contacts, io/state_fields.hpp);
 //   trailer: "FABREND" and a position-weighted checksum of every byte before it.
 // A file is written as DIR/name.tmp, synced, closed, then renamed by rank 0 after a barrier:
-// a run killed at any moment leaves the previous complete checkpoint in place.
+// a run killed at any moment leaves the previous complete checkpoint in place. A reader on any
+// number of ranks reads the header and the small sections on every rank and only its own
+// range of the distributed records (MPI-IO), so no rank holds the whole specimen.
 #pragma once
 #include "core/simulation.hpp"
+#include "io/fields.hpp"
 
 #include <mpi.h>
 
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <string>
 #include <vector>
 
 namespace fabrica {
 
-// Raise the format version with any change of what is saved. Some values are saved as their
-// bytes (ContactLawParams, MacroState, the applications' cursors): their sizes are recorded and
-// checked too, so a checkpoint of a build where they differ is refused, not misread.
-inline constexpr std::uint32_t kCheckpointFormat = 2;
+// Raise the format version with any change of the file's structure. The fields of a section
+// carry their own layout (names and types), so a change of what a section holds is refused by
+// the reader naming the field, in any version.
+inline constexpr std::uint32_t kCheckpointFormat = 3;
 inline constexpr std::size_t kHeaderBytes = 2048;
 
 // FNV-1a (64 bits) of the scene text: a checkpoint of another scene is refused.
 std::uint64_t scene_fingerprint(const std::string& text);
 
+enum class SectionKind : std::uint32_t { Global = 0, PerRank = 1, Distributed = 2 };
+
 struct CheckpointSection {
   std::string name;
   std::uint64_t offset = 0, bytes = 0, records = 0;
+  std::uint32_t record_bytes = 0;  // 0 for a global section
+  SectionKind kind = SectionKind::Global;
 };
 
 struct CheckpointHeader {
@@ -51,7 +60,8 @@ struct CheckpointHeader {
   std::vector<CheckpointSection> sections;
 };
 
-// Appends plain values to a byte string (the application's own state).
+// Appends plain values to a byte string, as their bytes (the applications' cursors; prefer
+// FieldWriter and CheckpointWriter::add_fields for anything new).
 class Bytes {
  public:
   template <class T>
@@ -103,6 +113,8 @@ class CheckpointWriter {
   void add_simulation(const std::string& prefix, const Simulation& sim);
   // Bytes every rank knows identically (written by rank 0).
   void add_global(const std::string& name, std::string bytes);
+  // Fields every rank knows identically, with their layout (read with Checkpoint::fields).
+  void add_fields(const std::string& name, const FieldWriter& fields);
 
   // Writes 'path' atomically (path.tmp, sync, rename). Collective; throws CollectiveError on
   // an I/O failure (the same on every rank). Returns the file size in bytes.
@@ -111,9 +123,9 @@ class CheckpointWriter {
  private:
   struct Staged {
     std::string name;
-    bool collective;
-    std::uint64_t record_bytes;  // 0: opaque
-    std::string local;           // this rank's block (collective) or the whole section
+    SectionKind kind;
+    std::uint32_t record_bytes;  // 0: a global section
+    std::string local;           // this rank's block, or the whole (global) section
   };
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
@@ -122,9 +134,11 @@ class CheckpointWriter {
   bool have_step_ = false;
 };
 
-// A checkpoint read and checked: magic, format version, size, checksum, and (when 'scene_text'
-// is given) the scene fingerprint. Rank 0 reads the file and broadcasts it; every error is an
-// InputError naming the file and what is wrong, thrown on every rank alike.
+// A checkpoint read and checked: magic, format version, size, section table, checksum, and
+// (when 'scene_text' is given) the scene fingerprint. Collective: every rank reads the header
+// and the small sections, and its own range of the distributed records (1/P of them); the
+// checksum is summed over the ranks. Every error is an InputError naming the file and what is
+// wrong, thrown on every rank alike (the lowest rank's message when they differ).
 class Checkpoint {
  public:
   struct Expect {
@@ -137,16 +151,25 @@ class Checkpoint {
   const CheckpointHeader& header() const { return head_; }
   const std::string& path() const { return path_; }
   bool has(const std::string& name) const;
-  std::string section(const std::string& name) const;  // its bytes
-  // The snapshot of a simulation saved under 'prefix'; the dissipation accumulators go to the
-  // same ranks when the rank count is unchanged, else their sum goes to rank 0.
+  std::string section(const std::string& name) const;  // the bytes of a global section
+  // The fields of a section written with CheckpointWriter::add_fields (valid while this lives).
+  FieldReader fields(const std::string& name) const;
+  // The snapshot of a simulation saved under 'prefix': this rank's range of the particles and
+  // contacts (holding = Share: Simulation's constructor sends them to their owners); the
+  // dissipation accumulators go to the same ranks when the rank count is unchanged, else their
+  // sum goes to rank 0.
   SimulationSnapshot simulation(const std::string& prefix, MPI_Comm comm) const;
 
  private:
   const CheckpointSection& find(const std::string& name) const;
+  struct Chunk {
+    std::uint64_t first = 0;  // this rank's first record
+    std::string bytes;
+  };
   std::string path_;
   CheckpointHeader head_;
-  std::string data_;
+  std::map<std::string, std::string> small_;  // global and per-rank sections
+  std::map<std::string, Chunk> chunks_;       // this rank's records of the distributed ones
 };
 
 // Prints the header and the section table (fabrica checkpoint-info).

@@ -65,156 +65,211 @@ GlobalId parse_particle_id(const std::string& token, const std::string& where) {
   return GlobalId(*v);
 }
 
-DataFile read_lammps_data(const std::string& path) {
+DataHeader read_data_header(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InputError(path + ": is a directory, not a particle data file");
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in || fault_injected("data"))
     throw InputError(path + ": cannot open the particle data file" +
                      (in ? " (" + fault_text("data") + ")" : std::string()));
-  DataFile out;
-  long long natoms = -1;
+  DataHeader h;
   bool have_box[3] = {false, false, false};
-  enum class Section { Header, Atoms, Velocities } section = Section::Header;
-  bool seen_atoms = false, seen_velocities = false;
   std::string line;
   int lineno = 0;
-  std::unordered_map<GlobalId, std::size_t> index;  // id -> particle index
-  struct Motion { Vec3 v, w; int line; };
-  std::unordered_map<GlobalId, Motion> motion;
   std::getline(in, line);  // title line
   ++lineno;
-  while (std::getline(in, line)) {
+  for (std::streamoff at = in.tellg(); std::getline(in, line); at = in.tellg()) {
     ++lineno;
     const auto hash = line.find('#');
     const std::string body = hash == std::string::npos ? line : line.substr(0, hash);
     std::istringstream ls(body);
     std::string w1, w2, w3;
     if (!(ls >> w1)) continue;
-    if (std::isalpha(static_cast<unsigned char>(w1[0]))) {  // a section keyword
-      if (w1 == "Atoms" || w1 == "Velocities") {
-        if (natoms < 0) throw InputError(where(path, lineno) + ": section '" + w1 +
+    if (std::isalpha(static_cast<unsigned char>(w1[0]))) {  // the first section
+      data_section_keyword(w1, path, lineno);  // refuses any other than Atoms and Velocities
+      if (h.natoms < 0) throw InputError(where(path, lineno) + ": section '" + w1 +
                                          "' before the 'N atoms' line of the header");
-        for (int k = 0; k < 3; ++k)
-          if (!have_box[k]) {
-            const std::string axis(1, char('x' + k));
-            throw InputError(where(path, lineno) + ": section '" + w1 + "' before the box bounds '" +
-                             axis + "lo " + axis + "hi' of the header (each of x, y, z needs a "
-                             "line 'LO HI " + axis + "lo " + axis + "hi')");
-          }
-        bool& seen = w1 == "Atoms" ? seen_atoms : seen_velocities;
-        if (seen) throw InputError(where(path, lineno) + ": section '" + w1 + "' appears twice");
-        seen = true;
-        section = w1 == "Atoms" ? Section::Atoms : Section::Velocities;
-        // Room for the header's count, so that the arrays do not double past need (up to
-        // 2^26 at once: a wrong count cannot request more than that before the data say so).
-        if (section == Section::Atoms)
-          out.particles.reserve(std::size_t(std::min<long long>(natoms, 1ll << 26)));
-        continue;
-      }
-      // Header keywords follow numbers ("N atoms", "lo hi xlo xhi"): a line that starts with a
-      // word is a section, and we read no other.
-      throw InputError(where(path, lineno) + ": section '" + w1 +
-                       "' is not supported (only Atoms and Velocities of atom_style sphere)");
+      for (int k = 0; k < 3; ++k)
+        if (!have_box[k]) {
+          const std::string axis(1, char('x' + k));
+          throw InputError(where(path, lineno) + ": section '" + w1 + "' before the box bounds '" +
+                           axis + "lo " + axis + "hi' of the header (each of x, y, z needs a "
+                           "line 'LO HI " + axis + "lo " + axis + "hi')");
+        }
+      h.body_offset = std::uint64_t(at);
+      h.body_line = lineno;
+      return h;
     }
-    if (section == Section::Header) {
-      ls >> w2 >> w3;
-      auto number = [&](const std::string& s) {
-        char* end = nullptr;
-        const double v = std::strtod(s.c_str(), &end);
-        if (s.empty() || *end != '\0' || !std::isfinite(v))
-          throw InputError(where(path, lineno) + ": '" + s + "' is not a finite number in '" +
-                           line + "'");
-        return v;
-      };
-      if (w2 == "atoms") {
-        const std::optional<long long> n = whole(w1);
-        if (!n || *n < 1)
-          throw InputError(where(path, lineno) + ": '" + w1 + " atoms': the atom count must be a "
-                           "whole number of at least 1, in '" + line + "'");
-        check_memory(where(path, lineno) + ": '" + w1 + " atoms'", double(*n) * kBytesPerSphere,
-                     "320 B per sphere at least");
-        natoms = *n;
-      } else if (w3 == "xlo" || w3 == "ylo" || w3 == "zlo") {
-        const int k = w3[0] - 'x';
-        out.lo[k] = number(w1);
-        out.hi[k] = number(w2);
-        if (!(out.hi[k] > out.lo[k]))
-          throw InputError(where(path, lineno) + ": " + w3[0] + "hi = " + w2 + " must exceed " + w3 +
-                           " = " + w1 + ", in '" + line + "'");
-        have_box[k] = true;
-      }
-      continue;
+    ls >> w2 >> w3;
+    auto number = [&](const std::string& t) {
+      char* end = nullptr;
+      const double v = std::strtod(t.c_str(), &end);
+      if (t.empty() || *end != '\0' || !std::isfinite(v))
+        throw InputError(where(path, lineno) + ": '" + t + "' is not a finite number in '" + line + "'");
+      return v;
+    };
+    if (w2 == "atoms") {
+      const std::optional<long long> n = whole(w1);
+      if (!n || *n < 1)
+        throw InputError(where(path, lineno) + ": '" + w1 + " atoms': the atom count must be a "
+                         "whole number of at least 1, in '" + line + "'");
+      h.natoms = *n;
+      h.natoms_line = lineno;
+    } else if (w3 == "xlo" || w3 == "ylo" || w3 == "zlo") {
+      const int k = w3[0] - 'x';
+      h.lo[k] = number(w1);
+      h.hi[k] = number(w2);
+      if (!(h.hi[k] > h.lo[k]))
+        throw InputError(where(path, lineno) + ": " + w3[0] + "hi = " + w2 + " must exceed " + w3 +
+                         " = " + w1 + ", in '" + line + "'");
+      have_box[k] = true;
     }
-    if (section == Section::Atoms) {
-      double val[7];
-      if (!parse_numbers(body, 7, val))
-        throw InputError(where(path, lineno) +
-                         ": expected 'id type diameter density x y z', got '" + line + "'");
-      const GlobalId id = parse_particle_id(first_token(body), where(path, lineno));
-      const double dia = val[2], rho = val[3];
-      auto bad = [&](const char* field, double v, const char* why) {
-        std::ostringstream m;
-        m << where(path, lineno) << ": particle " << id << " " << field << " = " << v << " " << why;
-        throw InputError(m.str());
-      };
-      if (!std::isfinite(dia) || dia <= 0) bad("diameter", dia, "must be positive and finite");
-      if (dia < kMinDiameter || dia > kMaxDiameter) bad("diameter", dia, "must lie in [1e-09, 1000] m");
-      if (!std::isfinite(rho) || rho <= 0) bad("density", rho, "must be positive and finite");
-      const char* names[3] = {"x", "y", "z"};
-      for (int k = 0; k < 3; ++k) {
-        const double xk = val[4 + k];
-        if (!std::isfinite(xk)) bad(names[k], xk, "is not finite");
-        if (xk < out.lo[k] || xk > out.hi[k])
-          bad(names[k], xk, "lies outside the box given in the header");
-      }
-      if (!index.emplace(GlobalId(id), out.particles.n_owned()).second)
-        bad("id", double(id), "appears twice");
-      out.particles.add({GlobalId(id), 0.5 * dia, rho, Vec3(val[4], val[5], val[6]) - out.lo});
-      continue;
-    }
-    // Velocities section.
-    double val[7];
-    if (!parse_numbers(body, 7, val))
-      throw InputError(where(path, lineno) + ": expected 'id vx vy vz wx wy wz', got '" + line + "'");
-    const GlobalId id = parse_particle_id(first_token(body), where(path, lineno));
-    static const char* vnames[6] = {"vx", "vy", "vz", "wx", "wy", "wz"};
-    for (int k = 0; k < 6; ++k)
-      if (!std::isfinite(val[1 + k])) {
-        std::ostringstream m;
-        m << where(path, lineno) << ": particle " << id << " " << vnames[k] << " = " << val[1 + k]
-          << " is not finite";
-        throw InputError(m.str());
-      }
-    if (!motion.emplace(GlobalId(id), Motion{Vec3(val[1], val[2], val[3]),
-                                              Vec3(val[4], val[5], val[6]), lineno}).second)
-      throw InputError(where(path, lineno) + ": particle " + std::to_string(id) +
-                       " appears twice in the Velocities section");
   }
-  if (natoms < 0) throw InputError(path + ": no 'N atoms' line in the header");
+  if (h.natoms < 0) throw InputError(path + ": no 'N atoms' line in the header");
   for (int k = 0; k < 3; ++k)
-    if (!have_box[k] || !(out.hi[k] > out.lo[k]))
+    if (!have_box[k])
       throw InputError(path + ": missing or empty box bounds along axis " + std::to_string(k + 1));
+  h.body_offset = std::uint64_t(std::filesystem::file_size(path, ec));
+  h.body_line = lineno + 1;
+  return h;
+}
+
+DataSection data_section_keyword(const std::string& word, const std::string& path, int lineno) {
+  if (word == "Atoms") return DataSection::Atoms;
+  if (word == "Velocities") return DataSection::Velocities;
+  // Header keywords follow numbers ("N atoms", "lo hi xlo xhi"): a line that starts with a word
+  // is a section, and we read no other.
+  throw InputError(where(path, lineno) + ": section '" + word +
+                   "' is not supported (only Atoms and Velocities of atom_style sphere)");
+}
+
+std::string data_line_body(const std::string& line) {
+  const auto hash = line.find('#');
+  return hash == std::string::npos ? line : line.substr(0, hash);
+}
+
+SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path,
+                           int lineno) {
+  const std::string body = data_line_body(line);
+  double val[7];
+  if (!parse_numbers(body, 7, val))
+    throw InputError(where(path, lineno) + ": expected 'id type diameter density x y z', got '" +
+                     line + "'");
+  const GlobalId id = parse_particle_id(first_token(body), where(path, lineno));
+  const double dia = val[2], rho = val[3];
+  auto bad = [&](const char* field, double v, const char* why) {
+    std::ostringstream m;
+    m << where(path, lineno) << ": particle " << id << " " << field << " = " << v << " " << why;
+    throw InputError(m.str());
+  };
+  if (!std::isfinite(dia) || dia <= 0) bad("diameter", dia, "must be positive and finite");
+  if (dia < kMinDiameter || dia > kMaxDiameter) bad("diameter", dia, "must lie in [1e-09, 1000] m");
+  if (!std::isfinite(rho) || rho <= 0) bad("density", rho, "must be positive and finite");
+  const char* names[3] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) {
+    const double xk = val[4 + k];
+    if (!std::isfinite(xk)) bad(names[k], xk, "is not finite");
+    if (xk < h.lo[k] || xk > h.hi[k]) bad(names[k], xk, "lies outside the box given in the header");
+  }
+  return {id, 0.5 * dia, rho, Vec3(val[4], val[5], val[6]) - h.lo};
+}
+
+DataMotion parse_velocity_line(const std::string& line, const std::string& path, int lineno) {
+  const std::string body = data_line_body(line);
+  double val[7];
+  if (!parse_numbers(body, 7, val))
+    throw InputError(where(path, lineno) + ": expected 'id vx vy vz wx wy wz', got '" + line + "'");
+  const GlobalId id = parse_particle_id(first_token(body), where(path, lineno));
+  static const char* vnames[6] = {"vx", "vy", "vz", "wx", "wy", "wz"};
+  for (int k = 0; k < 6; ++k)
+    if (!std::isfinite(val[1 + k])) {
+      std::ostringstream m;
+      m << where(path, lineno) << ": particle " << id << " " << vnames[k] << " = " << val[1 + k]
+        << " is not finite";
+      throw InputError(m.str());
+    }
+  return {id, Vec3(val[1], val[2], val[3]), Vec3(val[4], val[5], val[6])};
+}
+
+std::string data_duplicate_id(const std::string& path, int lineno, GlobalId id, bool velocities) {
+  if (velocities)
+    return where(path, lineno) + ": particle " + std::to_string(id) +
+           " appears twice in the Velocities section";
+  std::ostringstream m;
+  m << where(path, lineno) << ": particle " << id << " id = " << double(id) << " appears twice";
+  return m.str();
+}
+
+DataFile read_lammps_data(const std::string& path) {
+  const DataHeader h = read_data_header(path);
+  check_memory(where(path, h.natoms_line) + ": '" + std::to_string(h.natoms) + " atoms'",
+               double(h.natoms) * kBytesPerSphere,
+               "320 B per sphere at least");
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(std::streamoff(h.body_offset));
+  DataFile out;
+  out.lo = h.lo;
+  out.hi = h.hi;
+  std::optional<DataSection> section;
+  bool seen_atoms = false, seen_velocities = false;
+  std::string line;
+  int lineno = h.body_line - 1;
+  std::unordered_map<GlobalId, std::size_t> index;  // id -> particle index
+  struct Motion { Vec3 v, w; int line; };
+  std::unordered_map<GlobalId, Motion> motion;
+  while (std::getline(in, line)) {
+    ++lineno;
+    std::istringstream ls(data_line_body(line));
+    std::string w1;
+    if (!(ls >> w1)) continue;
+    if (std::isalpha(static_cast<unsigned char>(w1[0]))) {
+      section = data_section_keyword(w1, path, lineno);
+      bool& seen = *section == DataSection::Atoms ? seen_atoms : seen_velocities;
+      if (seen) throw InputError(where(path, lineno) + ": section '" + w1 + "' appears twice");
+      seen = true;
+      // Room for the header's count, so that the arrays do not double past need (up to
+      // 2^26 at once: a wrong count cannot request more than that before the data say so).
+      if (*section == DataSection::Atoms)
+        out.particles.reserve(std::size_t(std::min<long long>(h.natoms, 1ll << 26)));
+      continue;
+    }
+    if (*section == DataSection::Atoms) {
+      const SphereInit s = parse_atom_line(line, h, path, lineno);
+      if (!index.emplace(s.id, out.particles.n_owned()).second)
+        throw InputError(data_duplicate_id(path, lineno, s.id, false));
+      out.particles.add(s);
+      continue;
+    }
+    const DataMotion m = parse_velocity_line(line, path, lineno);
+    if (!motion.emplace(m.id, Motion{m.v, m.w, lineno}).second)
+      throw InputError(data_duplicate_id(path, lineno, m.id, true));
+  }
   const long long read = static_cast<long long>(out.particles.n_owned());
-  if (read != natoms)
-    throw InputError(path + ": header says " + std::to_string(natoms) + " atoms, Atoms section has " +
-                     std::to_string(read));
+  if (read != h.natoms) throw InputError(data_count_error(path, h.natoms, read, false));
   if (seen_velocities) {
     for (const auto& [id, m] : motion) {
       const auto it = index.find(id);
-      if (it == index.end())
-        throw InputError(where(path, m.line) + ": Velocities of particle " + std::to_string(id) +
-                         ", which is not in the Atoms section");
+      if (it == index.end()) throw InputError(data_orphan_velocity(path, m.line, id));
       out.particles.v[it->second] = m.v;
       out.particles.w[it->second] = m.w;
     }
-    if (static_cast<long long>(motion.size()) != natoms)
-      throw InputError(path + ": header says " + std::to_string(natoms) +
-                       " atoms, Velocities section has " + std::to_string(motion.size()));
+    if (static_cast<long long>(motion.size()) != h.natoms)
+      throw InputError(data_count_error(path, h.natoms, static_cast<long long>(motion.size()), true));
     out.has_velocities = true;
   }
   return out;
+}
+
+std::string data_count_error(const std::string& path, long long natoms, long long read,
+                             bool velocities) {
+  return path + ": header says " + std::to_string(natoms) + " atoms, " +
+         (velocities ? "Velocities" : "Atoms") + " section has " + std::to_string(read);
+}
+
+std::string data_orphan_velocity(const std::string& path, int lineno, GlobalId id) {
+  return where(path, lineno) + ": Velocities of particle " + std::to_string(id) +
+         ", which is not in the Atoms section";
 }
 
 }  // namespace fabrica

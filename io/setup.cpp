@@ -67,6 +67,17 @@ OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell) {
   return r;
 }
 
+std::string overlap_message(const Scene& sc, const OverlapReport& ov) {
+  const std::string from = sc.source == ParticleSource::File
+                               ? sc.data_file
+                               : sc.path + ": [particles] (generated, seed " +
+                                     std::to_string(sc.generate.seed) + ")";
+  return from + ": particles " + std::to_string(ov.a) + " and " + std::to_string(ov.b) +
+         " overlap by " + num(ov.ratio) + " of the smaller radius (" + num(ov.overlap) +
+         " m), above " + sc.path + ": [run] max_initial_overlap = " + num(sc.max_initial_overlap) +
+         "; fix the specimen (a bad generation or data file) or raise the limit";
+}
+
 Setup make_setup(const Scene& sc) {
   Setup s;
   if (sc.source == ParticleSource::File) {
@@ -118,17 +129,7 @@ Setup make_setup(const Scene& sc) {
   for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
     s.particles.x[a] = s.cell.wrap(s.particles.x[a]);
   const OverlapReport ov = largest_overlap(s.particles, s.cell);
-  if (ov.ratio > sc.max_initial_overlap) {
-    const std::string from = sc.source == ParticleSource::File
-                                 ? sc.data_file
-                                 : sc.path + ": [particles] (generated, seed " +
-                                       std::to_string(sc.generate.seed) + ")";
-    throw InputError(from + ": particles " + std::to_string(ov.a) + " and " +
-                     std::to_string(ov.b) + " overlap by " + num(ov.ratio) +
-                     " of the smaller radius (" + num(ov.overlap) + " m), above " + sc.path +
-                     ": [run] max_initial_overlap = " + num(sc.max_initial_overlap) +
-                     "; fix the specimen (a bad generation or data file) or raise the limit");
-  }
+  if (ov.ratio > sc.max_initial_overlap) throw InputError(overlap_message(sc, ov));
   if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
   s.params.law = sc.law;
   s.params.skin = sc.skin;

@@ -11,6 +11,9 @@ struct Setup {
   PeriodicCell cell;
   SimulationParams params;
   real_t critical_dt = 0;  // s, the estimate of core/timestep.hpp
+  // Whole: 'particles' is the whole specimen (make_setup); Share: this rank's part of it
+  // (make_distributed_setup, io/distributed_setup.hpp), to build the Simulation with.
+  Holding holding = Holding::Whole;
 };
 
 // Throws InputError (file, field, value) for a particle outside the cell, a cell too small for
@@ -26,6 +29,9 @@ struct OverlapReport {
   GlobalId a = -1, b = -1;
 };
 OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell);
+
+// The InputError of an initial overlap above [run] max_initial_overlap.
+std::string overlap_message(const Scene& scene, const OverlapReport& ov);
 
 // The time step the scene asks for, validated against the estimate (used again when the
 // contact parameters change between stages).

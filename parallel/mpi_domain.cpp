@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 namespace fabrica {
@@ -102,26 +104,118 @@ Vec3 MpiDomain::decomposition_lengths() const {
 }
 
 void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-                      const Vec3* decomposed_for) {
+                      const Vec3* decomposed_for, Holding holding, HistoryMap* history) {
   cutoff_ = cutoff;
   rmax_ = 0;
   for (std::size_t a = 0; a < p.n_owned(); ++a) rmax_ = std::max(rmax_, p.radius[a]);
   MPI_Allreduce(MPI_IN_PLACE, &rmax_, 1, MPI_DOUBLE, MPI_MAX, comm_);
-  // Every rank holds every particle here: bin work is local knowledge, so no reduction.
   if (opt_.kind == DecompositionKind::Cartesian) {
     decomposed_for_ = decomposed_for ? *decomposed_for : cell.lengths();
     set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_));
   } else {
     const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
-    std::vector<double> work(shape.bins(), 0.0);
-    for (std::size_t a = 0; a < p.n_owned(); ++a) work[shape.bin_of(p.x[a], cell.lengths())] += 1;
+    std::vector<double> work;
+    if (holding == Holding::Share) {
+      work = global_bin_work(p, cell, shape);
+    } else {  // every rank holds every particle: bin work is local knowledge, no reduction
+      work.assign(shape.bins(), 0.0);
+      for (std::size_t a = 0; a < p.n_owned(); ++a) work[shape.bin_of(p.x[a], cell.lengths())] += 1;
+    }
     set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_, work, comm_));
   }
-  redecomposed_ = false;  // every rank keeps its own share: nothing to send
-  std::vector<Index> keep;
+  redecomposed_ = false;  // the particles go to their owners here
+  if (holding == Holding::Share) {
+    gather_share(p, cell, history);
+    return;
+  }
+  std::vector<Index> keep;  // every rank keeps its own share: nothing to send
   for (std::size_t a = 0; a < p.n_owned(); ++a)
     if (dec_->owner(dec_->bin_of(p.x[a], cell.lengths())) == rank_) keep.push_back(Index(a));
   p.permute_owned(keep);
+}
+
+void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap* history) {
+  // 1. Particles to their owners: one all-to-all (at start-up only).
+  const Vec3& L = cell.lengths();
+  std::vector<std::vector<Index>> leave(size_);
+  std::vector<Index> keep;
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const int r = dec_->owner(dec_->bin_of(p.x[a], L));
+    (r == rank_ ? keep : leave[r]).push_back(Index(a));
+  }
+  std::vector<std::vector<char>> out(size_);
+  for (int r = 0; r < size_; ++r)
+    if (!leave[r].empty()) pack(p, leave[r], Message::All, out[r]);
+  leave = {};
+  std::vector<std::vector<char>> in = exchange_all(comm_, out);
+  out.assign(size_, {});
+  p.permute_owned(keep);
+  keep = {};
+  const std::size_t full = bytes_per_particle(Message::All);
+  for (int r = 0; r < size_; ++r) {
+    const std::size_t n = in[r].size() / full;
+    if (n) unpack(p, p.append_owned(n), n, Message::All, in[r].data());
+    std::vector<char>().swap(in[r]);
+  }
+  int any = history && history->size() != 0;
+  MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT, MPI_LOR, comm_);
+  if (!any) return;
+
+  // 2. Springs to the owners of their bodies, through a directory: the rank id % P learns the
+  //    owner of each id and the springs that name it, and forwards each spring to that owner.
+  //    Two all-to-alls, each rank holding O(its share) throughout.
+  auto dir = [&](GlobalId id) { return int(std::uint64_t(id) % std::uint64_t(size_)); };
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    put(out[dir(p.id[a])], std::int8_t(0));
+    put(out[dir(p.id[a])], p.id[a]);
+  }
+  history->for_each([&](GlobalId a, GlobalId b, const ContactHistory& h) {
+    put(out[dir(a)], std::int8_t(1));  // to the owner of a
+    put(out[dir(a)], HistoryRecord{a, b, h});
+    if (b >= 0) {  // a particle, not a wall
+      put(out[dir(b)], std::int8_t(2));  // to the owner of b
+      put(out[dir(b)], HistoryRecord{a, b, h});
+    }
+  });
+  history->release();
+  in = exchange_all(comm_, out);
+  out.assign(size_, {});
+  std::unordered_map<GlobalId, int> owner;
+  std::vector<std::pair<GlobalId, HistoryRecord>> springs;  // (the id to route by, the spring)
+  for (int r = 0; r < size_; ++r) {
+    for (const char *c = in[r].data(), *e = c + in[r].size(); c < e;) {
+      const auto tag = get<std::int8_t>(c);
+      if (tag == 0) {
+        owner.emplace(get<GlobalId>(c), r);
+      } else {
+        const auto h = get<HistoryRecord>(c);
+        springs.emplace_back(tag == 1 ? h.a : h.b, h);
+      }
+    }
+    std::vector<char>().swap(in[r]);
+  }
+  GlobalId missing = -1;  // a spring naming a body that no rank holds (a damaged input)
+  for (const auto& [id, h] : springs) {
+    const auto it = owner.find(id);
+    if (it != owner.end()) put(out[it->second], h);
+    else missing = std::max(missing, id);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &missing, 1, MPI_INT64_T, MPI_MAX, comm_);
+  if (missing >= 0)
+    throw std::runtime_error("the contact springs name particle " + std::to_string(missing) +
+                             ", which is not among the particles");
+  springs = {};
+  owner = {};
+  in = exchange_all(comm_, out);
+  out = {};
+  std::size_t n = 0;
+  for (const auto& b : in) n += b.size() / sizeof(HistoryRecord);
+  history->reset(n);
+  for (const auto& b : in)
+    for (const char *c = b.data(), *e = c + b.size(); c < e;) {
+      const auto h = get<HistoryRecord>(c);
+      history->insert(h.a, h.b, h.h);
+    }
 }
 
 void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) {

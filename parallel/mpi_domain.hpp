@@ -47,7 +47,8 @@ class MpiDomain final : public Domain {
   void sum_all(std::span<double> values) override;
   void sum_all(std::span<std::int64_t> values) override;
   void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-             const Vec3* decomposed_for = nullptr) override;
+             const Vec3* decomposed_for = nullptr, Holding holding = Holding::Whole,
+             HistoryMap* history = nullptr) override;
   Vec3 decomposition_lengths() const override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
@@ -65,6 +66,8 @@ class MpiDomain final : public Domain {
  private:
   void decompose(const Particles& p, const PeriodicCell& cell);
   void set_decomposition(Decomposition d);  // and its partner ranks
+  // adopt() of a share: particles to their owners, springs to the owners of their bodies.
+  void gather_share(Particles& p, const PeriodicCell& cell, HistoryMap* history);
   std::vector<double> global_bin_work(const Particles& p, const PeriodicCell& cell,
                                       const Decomposition& d);
 

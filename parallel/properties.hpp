@@ -33,10 +33,13 @@ void for_each_property(P& p, F&& f) {
 }
 
 // Which properties a message carries.
-enum class Message { Forward, Full };  // Forward: EveryStep only; Full: EveryStep + AtCreation
+// Forward: EveryStep only; Full: EveryStep + AtCreation; All: every property, the accumulators
+// too (a particle handed to its owner at start-up, whose forces the next half-kick uses).
+enum class Message { Forward, Full, All };
 
 inline bool carries(Message m, Travel t) {
-  return t == Travel::EveryStep || (m == Message::Full && t == Travel::AtCreation);
+  return m == Message::All || t == Travel::EveryStep ||
+         (m == Message::Full && t == Travel::AtCreation);
 }
 
 // Bytes per particle of a message.

@@ -35,6 +35,11 @@ int comm_size() {
   MPI_Comm_size(MPI_COMM_WORLD, &s);
   return s;
 }
+int comm_rank() {
+  int r;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
+}
 
 std::string dense_text() {
   std::ifstream in(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml");
@@ -130,6 +135,18 @@ TEST(Checkpoint, BitwiseContinuation) {
   EXPECT_EQ(c.header().step, saved_at);
   EXPECT_EQ(c.header().ranks, comm_size());
   EXPECT_EQ(BytesIn(c.section("app"), "app").get<std::int64_t>(), 42);
+  {
+    // Each rank has read its own range of the records only: 1/P of the particles and contacts.
+    const SimulationSnapshot part = c.simulation("sim", MPI_COMM_WORLD);
+    const auto n = std::size_t(13584), P = std::size_t(comm_size()), r = std::size_t(comm_rank());
+    EXPECT_EQ(part.particles.n_owned(), n * (r + 1) / P - n * r / P);
+    std::uint64_t contacts = 0;
+    for (const auto& sec : c.header().sections)
+      if (sec.name == "sim.contacts") contacts = sec.records;
+    EXPECT_GT(contacts, n);
+    EXPECT_EQ(part.history.size(), contacts * (r + 1) / P - contacts * r / P);
+    EXPECT_EQ(part.holding, Holding::Share);
+  }
   MpiDomain domain(MPI_COMM_WORLD);
   Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
   EXPECT_EQ(restarted.step_count(), saved_at);

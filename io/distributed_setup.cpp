@@ -1,0 +1,383 @@
+#include "io/distributed_setup.hpp"
+
+#include "core/exact_sum.hpp"
+#include "core/generate.hpp"
+#include "core/neighbor.hpp"
+#include "core/timestep.hpp"
+#include "io/lammps_data.hpp"
+#include "io/memory_check.hpp"
+#include "parallel/exchange.hpp"
+#include "parallel/guard.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <unordered_map>
+
+namespace fabrica {
+
+namespace {
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
+
+template <class T>
+void put(std::vector<char>& buf, const T& v) {
+  const std::size_t n = buf.size();
+  buf.resize(n + sizeof(T));
+  std::memcpy(buf.data() + n, &v, sizeof(T));
+}
+template <class T>
+T get(const char*& in) {
+  T v;
+  std::memcpy(static_cast<void*>(&v), in, sizeof(T));
+  in += sizeof(T);
+  return v;
+}
+
+// What a rank read of the body, travelling to the directory rank of its id.
+struct AtomLine {
+  SphereInit s;
+  std::int64_t line;
+};
+struct MotionLine {
+  DataMotion m;
+  std::int64_t line;
+};
+
+int ranks_on_this_node(MPI_Comm comm) {
+  MPI_Comm node;
+  MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+  int n = 1;
+  MPI_Comm_size(node, &n);
+  MPI_Comm_free(&node);
+  return n;
+}
+
+// This rank's lines of the data file's body: those that start in its byte range
+// [body + (size - body) r / P, body + (size - body) (r + 1) / P), the last one read to its end.
+struct Piece {
+  std::string text;
+  std::vector<std::size_t> starts;  // of the lines in 'text'
+};
+Piece read_piece(const std::string& path, std::uint64_t body, std::uint64_t size, int rank, int ranks) {
+  const std::uint64_t span = size - body;
+  const std::uint64_t b0 = body + span * std::uint64_t(rank) / std::uint64_t(ranks);
+  const std::uint64_t b1 = body + span * std::uint64_t(rank + 1) / std::uint64_t(ranks);
+  Piece p;
+  if (b0 == b1) return p;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the particle data file");
+  // A line starting before b0 is the previous rank's: start after its end.
+  std::uint64_t from = b0;
+  if (b0 > body) {
+    in.seekg(std::streamoff(b0 - 1));
+    std::string rest;
+    std::getline(in, rest);  // from b0 - 1 to the end of that line
+    from = b0 - 1 + rest.size() + 1;
+    if (from >= b1) return p;
+  }
+  in.clear();
+  in.seekg(std::streamoff(from));
+  std::string line;
+  std::uint64_t at = from;
+  while (at < b1 && std::getline(in, line)) {
+    p.starts.push_back(p.text.size());
+    p.text += line;
+    p.text += '\n';
+    at += line.size() + 1;
+  }
+  return p;
+}
+
+std::string line_of(const Piece& p, std::size_t k) {
+  const std::size_t b = p.starts[k];
+  const std::size_t e = p.text.find('\n', b);
+  return p.text.substr(b, e - b);
+}
+
+// The distributed read of a data file: this rank's share (from the directory), its box.
+DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int ranks,
+                         std::int64_t& natoms_out) {
+  DataHeader h;
+  agree(comm, [&] { h = read_data_header(path); });
+  natoms_out = h.natoms;
+  std::uint64_t size = 0;
+  agree(comm, [&] {
+    std::error_code ec;
+    size = std::uint64_t(std::filesystem::file_size(path, ec));
+    if (ec) throw InputError(path + ": cannot read the particle data file's size (" + ec.message() + ")");
+  });
+  const int node = ranks_on_this_node(comm);
+  agree(comm, [&] {
+    check_memory(path + ":" + std::to_string(h.natoms_line) + ": '" + std::to_string(h.natoms) +
+                     " atoms'",
+                 double(h.natoms) * kBytesPerSphere / ranks * node,
+                 "320 B per sphere at least, " + std::to_string(h.natoms / ranks) + " spheres on each of " +
+                     std::to_string(node) + " rank(s) of this node");
+  });
+  Piece piece;
+  agree(comm, [&] { piece = read_piece(path, h.body_offset, size, rank, ranks); });
+  // Line numbers: the lines of the ranks before this one.
+  std::int64_t mine = std::int64_t(piece.starts.size()), before = 0;
+  MPI_Exscan(&mine, &before, 1, MPI_INT64_T, MPI_SUM, comm);
+  if (rank == 0) before = 0;
+  const std::int64_t first_line = h.body_line + before;
+  // Section keywords: every rank learns all of them (a handful) and their lines.
+  std::vector<char> keys;
+  for (std::size_t k = 0; k < piece.starts.size(); ++k) {
+    std::istringstream ls(data_line_body(line_of(piece, k)));
+    std::string w;
+    if (ls >> w && std::isalpha(static_cast<unsigned char>(w[0]))) {
+      put(keys, std::int64_t(first_line + std::int64_t(k)));
+      put(keys, std::int64_t(w.size()));
+      keys.insert(keys.end(), w.begin(), w.end());
+    }
+  }
+  std::vector<std::vector<char>> out(std::size_t(ranks), keys), in = exchange_all(comm, out);
+  struct Keyword {
+    std::int64_t line;
+    std::string word;
+  };
+  std::vector<Keyword> keywords;  // in line order (ranks hold consecutive lines)
+  for (const auto& b : in)
+    for (const char *c = b.data(), *e = c + b.size(); c < e;) {
+      const auto line = get<std::int64_t>(c);
+      const auto n = std::size_t(get<std::int64_t>(c));
+      keywords.push_back({line, std::string(c, n)});
+      c += n;
+    }
+  std::vector<DataSection> section_of;  // of each keyword
+  agree(comm, [&] {  // the same on every rank: every rank checks, rank 0's message is kept
+    bool seen[2] = {false, false};
+    for (const Keyword& k : keywords) {
+      const DataSection s = data_section_keyword(k.word, path, int(k.line));
+      bool& was = seen[s == DataSection::Atoms ? 0 : 1];
+      if (was)
+        throw InputError(path + ":" + std::to_string(k.line) + ": section '" + k.word + "' appears twice");
+      was = true;
+      section_of.push_back(s);
+    }
+  });
+  // This rank's lines, parsed and checked; sent to the directory rank of their id.
+  std::vector<std::vector<char>> to_dir(static_cast<std::size_t>(ranks));
+  bool has_velocities = false;
+  for (DataSection s : section_of) has_velocities |= s == DataSection::Velocities;
+  agree(comm, [&] {
+    std::size_t key = 0;
+    std::optional<DataSection> section;
+    while (key < keywords.size() && keywords[key].line < first_line) section = section_of[key++];
+    for (std::size_t k = 0; k < piece.starts.size(); ++k) {
+      const std::int64_t lineno = first_line + std::int64_t(k);
+      if (key < keywords.size() && keywords[key].line == lineno) {
+        section = section_of[key++];
+        continue;
+      }
+      const std::string line = line_of(piece, k);
+      std::istringstream ls(data_line_body(line));
+      std::string w;
+      if (!(ls >> w)) continue;
+      if (*section == DataSection::Atoms) {
+        const AtomLine a{parse_atom_line(line, h, path, int(lineno)), lineno};
+        std::vector<char>& b = to_dir[std::size_t(std::uint64_t(a.s.id) % std::uint64_t(ranks))];
+        put(b, std::int8_t(0));
+        put(b, a);
+      } else {
+        const MotionLine m{parse_velocity_line(line, path, int(lineno)), lineno};
+        std::vector<char>& b = to_dir[std::size_t(std::uint64_t(m.m.id) % std::uint64_t(ranks))];
+        put(b, std::int8_t(1));
+        put(b, m);
+      }
+    }
+  });
+  piece = {};
+  in = exchange_all(comm, to_dir);
+  to_dir = {};
+  // The directory: every id once, every velocity for an atom; the counts over all ranks.
+  std::vector<AtomLine> atoms;
+  std::vector<MotionLine> motions;
+  for (auto& b : in) {
+    for (const char *c = b.data(), *e = c + b.size(); c < e;) {
+      if (get<std::int8_t>(c) == 0) atoms.push_back(get<AtomLine>(c));
+      else motions.push_back(get<MotionLine>(c));
+    }
+    std::vector<char>().swap(b);
+  }
+  auto by_id_line = [](const auto& x, const auto& y, auto id) {
+    return id(x) != id(y) ? id(x) < id(y) : x.line < y.line;
+  };
+  std::sort(atoms.begin(), atoms.end(), [&](const AtomLine& x, const AtomLine& y) {
+    return by_id_line(x, y, [](const AtomLine& a) { return a.s.id; });
+  });
+  std::sort(motions.begin(), motions.end(), [&](const MotionLine& x, const MotionLine& y) {
+    return by_id_line(x, y, [](const MotionLine& m) { return m.m.id; });
+  });
+  agree(comm, [&] {
+    for (std::size_t k = 1; k < atoms.size(); ++k)
+      if (atoms[k].s.id == atoms[k - 1].s.id)
+        throw InputError(data_duplicate_id(path, int(atoms[k].line), atoms[k].s.id, false));
+    for (std::size_t k = 1; k < motions.size(); ++k)
+      if (motions[k].m.id == motions[k - 1].m.id)
+        throw InputError(data_duplicate_id(path, int(motions[k].line), motions[k].m.id, true));
+  });
+  std::int64_t counts[2] = {std::int64_t(atoms.size()), std::int64_t(motions.size())};
+  MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_INT64_T, MPI_SUM, comm);
+  agree(comm, [&] {
+    if (counts[0] != h.natoms) throw InputError(data_count_error(path, h.natoms, counts[0], false));
+  });
+  DataFile df;
+  df.lo = h.lo;
+  df.hi = h.hi;
+  df.has_velocities = has_velocities;
+  df.particles.reserve(atoms.size());
+  for (const AtomLine& a : atoms) df.particles.add(a.s);
+  if (has_velocities) {
+    agree(comm, [&] {
+      std::size_t k = 0;  // both sorted by id
+      for (const MotionLine& m : motions) {
+        while (k < atoms.size() && atoms[k].s.id < m.m.id) ++k;
+        if (k == atoms.size() || atoms[k].s.id != m.m.id)
+          throw InputError(data_orphan_velocity(path, int(m.line), m.m.id));
+        df.particles.v[k] = m.m.v;
+        df.particles.w[k] = m.m.w;
+      }
+    });
+    agree(comm, [&] {
+      if (counts[1] != h.natoms) throw InputError(data_count_error(path, h.natoms, counts[1], true));
+    });
+  }
+  return df;
+}
+
+}  // namespace
+
+Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOptions& options) {
+  int rank = 0, ranks = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &ranks);
+  Setup s;
+  Holding holding = Holding::Share;
+  if (sc.source == ParticleSource::File) {
+    std::int64_t natoms = 0;
+    DataFile df = read_data_share(sc.data_file, comm, rank, ranks, natoms);
+    s.particles = std::move(df.particles);
+    const Vec3 L = sc.cell_size.value_or(df.hi - df.lo);
+    agree(comm, [&] {
+      for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
+        for (int k = 0; k < 3; ++k)
+          if (s.particles.x[a][k] < 0 || s.particles.x[a][k] > L[k])
+            throw InputError(sc.path + ": [cell] size = [" + num(L[0]) + ", " + num(L[1]) + ", " +
+                             num(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
+                             " of " + sc.data_file + " lies outside the cell (coordinate " +
+                             std::to_string(k + 1) + " = " + num(s.particles.x[a][k] + df.lo[k]) + ")");
+    });
+    double rmin = s.particles.n_owned() ? s.particles.min_radius() : 1e300;
+    MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
+    agree(comm, [&] { check_neighbour_grid(sc.data_file, L, rmin, sc.skin); });
+    s.cell = PeriodicCell(L);
+  } else {
+    // The generator is sequential: every rank makes the whole specimen (identical), and keeps
+    // its share in the adoption below.
+    agree(comm, [&] {
+      Scene one = sc;
+      one.max_initial_overlap = std::numeric_limits<double>::infinity();  // checked below
+      one.density_scaling = 1.0;                                           // applied below
+      Setup whole = make_setup(one);
+      s.particles = std::move(whole.particles);
+      s.cell = whole.cell;
+    });
+    holding = Holding::Whole;
+  }
+  double r[2] = {s.particles.n_owned() ? s.particles.max_radius() : 0.0,
+                 s.particles.n_owned() ? -s.particles.min_radius() : -1e300};
+  MPI_Allreduce(MPI_IN_PLACE, r, 2, MPI_DOUBLE, MPI_MAX, comm);
+  const real_t rmax = r[0], rmin = -r[1];
+  agree(comm, [&] {
+    try {
+      check_cell_size(s.cell, rmax, sc.skin);
+    } catch (const std::exception& e) {
+      throw InputError(sc.path + ": [cell] " + e.what());
+    }
+  });
+  for (std::size_t a = 0; a < s.particles.n_owned(); ++a) s.particles.x[a] = s.cell.wrap(s.particles.x[a]);
+
+  // Each rank takes the particles of its subdomain, and with the ghosts of the decomposition
+  // finds the largest overlap of its pairs; the largest of all ranks (ties: the lowest ids).
+  {
+    MpiDomain domain(comm, options);
+    const real_t cutoff = 2 * rmax + sc.skin;
+    domain.adopt(s.particles, s.cell, cutoff, nullptr, holding);
+    domain.build_ghosts(s.particles, s.cell, cutoff);
+    NeighborSearch search;
+    PairList pairs;
+    search.build(s.particles, s.cell, 0.0, pairs);
+    OverlapReport ov;
+    const Vec3& L = s.cell.lengths();
+    const Particles& p = s.particles;
+    for (std::size_t q = 0; q < pairs.size(); ++q) {
+      const Index i = pairs.i[q], j = pairs.j[q];
+      const real_t un = p.radius[i] + p.radius[j] - (p.x[j] + image_offset(pairs.image[q], L) - p.x[i]).norm();
+      const real_t ratio = un / std::min(p.radius[i], p.radius[j]);
+      if (un > 0 && ratio > ov.ratio) ov = {ratio, un, p.id[i], p.id[j]};
+    }
+    s.particles.clear_ghosts();
+    std::vector<double> all(std::size_t(4 * ranks));
+    const double mine[4] = {ov.ratio, ov.overlap, double(ov.a), double(ov.b)};
+    MPI_Allgather(mine, 4, MPI_DOUBLE, all.data(), 4, MPI_DOUBLE, comm);
+    OverlapReport worst;
+    for (int k = 0; k < ranks; ++k) {
+      const double* o = &all[std::size_t(4 * k)];
+      if (o[0] > worst.ratio) worst = {o[0], o[1], GlobalId(o[2]), GlobalId(o[3])};
+    }
+    agree(comm, [&] {
+      if (worst.ratio > sc.max_initial_overlap) throw InputError(overlap_message(sc, worst));
+    });
+  }
+  if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
+  s.params.law = sc.law;
+  s.params.skin = sc.skin;
+  s.params.gravity = sc.gravity;
+  s.params.local_damping = sc.local_damping;
+  double dt = s.particles.n_owned() ? critical_time_step(s.particles, sc.law, false, rmin, rmax) : 1e300;
+  MPI_Allreduce(MPI_IN_PLACE, &dt, 1, MPI_DOUBLE, MPI_MIN, comm);
+  s.critical_dt = dt;
+  agree(comm, [&] { s.params.dt = scene_time_step(sc, s.critical_dt); });
+  s.holding = Holding::Share;
+  return s;
+}
+
+Setup make_run_setup(const Scene& scene, MPI_Comm comm, const MpiDomainOptions& options) {
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  if (ranks > 1) return make_distributed_setup(scene, comm, options);
+  Setup s;
+  agree(comm, [&] { s = make_setup(scene); });
+  return s;
+}
+
+SpecimenTotals specimen_totals(const Particles& p, MPI_Comm comm) {
+  ExactSums sums(3);
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const real_t R = p.radius[a];
+    sums.add(0, 2 * R);
+    sums.add(1, p.mass[a]);
+    sums.add(2, 4.0 / 3.0 * std::numbers::pi * R * R * R);
+  }
+  sums.normalize();
+  std::int64_t n = std::int64_t(p.n_owned());
+  MPI_Allreduce(MPI_IN_PLACE, sums.words().data(), int(sums.words().size()), MPI_INT64_T, MPI_SUM, comm);
+  MPI_Allreduce(MPI_IN_PLACE, &n, 1, MPI_INT64_T, MPI_SUM, comm);
+  sums.normalize();
+  return {n, sums.value(0), sums.value(1), sums.value(2)};
+}
+
+}  // namespace fabrica

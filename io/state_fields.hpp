@@ -1,0 +1,35 @@
+// The field layout of the engine's state in a checkpoint (docs/checkpoint.md#format): the
+// global values of a simulation, and the particle and contact records. Each is written through
+// io/fields.hpp (named, typed, little-endian, no padding) so that another build reads it or
+// refuses it naming the field.
+#pragma once
+#include "core/simulation.hpp"
+#include "io/fields.hpp"
+
+#include <string>
+
+namespace fabrica {
+
+// Contact law, measures, dissipation: one field per member, named "<prefix>.<member>".
+void write_law(FieldWriter& w, const ContactLawParams& law);
+ContactLawParams read_law(FieldReader& r);
+void write_macro(FieldWriter& w, const MacroState& m);
+MacroState read_macro(FieldReader& r);
+void write_dissipation(FieldWriter& w, const Dissipation& d);
+Dissipation read_dissipation(FieldReader& r);
+
+// Particle records: every property of parallel/properties.hpp, in its order (id i64, vectors
+// f64[3], scalars f64).
+std::string particle_record_schema();
+std::size_t particle_record_bytes();
+void write_particles(const Particles& p, std::string& out);  // the owned ones
+// Appends n records from 'in' (n * particle_record_bytes() bytes) as owned particles.
+void read_particles(const char* in, std::size_t n, Particles& p);
+
+// Contact records: the two ids (walls: -1 - wall index) and the shear and rolling springs.
+std::string contact_record_schema();
+std::size_t contact_record_bytes();
+void write_contact(GlobalId a, GlobalId b, const ContactHistory& h, std::string& out);
+void read_contacts(const char* in, std::size_t n, HistoryMap& history);
+
+}  // namespace fabrica
