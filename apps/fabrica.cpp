@@ -14,6 +14,7 @@
 #include "io/write_check.hpp"
 #include "io/scene.hpp"
 #include "io/distributed_setup.hpp"
+#include "parallel/peak_memory.hpp"
 #include "io/setup.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_context.hpp"
@@ -146,6 +147,10 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
                out->snapshots(), out->bytes() / 1e6, out->path(), out->seconds(),
                100 * out->seconds() / wall, wall);
   }
+  const PeakMemory mem = peak_memory(mpi.comm());
+  fmt::print("peak memory per rank: {:.1f} MB at most (rank {}), {:.1f} MB on average, {:.1f} MB at "
+             "least, over {} rank(s)\n",
+             mem.max / 1e6, mem.max_rank, mem.mean / 1e6, mem.min / 1e6, mpi.size());
   return rc;
 }
 

@@ -10,6 +10,7 @@
 #include "parallel/guard.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -53,6 +54,18 @@ struct MotionLine {
   DataMotion m;
   std::int64_t line;
 };
+
+// Squared periodic distance from x to the box [lo, lo + side).
+double box_distance2(const Vec3& x, const Vec3& lo, const Vec3& side, const Vec3& L) {
+  double d2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    double t = std::fmod(x[k] - lo[k], L[k]);
+    if (t < 0) t += L[k];
+    const double d = t <= side[k] ? 0.0 : std::min(t - side[k], L[k] - t);
+    d2 += d * d;
+  }
+  return d2;
+}
 
 int ranks_on_this_node(MPI_Comm comm) {
   MPI_Comm node;
@@ -284,6 +297,71 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
     agree(comm, [&] { check_neighbour_grid(sc.data_file, L, rmin, sc.skin); });
     s.cell = PeriodicCell(L);
+  } else if (sc.generate.placement == GenerateSpec::Placement::Regions) {
+    // Region by region: each rank its block of regions; after each colour, the spheres placed
+    // go to the ranks of the adjacent regions (core/region_packing.hpp).
+    const GenerateSpec& g = sc.generate;
+    const int node = ranks_on_this_node(comm);
+    agree(comm, [&] {
+      check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
+                   double(g.count) * kBytesPerSphere / ranks * node,
+                   "320 B per sphere at least, " + std::to_string(g.count / ranks) +
+                       " spheres on each of " + std::to_string(node) + " rank(s) of this node");
+    });
+    std::optional<RegionCut> cut;
+    agree(comm, [&] { cut = region_cut(sc); });
+    const int G = cut->grid.regions();
+    auto owner = [&](int region) {  // contiguous blocks of regions
+      return int(std::int64_t(region) * ranks / G);
+    };
+    std::vector<int> mine;
+    for (int q = 0; q < G; ++q)
+      if (owner(q) == rank) mine.push_back(q);
+    ExactSums V(1);
+    for (int q : mine)
+      for (real_t x : region_diameters(cut->spec, cut->grid, q)) V.add(0, std::numbers::pi / 6 * x * x * x);
+    V.normalize();
+    MPI_Allreduce(MPI_IN_PLACE, V.words().data(), int(V.words().size()), MPI_INT64_T, MPI_SUM, comm);
+    V.normalize();
+    agree(comm, [&] { s.cell = region_cell(sc, *cut, V.value(0)); });
+    const RegionExchange exchange = [&](const Particles& placed, const std::vector<int>& region_of) {
+      std::vector<std::vector<char>> out(static_cast<std::size_t>(ranks));
+      for (std::size_t a = 0; a < placed.n_owned(); ++a) {
+        // Only to the ranks of adjacent boxes it can reach: a later sphere of box h overlaps it
+        // only if it lies within d_max of h (the boxes are 4 d_max wide or more: a thin layer).
+        std::vector<int> to;
+        for (int h : cut->grid.neighbours(region_of[a])) {
+          const int r = owner(h);
+          if (r == rank || std::find(to.begin(), to.end(), r) != to.end()) continue;
+          if (box_distance2(placed.x[a], cut->grid.lower(h), cut->grid.side(), s.cell.lengths()) <
+              g.d_max * g.d_max)
+            to.push_back(r);
+        }
+        for (int r : to) {
+          put(out[std::size_t(r)], placed.id[a]);
+          put(out[std::size_t(r)], placed.radius[a]);
+          put(out[std::size_t(r)], placed.x[a]);
+        }
+      }
+      const auto in = exchange_all(comm, out);
+      Particles got;
+      for (const auto& b : in)
+        for (const char *c = b.data(), *e = c + b.size(); c < e;) {
+          const auto id = get<GlobalId>(c);
+          const auto rad = get<real_t>(c);
+          got.add({id, rad, sc.density, get<Vec3>(c)});
+        }
+      return got;
+    };
+    // A sphere with no room is reported after the last round (every rank goes through every
+    // round's exchange), and agreed.
+    agree(comm, [&] {
+      try {
+        s.particles = region_packing(cut->spec, cut->grid, s.cell, mine, exchange);
+      } catch (const std::runtime_error& e) {
+        throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
+      }
+    });
   } else {
     // The generator is sequential: every rank makes the whole specimen (identical), and keeps
     // its share in the adoption below.

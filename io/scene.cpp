@@ -189,6 +189,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     if (!(a->minCoeff() > 0)) P.fail("aspect", Section::node_text(*table("particles")->get("aspect")), "must be positive");
     g.aspect = *a;
   }
+  if (auto pl = P.string("placement")) {
+    if (*pl == "sequential") g.placement = GenerateSpec::Placement::Sequential;
+    else if (*pl == "regions") g.placement = GenerateSpec::Placement::Regions;
+    else P.fail("placement", "\"" + *pl + "\"", "must be \"sequential\" or \"regions\"");
+    if (sc.source == ParticleSource::File)
+      P.fail("placement", "\"" + *pl + "\"", "is only used with source = \"generate\"");
+  }
   sc.density = P.number("density", sc.density);
   require(P, "density", sc.density, sc.density > 0, "must be positive");
   P.reject_unknown();

@@ -29,6 +29,10 @@ struct GenerateSpec {
   std::uint64_t seed = 1;
   real_t solid_fraction = 0.30;    // of the initial (loose) cloud
   Vec3 aspect = Vec3(2, 1, 1);     // cell length ratios (axis 1 = loading axis)
+  // "sequential": one random sequential addition over the whole cell (the study's specimens;
+  // every rank makes the whole specimen); "regions": region by region (core/region_packing.hpp),
+  // each rank only its share, the same specimen on any rank count.
+  enum class Placement { Sequential, Regions } placement = Placement::Sequential;
 };
 
 // Optional isotropic compression at a constant strain rate until the mean stress reaches a

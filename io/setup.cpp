@@ -2,6 +2,7 @@
 
 #include "io/memory_check.hpp"
 
+#include "core/exact_sum.hpp"
 #include "core/generate.hpp"
 #include "core/neighbor.hpp"
 #include "core/timestep.hpp"
@@ -10,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <new>
+#include <numeric>
 #include <numbers>
 #include <sstream>
 
@@ -67,6 +69,28 @@ OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell) {
   return r;
 }
 
+RegionCut region_cut(const Scene& sc) {
+  const GenerateSpec& g = sc.generate;
+  RegionCut c{{g.count, g.fractal_dimension, g.d_min, g.d_max, g.seed, sc.density}, Vec3::Zero(),
+              RegionGrid({}, Vec3::Ones(), Vec3::Ones())};
+  c.expected = sc.cell_size ? *sc.cell_size
+                            : Vec3(g.aspect * std::cbrt(expected_solid_volume(c.spec) / g.solid_fraction /
+                                                        g.aspect.prod()));
+  c.grid = RegionGrid(c.spec, c.expected, c.expected);
+  return c;
+}
+
+PeriodicCell region_cell(const Scene& sc, RegionCut& cut, real_t solid_volume) {
+  const GenerateSpec& g = sc.generate;
+  const Vec3 L = sc.cell_size ? *sc.cell_size
+                              : Vec3(g.aspect * std::cbrt(solid_volume / g.solid_fraction / g.aspect.prod()));
+  check_neighbour_grid(sc.path + ": [particles] d_min = " + num(g.d_min), L, 0.5 * g.d_min, sc.skin);
+  PeriodicCell cell(L);
+  check_cell_size(cell, 0.5 * g.d_max, sc.skin);
+  cut.grid = RegionGrid(cut.spec, cut.expected, L);  // the same cut, the real cell's sides
+  return cell;
+}
+
 std::string overlap_message(const Scene& sc, const OverlapReport& ov) {
   const std::string from = sc.source == ParticleSource::File
                                ? sc.data_file
@@ -98,6 +122,26 @@ Setup make_setup(const Scene& sc) {
     const GenerateSpec& g = sc.generate;
     check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
                  double(g.count) * kBytesPerSphere, "320 B per sphere at least");
+    if (g.placement == GenerateSpec::Placement::Regions) {
+      try {
+        RegionCut cut = region_cut(sc);
+        ExactSums V(1);
+        for (int r = 0; r < cut.grid.regions(); ++r)
+          for (real_t x : region_diameters(cut.spec, cut.grid, r)) V.add(0, std::numbers::pi / 6 * x * x * x);
+        V.normalize();
+        s.cell = region_cell(sc, cut, V.value(0));
+        std::vector<int> all(std::size_t(cut.grid.regions()));
+        std::iota(all.begin(), all.end(), 0);
+        s.particles = region_packing(cut.spec, cut.grid, s.cell, all,
+                                     [](const Particles&, const std::vector<int>&) { return Particles(); });
+      } catch (const InputError&) {
+        throw;
+      } catch (const std::bad_alloc&) {
+        throw;
+      } catch (const std::exception& e) {
+        throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
+      }
+    } else {
     Random rng(g.seed);
     const auto d = fractal_diameters(std::size_t(g.count), g.fractal_dimension, g.d_min, g.d_max, rng);
     real_t vs = 0;
@@ -118,6 +162,7 @@ Setup make_setup(const Scene& sc) {
       throw;  // not the input's fault as such: reported as what it is
     } catch (const std::exception& e) {
       throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
+    }
     }
   }
   try {

@@ -1,6 +1,7 @@
 // Turns a validated Scene into a ready Simulation: particles (generated or read), cell, and a
 // time step checked against the critical estimate.
 #pragma once
+#include "core/region_packing.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
@@ -29,6 +30,17 @@ struct OverlapReport {
   GlobalId a = -1, b = -1;
 };
 OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell);
+
+// [particles] placement = "regions": the gradation, the expected cell and its cut into regions
+// (from the expected solid volume, so the same before any diameter is drawn), and the cell for
+// the real solid volume (checked as make_setup checks a cell; the grid takes its sides).
+struct RegionCut {
+  RegionSpec spec;
+  Vec3 expected;
+  RegionGrid grid;
+};
+RegionCut region_cut(const Scene& scene);
+PeriodicCell region_cell(const Scene& scene, RegionCut& cut, real_t solid_volume);
 
 // The InputError of an initial overlap above [run] max_initial_overlap.
 std::string overlap_message(const Scene& scene, const OverlapReport& ov);
