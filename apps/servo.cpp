@@ -58,7 +58,8 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
     real_t S = 0;  // the stiffness against the servo's own strain: every controlled axis moves
     for (int l = 0; l < 3; ++l)
       if (axes_[l]) S += M(k, l);
-    stiffness_[k] = S = round6(S);
+    S = round6(S);
+    if (mode_ == ServoMode::Stiffness || !M.isZero()) stiffness_[k] = S;  // the last one seen
     // The error is read to 1e-6: the reduced stress differs between rank counts in the last
     // bits (summation order), and a dense packing amplifies any difference in the imposed
     // strain rate to O(1) within ~1000 steps; rounded, the servo acts identically on any number
@@ -96,6 +97,16 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
     r[k] = std::clamp(g * (relax_ * e + irelax_ * integral_[k]), -cap_, cap_);
   }
   return r;
+}
+
+bool Servo::needs_stiffness(const Mat3& stress) const {
+  if (mode_ == ServoMode::Stiffness) return true;
+  for (int k = 0; k < 3; ++k) {
+    if (!axes_[k]) continue;
+    const real_t e = std::round((stress(k, k) - target_) / target_ * 1e6) * 1e-6;
+    if (std::abs(e) > 0.05 && e * last_error_[k] < 0) return true;
+  }
+  return false;
 }
 
 std::string Servo::describe() const {

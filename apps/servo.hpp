@@ -46,10 +46,14 @@ class Servo {
   // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one, for
   // the specimen stiffness 'M' (specimen_stiffness). Throws ServoDivergence (see the header).
   Vec3 update(const Mat3& stress, real_t elapsed, const Mat3& M);
+  // Whether update() reads M for this stress: always with "stiffness"; with "gains" only when
+  // an error above 5 % has changed sign (the over-correction check), so that fixed gains cost
+  // no contact loop otherwise. The same on every rank (reduced stress).
+  bool needs_stiffness(const Mat3& stress) const;
   const Vec3& integral() const { return integral_; }  // for checkpoints
   void set_integral(const Vec3& i) { integral_ = i; }
   // At the last update, for messages: the gain of each axis in 1/s (rate per unit relative
-  // error) and the stiffness S_k it saw [Pa].
+  // error) and the last stiffness S_k it saw [Pa] (with "gains": 0 until it first needed one).
   const Vec3& gain() const { return gain_; }
   const Vec3& stiffness() const { return stiffness_; }
   std::string describe() const;  // "gain (g1, g2, g3) 1/s, stiffness (S1, S2, S3) Pa"

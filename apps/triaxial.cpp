@@ -224,7 +224,8 @@ Servo TriaxialRun::make_servo(std::array<bool, 3> axes, Vec3 fixed) const {
 }
 
 Vec3 TriaxialRun::update_servo(Servo& servo, Stage stage, const MacroState& m, real_t elapsed) {
-  const Mat3 M = specimen_stiffness(sim_);  // collective: every rank is here
+  // Collective when needed: every rank takes the same decision from the reduced stress.
+  const Mat3 M = servo.needs_stiffness(m.stress) ? specimen_stiffness(sim_) : Mat3::Zero();
   try {
     return servo.update(m.stress, elapsed, M);
   } catch (const ServoDivergence& e) {  // the same on every rank (reduced values only)

@@ -147,7 +147,9 @@ TEST(Servo, StiffnessOfAnFccLattice) {
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(M(k, k), 4 * f.kn / f.a, 1e-9 * 4 * f.kn / f.a) << k;
     for (int l = 0; l < 3; ++l)
-      if (l != k) EXPECT_NEAR(M(k, l), 0.0, 1e-9 * M(k, k)) << k << l;
+      if (l != k) {
+        EXPECT_NEAR(M(k, l), 0.0, 1e-9 * M(k, k)) << k << l;
+      }
   }
 }
 
