@@ -67,9 +67,15 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
     const real_t e = std::round((stress(k, k) - target_) / target_ * 1e6) * 1e-6;
     if (mode_ == ServoMode::Gains) {
       gain_[k] = kp_;
-      const real_t trial = kp_ * e + ki_ * (integral_[k] + e * elapsed);
-      if (std::abs(trial) < cap_) integral_[k] += e * elapsed;  // anti-windup
-      r[k] = std::clamp(kp_ * e + ki_ * integral_[k], -cap_, cap_);
+      // The multiply-adds are explicit, rounded as the fixed-gain servo always was (GCC fused
+      // them so under -march=native when the servo lived in apps/triaxial.cpp): a rate that
+      // differs in its last bit changes a dense packing's trajectory, and with it the demo's
+      // and the paper scene's output.
+      const real_t pe = kp_ * e;
+      const real_t i_trial = std::fma(e, elapsed, integral_[k]);
+      const real_t trial = std::fma(ki_, i_trial, pe);
+      if (std::abs(trial) < cap_) integral_[k] = i_trial;  // anti-windup
+      r[k] = std::clamp(std::fma(ki_, integral_[k], pe), -cap_, cap_);
       // Over-correction: a loop gain above 2 with the error alternating in sign, above 5 %,
       // at 20 updates in a row (the issue-13 lattice: p between 31 and 149 kPa for ever).
       const real_t loop = kp_ * interval_ * S / target_;
