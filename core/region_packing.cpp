@@ -92,8 +92,16 @@ bool in_size_class(const RegionSpec& s, int c, real_t d) {
   return d <= hi && (d > lo || c == size_classes(s) - 1);
 }
 
-Particles place_region(const RegionSpec& s, const RegionGrid& grid, const PeriodicCell& cell, int g,
-                       const Particles& near, int size_class) {
+namespace {
+
+// Positions and radii only: what the placement needs of the spheres already there.
+struct SphereSet {
+  std::vector<Vec3> x;
+  std::vector<real_t> r;
+};
+
+Particles place_among(const RegionSpec& s, const RegionGrid& grid, const PeriodicCell& cell, int g,
+                      const std::vector<const SphereSet*>& near, int size_class) {
   const std::vector<real_t> d = region_diameters(s, grid, g);
   const std::int64_t first = grid.first_id(g);
   std::vector<Index> order;
@@ -120,7 +128,8 @@ Particles place_region(const RegionSpec& s, const RegionGrid& grid, const Period
     pos.push_back(x);
     rad.push_back(r);
   };
-  for (std::size_t a = 0; a < near.n_owned(); ++a) insert(near.x[a], near.radius[a]);
+  for (const SphereSet* n : near)
+    for (std::size_t a = 0; a < n->x.size(); ++a) insert(n->x[a], n->r[a]);
   Random rng(mix(s.seed, 2 * std::uint64_t(g) + 1));
   const Vec3 lo = grid.lower(g), side = grid.side();
   Particles out;
@@ -171,10 +180,20 @@ Particles place_region(const RegionSpec& s, const RegionGrid& grid, const Period
   return out;
 }
 
+}  // namespace
+
+Particles place_region(const RegionSpec& s, const RegionGrid& grid, const PeriodicCell& cell, int g,
+                       const Particles& near, int size_class) {
+  SphereSet n;
+  n.x.assign(near.x.begin(), near.x.begin() + std::ptrdiff_t(near.n_owned()));
+  n.r.assign(near.radius.begin(), near.radius.begin() + std::ptrdiff_t(near.n_owned()));
+  return place_among(s, grid, cell, g, {&n}, size_class);
+}
+
 Particles region_packing(const RegionSpec& s, const RegionGrid& grid, const PeriodicCell& cell,
                          std::span<const int> mine, const RegionExchange& exchange) {
-  // Spheres known here, by region: this rank's and those received from adjacent regions.
-  std::unordered_map<int, Particles> known;
+  // Spheres known here, by region (positions and radii): this rank's and those received.
+  std::unordered_map<int, SphereSet> known;
   Particles result;
   std::string failure;  // after a sphere found no room: the rounds go on, placing nothing
   for (int size_class = 0; size_class < size_classes(s); ++size_class)
@@ -183,35 +202,34 @@ Particles region_packing(const RegionSpec& s, const RegionGrid& grid, const Peri
       std::vector<int> region_of_placed;
       for (int g : mine) {
         if (grid.colour(g) != colour || !failure.empty()) continue;
-        Particles near;
+        std::vector<const SphereSet*> near;
         std::vector<int> around = grid.neighbours(g);
         around.push_back(g);  // its own spheres of the larger classes
-        for (int h : around) {
-          const auto it = known.find(h);
-          if (it == known.end()) continue;
-          const Particles& k = it->second;
-          for (std::size_t a = 0; a < k.n_owned(); ++a) near.add({k.id[a], k.radius[a], s.density, k.x[a]});
-        }
+        for (int h : around)
+          if (const auto it = known.find(h); it != known.end()) near.push_back(&it->second);
         Particles p;
         try {
-          p = place_region(s, grid, cell, g, near, size_class);
+          p = place_among(s, grid, cell, g, near, size_class);
         } catch (const std::runtime_error& e) {
           failure = e.what();
           continue;
         }
-        Particles& into = known[g];
+        SphereSet& into = known[g];
         for (std::size_t a = 0; a < p.n_owned(); ++a) {
           const SphereInit si{p.id[a], p.radius[a], s.density, p.x[a]};
-          into.add(si);
+          into.x.push_back(si.x);
+          into.r.push_back(si.radius);
           placed.add(si);
           result.add(si);
           region_of_placed.push_back(g);
         }
       }
       const Particles from_others = exchange(placed, region_of_placed);
-      for (std::size_t a = 0; a < from_others.n_owned(); ++a)
-        known[grid.region_of(from_others.x[a])].add(
-            {from_others.id[a], from_others.radius[a], s.density, from_others.x[a]});
+      for (std::size_t a = 0; a < from_others.n_owned(); ++a) {
+        SphereSet& into = known[grid.region_of(from_others.x[a])];
+        into.x.push_back(from_others.x[a]);
+        into.r.push_back(from_others.radius[a]);
+      }
     }
   if (!failure.empty()) throw std::runtime_error(failure);
   return result;

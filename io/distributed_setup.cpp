@@ -311,12 +311,13 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     std::optional<RegionCut> cut;
     agree(comm, [&] { cut = region_cut(sc); });
     const int G = cut->grid.regions();
-    auto owner = [&](int region) {  // contiguous blocks of regions
-      return int(std::int64_t(region) * ranks / G);
-    };
+    // The solid volume (for the cell) over contiguous blocks of regions, then the regions each
+    // rank places: those whose centre its subdomain will hold (a Cartesian decomposition made
+    // as the simulation will make it, with the largest possible cutoff), so that few spheres
+    // move afterwards; blocks of regions for METIS.
     std::vector<int> mine;
     for (int q = 0; q < G; ++q)
-      if (owner(q) == rank) mine.push_back(q);
+      if (std::int64_t(q) * ranks / G == rank) mine.push_back(q);
     ExactSums V(1);
     for (int q : mine)
       for (real_t x : region_diameters(cut->spec, cut->grid, q)) V.add(0, std::numbers::pi / 6 * x * x * x);
@@ -324,6 +325,18 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     MPI_Allreduce(MPI_IN_PLACE, V.words().data(), int(V.words().size()), MPI_INT64_T, MPI_SUM, comm);
     V.normalize();
     agree(comm, [&] { s.cell = region_cell(sc, *cut, V.value(0)); });
+    std::vector<int> owner_of(static_cast<std::size_t>(G));
+    for (int q = 0; q < G; ++q) owner_of[std::size_t(q)] = int(std::int64_t(q) * ranks / G);
+    if (options.kind == DecompositionKind::Cartesian) {
+      const Decomposition dec = Decomposition::cartesian(ranks, s.cell.lengths(), g.d_max + sc.skin);
+      for (int q = 0; q < G; ++q)
+        owner_of[std::size_t(q)] =
+            dec.owner(dec.bin_of(cut->grid.lower(q) + 0.5 * cut->grid.side(), s.cell.lengths()));
+    }
+    auto owner = [&](int region) { return owner_of[std::size_t(region)]; };
+    mine.clear();
+    for (int q = 0; q < G; ++q)
+      if (owner(q) == rank) mine.push_back(q);
     const RegionExchange exchange = [&](const Particles& placed, const std::vector<int>& region_of) {
       std::vector<std::vector<char>> out(static_cast<std::size_t>(ranks));
       for (std::size_t a = 0; a < placed.n_owned(); ++a) {

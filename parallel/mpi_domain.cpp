@@ -147,11 +147,16 @@ void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap*
   for (int r = 0; r < size_; ++r)
     if (!leave[r].empty()) pack(p, leave[r], Message::All, out[r]);
   leave = {};
-  std::vector<std::vector<char>> in = exchange_all(comm_, out);
-  out.assign(size_, {});
+  // The leavers' storage goes before the exchange (peak memory: the share, what it sends and
+  // what it receives, not twice the share).
   p.permute_owned(keep);
   keep = {};
+  std::vector<std::vector<char>> in = exchange_all(comm_, out);
+  out.assign(size_, {});
   const std::size_t full = bytes_per_particle(Message::All);
+  std::size_t arriving = 0;
+  for (int r = 0; r < size_; ++r) arriving += in[r].size() / full;
+  p.reserve(p.n_owned() + arriving);
   for (int r = 0; r < size_; ++r) {
     const std::size_t n = in[r].size() / full;
     if (n) unpack(p, p.append_owned(n), n, Message::All, in[r].data());
