@@ -31,22 +31,6 @@ namespace {
 const char* const kStageNames[] = {"consolidation", "equilibration", "shear"};
 }  // namespace
 
-Vec3 Servo::update(const Mat3& stress, real_t elapsed) {
-  Vec3 r = fixed_;
-  for (int k = 0; k < 3; ++k) {
-    if (!axes_[k]) continue;
-    // The error is read to 1e-6: the reduced stress differs between rank counts in the last
-    // bits (summation order), and a dense packing amplifies any difference in the imposed
-    // strain rate to O(1) within ~1000 steps; rounded, the servo acts identically on any number
-    // of ranks (tests/regression, SameCurveOnOneAndManyRanks).
-    const real_t e = std::round((stress(k, k) - target_) / target_ * 1e6) * 1e-6;
-    const real_t trial = kp_ * e + ki_ * (integral_[k] + e * elapsed);
-    if (std::abs(trial) < cap_) integral_[k] += e * elapsed;  // anti-windup
-    r[k] = std::clamp(kp_ * e + ki_ * integral_[k], -cap_, cap_);
-  }
-  return r;
-}
-
 void write_series_header(std::ostream& out) {
   out << "stage,step,time,eps1,eps2,eps3,epsv,s11,s22,s33,s12,s23,s13,p,q,q_p,void_ratio,Z,Z_m,"
          "sliding_fraction,rolling_fraction,inertial_number,unbalanced,kinetic,e_normal,e_shear,"
@@ -59,23 +43,24 @@ TriaxialRun::TriaxialRun(const Scene& scene, Simulation& sim, real_t mean_diamet
                          const TriaxialRun* parent)
     : scene_(scene), tx_(scene.triaxial), sim_(sim), d_mean_(mean_diameter), density_(density),
       series_(series), log_(log), l0_(sim.cell().lengths()) {
-  const MacroState& m = sim_.macro();
-  last_stress_ = m.stress;
-  if (parent) {  // a branch of the parent's simulation: the energy account continues
-    work_ = parent->work_;
-    e0_ = parent->e0_;
+  if (parent) {  // a branch of the parent's simulation: the account continues
+    in_pos_ = parent->in_pos_;
+    input_seen_ = parent->input_seen_;
     l0_ = parent->l0_;
   } else {
-    e0_ = m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
+    input_seen_ = sim_.macro().energy_input - sim_.energy_account().e0;
   }
 }
 
+void TriaxialRun::track_input(const MacroState& m) {
+  const real_t input = m.energy_input - sim_.energy_account().e0;  // boundary + gravity work
+  in_pos_ += std::max<real_t>(0, input - input_seen_);
+  input_seen_ = input;
+}
+
 real_t TriaxialRun::energy_error(const MacroState& m) const {
-  const Dissipation& d = m.dissipated;
-  const real_t stored = m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
-  const real_t spent = d.friction + d.rolling + d.viscous + d.local;
-  // Relative to the work done on the specimen since the simulation started.
-  return work_ > 0 ? (e0_ + work_ - stored - spent) / work_ : 0.0;
+  const real_t in = energy_in();
+  return in > 0 ? (m.energy_input - energy_books(m)) / in : 0.0;
 }
 
 void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
@@ -91,7 +76,7 @@ void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
                            m.void_ratio, m.coordination, m.mech_coordination,
                            real_t(m.sliding) / nc, real_t(m.rolling) / nc, inertial, m.unbalanced,
                            m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
-                           d.viscous, d.local, work_, energy_error(m), m.mean_overlap / d_mean_,
+                           d.viscous, d.local, sim_.boundary_work(), energy_error(m), m.mean_overlap / d_mean_,
                            m.max_overlap_ratio};
   if (output_) {
     static const std::string header = [] {
@@ -120,7 +105,6 @@ void TriaxialRun::fabric_row(Stage stage, const Vec3& eps) {
 StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
   using clock = std::chrono::steady_clock;
   static const char* names[] = {"consolidation", "equilibration", "shear"};
-  const real_t dt = sim_.params().dt;
   const real_t target = tx_.confining_pressure;
   Servo servo = stage == Stage::Shear
                     ? make_servo({false, true, true}, Vec3(-tx_.axial_strain_rate, 0, 0))
@@ -146,7 +130,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     last_servo = resume->last_servo;
     k = resume->k + 1;
   } else {
-    sim_.cell().set_strain_rate(servo.update(last_stress_, 0.0));
+    sim_.cell().set_strain_rate(update_servo(servo, stage, sim_.macro(), 0.0));
   }
   const std::int64_t k0 = k - 1;
   const auto t0 = clock::now();
@@ -155,19 +139,19 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
     if (k > tx_.max_stage_steps)
       throw CollectiveError(fmt::format(
           "{}: [triaxial] max_stage_steps = {}: the {} stage did not converge (last p = {:.6g} Pa, "
-          "unbalanced-force ratio {:.3g}); raise max_stage_steps, servo_gain or the damping",
-          scene_.path, tx_.max_stage_steps, names[int(stage)], res.state.p, res.state.unbalanced));
+          "target {:.6g} Pa, s11 {:.6g}, s22 {:.6g}, s33 {:.6g} Pa, unbalanced-force ratio {:.3g}; "
+          "servo {}); raise max_stage_steps or the damping",
+          scene_.path, tx_.max_stage_steps, names[int(stage)], res.state.p, target,
+          res.state.stress(0, 0), res.state.stress(1, 1), res.state.stress(2, 2),
+          res.state.unbalanced, servo.describe()));
     const bool out = k % scene_.output_every == 0;
     const bool measure = out || k % tx_.servo_interval == 0;
-    // Boundary work of this step: -V sum_i sigma_ii edot_i dt, with the latest stress.
-    const Vec3 rate = sim_.cell().strain_rate();
-    sim_.step(measure);
+    sim_.step(measure);  // the boundary work is the simulation's (Simulation::boundary_work)
     if (!sim_.step_guard().empty()) throw BlowUpError(sim_.step_guard());  // every step
-    work_ -= sim_.cell().volume() * (last_stress_.diagonal().dot(rate)) * dt;
     if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
     if (measure) {
       const MacroState& m = sim_.macro();
-      last_stress_ = m.stress;
+      track_input(m);
       res.state = m;
       const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap, scene_.kinetic_runaway);
       if (!bad.empty()) throw BlowUpError(bad);
@@ -186,7 +170,7 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       if (out) row(stage, m, eps);
       if (out && stage == Stage::Shear) fabric_row(stage, eps);
       if (out && row_check_) row_check_();
-      const Vec3 rates = servo.update(m.stress, sim_.time() - last_servo);
+      const Vec3 rates = update_servo(servo, stage, m, sim_.time() - last_servo);
       sim_.cell().set_strain_rate(rates);
       last_servo = sim_.time();
       // A servo that cannot follow the loading: a lateral axis at the rate cap while its stress
@@ -231,13 +215,25 @@ StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
       }
     }
     if (hook_)
-      hook_(StageCursor{stage, k, servo.integral(), last_servo, res, l0_, work_, e0_, last_stress_});
+      hook_(StageCursor{stage, k, servo.integral(), last_servo, res, l0_, in_pos_, input_seen_});
   }
 }
 
 Servo TriaxialRun::make_servo(std::array<bool, 3> axes, Vec3 fixed) const {
-  return Servo(tx_.confining_pressure, tx_.servo_gain, tx_.servo_integral_gain, tx_.max_strain_rate,
-               axes, fixed);
+  return Servo(tx_, real_t(tx_.servo_interval) * sim_.params().dt, axes, fixed);
+}
+
+Vec3 TriaxialRun::update_servo(Servo& servo, Stage stage, const MacroState& m, real_t elapsed) {
+  // Collective when needed: every rank takes the same decision from the reduced stress.
+  const Mat3 M = servo.needs_stiffness(m.stress) ? specimen_stiffness(sim_) : Mat3::Zero();
+  try {
+    return servo.update(m.stress, elapsed, M);
+  } catch (const ServoDivergence& e) {  // the same on every rank (reduced values only)
+    throw CollectiveError(fmt::format("{}: [triaxial] the {} stage stopped at step {}: {} (p = "
+                                      "{:.6g} Pa, target {:.6g} Pa; servo {})",
+                                      scene_.path, kStageNames[int(stage)], sim_.step_count(),
+                                      e.what(), m.p, tx_.confining_pressure, servo.describe()));
+  }
 }
 
 StageResult TriaxialRun::consolidate() {
@@ -266,17 +262,15 @@ StageResult TriaxialRun::shear() {
 StageCursor TriaxialRun::account() const {
   StageCursor a;
   a.l0 = l0_;
-  a.work = work_;
-  a.e0 = e0_;
-  a.last_stress = last_stress_;
+  a.input_positive = in_pos_;
+  a.input_seen = input_seen_;
   return a;
 }
 
 void TriaxialRun::set_account(const StageCursor& a) {
   l0_ = a.l0;
-  work_ = a.work;
-  e0_ = a.e0;
-  last_stress_ = a.last_stress;
+  in_pos_ = a.input_positive;
+  input_seen_ = a.input_seen;
 }
 
 StageResult TriaxialRun::resume(const StageCursor& at) {

@@ -6,6 +6,7 @@
 #pragma once
 #include "parallel/mpi_domain.hpp"
 #include "apps/fabric_output.hpp"
+#include "apps/servo.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
@@ -20,27 +21,6 @@
 namespace fabrica {
 
 class RunOutput;
-
-// The servo: a PI controller per axis. For the axes in 'servo', with e_k = (sigma_kk - target)
-// / target (compression-positive stress), edot_k = gain e_k + integral_gain I_k, capped at
-// +-cap (extension positive: a specimen above the target stress expands); I_k integrates e_k
-// over time except while the rate is capped (anti-windup). Other axes keep 'fixed'.
-class Servo {
- public:
-  Servo(real_t target, real_t gain, real_t integral_gain, real_t cap, std::array<bool, 3> axes,
-        Vec3 fixed)
-      : target_(target), kp_(gain), ki_(integral_gain), cap_(cap), axes_(axes), fixed_(fixed) {}
-  // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one.
-  Vec3 update(const Mat3& stress, real_t elapsed);
-  const Vec3& integral() const { return integral_; }    // for checkpoints
-  void set_integral(const Vec3& i) { integral_ = i; }
-
- private:
-  real_t target_, kp_, ki_, cap_;
-  std::array<bool, 3> axes_;
-  Vec3 fixed_;
-  Vec3 integral_ = Vec3::Zero();
-};
 
 struct TriaxialCase {
   std::string name;        // e.g. "mur_0.05"
@@ -57,7 +37,7 @@ struct StageResult {
   real_t peak_q_p = 0;
   real_t peak_eps1 = 0;
   real_t max_lateral_error = 0;
-  real_t max_energy_error = 0;   // over the stage, relative to the boundary work
+  real_t max_energy_error = 0;   // over the stage, relative to the energy put in (energy_in)
 };
 
 enum class TriaxialStage : std::int32_t { Consolidation, Equilibration, Shear };
@@ -70,9 +50,9 @@ struct StageCursor {
   Vec3 servo_integral = Vec3::Zero();
   real_t last_servo = 0;         // s, time of the last servo update
   StageResult result;            // so far
-  Vec3 l0 = Vec3::Zero();        // the run's strain reference, boundary work, initial energy
-  real_t work = 0, e0 = 0;
-  Mat3 last_stress = Mat3::Zero();
+  Vec3 l0 = Vec3::Zero();        // the run's strain reference
+  real_t input_positive = 0;     // J, energy_in() less the initial energy
+  real_t input_seen = 0;         // J, boundary + gravity work at the last measurement
 };
 
 // One run of the protocol: the series rows go to 'series' (rank 0's stream; others pass null).
@@ -92,9 +72,13 @@ class TriaxialRun {
   // Called on every rank after every series row (to check and agree that it was written).
   void on_row(std::function<void()> check) { row_check_ = std::move(check); }
 
-  real_t boundary_work() const { return work_; }
-  // The run's account (strain reference, boundary work, initial energy, last stress) in the
-  // fields of a cursor, and its restoration (the parent of the cases, on a restart).
+  real_t boundary_work() const { return sim_.boundary_work(); }
+  // The total energy put in [J]: the simulation's initial energy plus every positive increment
+  // of the boundary and gravity work between two measurements. It never decreases, so it can
+  // normalise the energy error of a specimen that unloads (the net work may pass through zero).
+  real_t energy_in() const { return sim_.energy_account().e0 + in_pos_; }
+  // The run's account (strain reference, energy put in) in the fields of a cursor, and its
+  // restoration (the parent of the cases, on a restart).
   StageCursor account() const;
   void set_account(const StageCursor& a);
 
@@ -117,7 +101,11 @@ class TriaxialRun {
   void row(Stage stage, const MacroState& m, const Vec3& eps);
   void fabric_row(Stage stage, const Vec3& eps);
   Servo make_servo(std::array<bool, 3> axes, Vec3 fixed) const;
+  // The servo's rates for measurement 'm' (collective: the specimen's stiffness is reduced).
+  Vec3 update_servo(Servo& servo, Stage stage, const MacroState& m, real_t elapsed);
+  // (energy put in - stored - dissipated) / energy_in(), from the simulation's one account.
   real_t energy_error(const MacroState& m) const;
+  void track_input(const MacroState& m);  // at every measurement: energy_in() grows
 
   const Scene& scene_;
   const TriaxialSpec& tx_;
@@ -126,9 +114,8 @@ class TriaxialRun {
   std::ostream* series_;
   std::ostream* log_;
   Vec3 l0_;          // cell lengths at the start of the current strain reference
-  real_t work_ = 0;  // boundary work done on the specimen since the start [J]
-  real_t e0_ = 0;    // kinetic + elastic energy at the start [J]
-  Mat3 last_stress_ = Mat3::Zero();
+  real_t in_pos_ = 0;      // J, sum of the positive increments of input_seen_
+  real_t input_seen_ = 0;  // J, boundary + gravity work at the last measurement
   std::function<void(const StageCursor&)> hook_;
   std::function<void()> row_check_;
   const FabricStreams* fabric_out_ = nullptr;

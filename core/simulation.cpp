@@ -23,9 +23,19 @@ Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams 
   domain_->adopt(p_, cell_, cutoff_max_, nullptr, holding);
   rebuild();
   compute(true, 0.0);  // initial forces: no time passes, so the springs must not advance
-  measure_and_reduce();
+  measure_and_reduce(Vec3::Zero());
   e0_ = macro_.kinetic + macro_.e_normal + macro_.e_shear + macro_.e_rolling;
   macro_.energy_input = e0_ + macro_.gravity_work;
+}
+
+EnergyAccount Simulation::energy_account() const {
+  EnergyAccount a;
+  a.e0 = e0_;
+  a.work = work_;
+  a.vol_strain = Vec3(volume_prev_, stress_known_ ? 1.0 : 0.0, 0.0);
+  a.stress_prev.diagonal() = stress_prev_;
+  a.gravity_work_local = gravity_work_local_;
+  return a;
 }
 
 namespace {
@@ -66,8 +76,9 @@ Simulation::Simulation(SimulationSnapshot s, Domain* domain)
                  s.holding, &carry_);
   e0_ = s.energy.e0;
   work_ = s.energy.work;
-  vol_strain_ = s.energy.vol_strain;
-  stress_prev_ = s.energy.stress_prev;
+  volume_prev_ = s.energy.vol_strain[0];
+  stress_known_ = s.energy.vol_strain[1] != 0;
+  stress_prev_ = s.energy.stress_prev.diagonal();
   gravity_work_local_ = s.energy.gravity_work_local;
   rebuild_lists();  // the saved run rebuilt at the saved positions: the same lists
   rebuilds_ = s.rebuilds;
@@ -84,7 +95,6 @@ void Simulation::step(bool measure) {
   }
   const Vec3 rate = cell_.strain_rate();
   drift_and_deform(p_, cell_, dt);
-  if (!rate.isZero()) vol_strain_ += cell_.volume() * dt * rate;
   clk.lap(&PhaseTimes::integrate);
   domain_->update_ghosts(p_);
   clk.lap(&PhaseTimes::ghost);
@@ -97,14 +107,22 @@ void Simulation::step(bool measure) {
     times_.rebuild -= last_migrate_seconds_;
     times_.migrate += last_migrate_seconds_;
   }
-  compute(measure, dt);
+  const bool strains = !rate.isZero();
+  compute(measure || strains, dt);  // a straining step needs the contact virial (boundary work)
   clk.lap(&PhaseTimes::force);
   half_kick(p_, dt);
   clk.lap(&PhaseTimes::integrate);
   if (measure) {
-    measure_and_reduce();
-    clk.lap(&PhaseTimes::reduce);
+    measure_and_reduce(rate * dt);
+  } else if (strains) {
+    double d[3] = {sums_.fb(0, 0), sums_.fb(1, 1), sums_.fb(2, 2)};
+    domain_->sum_all(std::span<double>(d, 3));
+    const real_t V = cell_.volume();
+    account_step(rate * dt, Vec3(d[0] / V, d[1] / V, d[2] / V));
+  } else {
+    stress_known_ = false;
   }
+  if (measure || strains) clk.lap(&PhaseTimes::reduce);
   times_.steps += timing_;
   ++step_;
   time_ += dt;
@@ -117,13 +135,23 @@ void Simulation::compute(bool measure, real_t dt) {
   if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, dt);
 }
 
-void Simulation::measure_and_reduce() {
+void Simulation::measure_and_reduce(const Vec3& strain_increment) {
   sums_.work_gravity = gravity_work_local_;
   macro_ = reduce_macro_state(p_, cell_, sums_, diss_, *domain_);
-  work_ -= 0.5 * (stress_prev_.diagonal() + macro_.stress.diagonal()).dot(vol_strain_);
-  vol_strain_.setZero();
-  stress_prev_ = macro_.stress;
+  account_step(strain_increment, macro_.stress.diagonal());
   macro_.energy_input = e0_ + work_ + macro_.gravity_work;
+}
+
+void Simulation::account_step(const Vec3& strain_increment, const Vec3& stress_end) {
+  const real_t V = cell_.volume();
+  const Vec3 end = V * stress_end;
+  if (!strain_increment.isZero()) {
+    const Vec3 start = stress_known_ ? Vec3(volume_prev_ * stress_prev_) : end;
+    work_ -= 0.5 * (start + end).dot(strain_increment);
+  }
+  stress_prev_ = stress_end;
+  volume_prev_ = V;
+  stress_known_ = true;
 }
 
 void Simulation::set_skin(real_t skin) {

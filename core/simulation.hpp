@@ -44,12 +44,15 @@ struct PhaseTimes {
 // (Simulation::rebuilt_last_step()): the lists are then a function of the positions and of the
 // springs of the touching contacts.
 // The energy account of a Simulation (see boundary_work() and MacroState::energy_input): a
-// checkpoint carries it so that a restarted run keeps one unbroken account.
+// checkpoint carries it so that a restarted run keeps one unbroken account. The field names are
+// those the checkpoint format stores (io/checkpoint.cpp); their meaning:
 struct EnergyAccount {
   real_t e0 = 0;                    // kinetic + elastic energy at construction [J]
-  real_t work = 0;                  // boundary work up to the last measuring step [J]
-  Vec3 vol_strain = Vec3::Zero();   // sum of V edot_k dt since the last measuring step [m^3]
-  Mat3 stress_prev = Mat3::Zero();  // stress of the last measuring step [Pa]
+  real_t work = 0;                  // boundary work up to the end of the last step [J]
+  // vol_strain = (V, known, 0): the cell volume [m^3] at the end of the last step whose stress
+  // is known (known = 1), or known = 0 when the last step neither strained the cell nor measured.
+  Vec3 vol_strain = Vec3::Zero();
+  Mat3 stress_prev = Mat3::Zero();  // that stress [Pa] (its diagonal is used)
   real_t gravity_work_local = 0;    // work of gravity on this rank's particles [J]
 };
 
@@ -113,14 +116,19 @@ class Simulation {
 
   // Energy put into the system since construction [J]: the kinetic and elastic energy at
   // construction, plus the boundary work of the deforming cell, plus the work of gravity.
-  // The boundary work is integrated between measuring steps as
-  //   W += -sum_k (sigma_kk(previous) + sigma_kk(now)) / 2 * sum_steps V edot_k dt
-  // (trapezoid in the two measured stresses), so it lags the true work at most by the change
-  // of stress over one measuring interval. Updated at measuring steps (macro().energy_input).
+  // The boundary work is integrated over every step in which the cell strains, with the stress
+  // at both ends of the step (trapezoid in the strain):
+  //   W += -sum_k (V sigma_kk(start) + V sigma_kk(end)) / 2 * edot_k dt
+  // where edot_k dt is the step's exact logarithmic strain increment (PeriodicCell::deform).
+  // For an affine elastic lattice it equals the change of the stored elastic energy to
+  // O((edot dt)^2) per step, at any measuring interval (tests/unit/test_energy_account.cpp). A
+  // straining step therefore sums the contact virial (the measuring kernel of the forces) and
+  // reduces its diagonal over the ranks (3 numbers), whether it measures or not; a step with
+  // the cell at rest costs nothing more. When the stress at the start of a straining step is
+  // unknown (the step before neither strained nor measured), the end stress stands for it.
+  // macro().energy_input is e0 + W + gravity work at measuring steps.
   real_t boundary_work() const { return work_; }
-  EnergyAccount energy_account() const {
-    return {e0_, work_, vol_strain_, stress_prev_, gravity_work_local_};
-  }
+  EnergyAccount energy_account() const;
   Domain& domain() { return *domain_; }
   const PairList& pairs() const { return pairs_; }
   const WallContactList& wall_contacts() const { return walls_; }
@@ -178,7 +186,10 @@ class Simulation {
   // dt (0 for the initial forces, which must not change the contact history).
   void compute(bool measure, real_t dt);
 
-  void measure_and_reduce();
+  void measure_and_reduce(const Vec3& strain_increment);  // of the step just done
+  // Adds the boundary work of the step just done (its strain increment edot dt, with the
+  // diagonal stress at its end and the one remembered from its start) and remembers the end.
+  void account_step(const Vec3& strain_increment, const Vec3& stress_end);
   // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
   void rebuild_lists();
 
@@ -198,11 +209,12 @@ class Simulation {
   real_t cutoff_max_ = 0;    // 2 Rmax + skin
   std::int64_t step_ = 0, rebuilds_ = 0;
   real_t time_ = 0;
-  // Energy account (see energy_input above).
+  // Energy account (see boundary_work above).
   real_t e0_ = 0;                       // kinetic + elastic energy at construction [J]
-  real_t work_ = 0;                     // boundary work up to the last measuring step [J]
-  Vec3 vol_strain_ = Vec3::Zero();      // sum of V edot_k dt since the last measuring step [m^3]
-  Mat3 stress_prev_ = Mat3::Zero();     // stress of the last measuring step [Pa]
+  real_t work_ = 0;                     // boundary work up to the end of the last step [J]
+  Vec3 stress_prev_ = Vec3::Zero();     // diagonal stress at the end of the last known step [Pa]
+  real_t volume_prev_ = 0;              // cell volume then [m^3]
+  bool stress_known_ = false;           // the last step (or the construction) knows it
   real_t gravity_work_local_ = 0;       // work of gravity on the owned particles [J]
   bool timing_ = false;
   bool rebuilt_last_ = true;

@@ -49,18 +49,29 @@ struct CompressSpec {
 // The periodic triaxial test of shared/spec/reference-problem.md section 4: servo-controlled
 // isotropic consolidation, a switch of contact parameters with re-equilibration, then
 // conventional triaxial compression along axis 1 with the lateral stresses held by the servo.
+// How the servo sets its gains (apps/servo.hpp): from the specimen's measured stiffness, or
+// fixed by the scene (the default when servo_gain or servo_integral_gain is given).
+enum class ServoMode { Stiffness, Gains };
+
 struct TriaxialSpec {
   bool enabled = false;
   real_t confining_pressure = 200e3;    // Pa
   real_t consolidation_friction = 1.0;  // mu_s while consolidating (mu_r = 0 then)
-  // Servo: a PI controller of each servo-controlled axis' strain rate on its relative stress
-  // error e = (sigma_ii - target) / target: edot_i = gain e + integral_gain int e dt, capped.
+  ServoMode servo = ServoMode::Stiffness;
+  // servo = "stiffness": each servo interval corrects this fraction of the stress error, with
+  // the gain derived from the specimen's stiffness (re-measured at every servo update), and the
+  // integral fraction of the summed past errors.
+  real_t servo_relaxation = 0.5;           // (0, 0.5]
+  real_t servo_integral_relaxation = 0.05; // [0, servo_relaxation]
+  // servo = "gains": a PI controller of each servo-controlled axis' strain rate on its relative
+  // stress error e = (sigma_ii - target) / target: edot_i = gain e + integral_gain int e dt.
   real_t servo_gain = 4.0;              // 1/s
   real_t servo_integral_gain = 2000.0;  // 1/s^2
   real_t max_strain_rate = 1.0;         // 1/s, cap of the servo's strain rates
   real_t stress_tolerance = 0.005;      // relative, to end consolidation / re-equilibration
   real_t unbalanced_tolerance = 1e-4;   // unbalanced-force ratio to end them
-  std::int64_t servo_interval = 5;      // steps between stress measurements of the servo
+  std::int64_t servo_interval = 2;      // steps between stress measurements of the servo (5 with
+                                        // servo = "gains", the interval its gains were tuned at)
   real_t axial_strain_rate = 0.5;       // 1/s, compression of axis 1 during shear
   real_t axial_strain = 0.25;           // eps_1 at the end of shear
   real_t preparation_damping = 0.7;     // local damping alpha while consolidating / equilibrating

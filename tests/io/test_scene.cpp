@@ -194,3 +194,30 @@ TEST(Scene, CountBeyondTheMachinesMemoryIsRefusedBeforeAllocation) {
       EXPECT_NE(m.find(f), std::string::npos) << "missing '" << f << "' in: " << m;
   }
 }
+
+// The servo's mode: "stiffness" by default (interval 2), "gains" when servo_gain or
+// servo_integral_gain is given (interval 5, as before); keys of the other mode are refused.
+TEST(Scene, ServoModeAndItsKeys) {
+  const Scene d = parse_scene("[triaxial]\n", "s.toml");
+  EXPECT_EQ(d.triaxial.servo, ServoMode::Stiffness);
+  EXPECT_EQ(d.triaxial.servo_interval, 2);
+  EXPECT_EQ(d.triaxial.servo_relaxation, 0.5);
+  EXPECT_EQ(d.triaxial.servo_integral_relaxation, 0.05);
+  const Scene g = parse_scene("[triaxial]\nservo_gain = 12.0\n", "s.toml");
+  EXPECT_EQ(g.triaxial.servo, ServoMode::Gains);
+  EXPECT_EQ(g.triaxial.servo_interval, 5);
+  EXPECT_EQ(g.triaxial.servo_gain, 12.0);
+  const Scene r = parse_scene("[triaxial]\nservo = \"stiffness\"\nservo_relaxation = 0.3\nservo_interval = 4\n", "s.toml");
+  EXPECT_EQ(r.triaxial.servo_relaxation, 0.3);
+  EXPECT_EQ(r.triaxial.servo_interval, 4);
+  expect_error("[triaxial]\nservo = \"pid\"\n", {"[triaxial]", "servo", "pid", "stiffness"});
+  expect_error("[triaxial]\nservo = \"stiffness\"\nservo_gain = 4.0\n", {"servo_gain", "gains"});
+  expect_error("[triaxial]\nservo_gain = 4.0\nservo_relaxation = 0.3\n", {"servo_relaxation", "stiffness"});
+  expect_error("[triaxial]\nservo_relaxation = 0.7\n", {"servo_relaxation", "0.7", "(0, 0.5]"});
+  expect_error("[triaxial]\nservo_integral_relaxation = 0.6\n", {"servo_integral_relaxation", "0.6"});
+}
+
+// A list of loading stages is refused by name, with what to use instead.
+TEST(Scene, StageListIsRefused) {
+  expect_error("[[stage]]\nkind = \"hold\"\n", {"[[stage]]", "not implemented", "[triaxial]"});
+}

@@ -1,0 +1,72 @@
+// The stress servo of the periodic cell: per axis, a strain rate that brings the axis' stress
+// sigma_kk (compression positive) to a target. Two ways to set its gain ([triaxial] servo):
+//
+//  "stiffness" (the default): the gain follows the specimen. At every update the stiffness of
+//    the specimen under the servo's own strain, S_k = sum_{l servo-controlled} M_kl with
+//      M_kl = (1/V) sum_c |d|^2 n_k n_l [(k_n - k_s) n_k n_l + k_s delta_kl]   (Pa)
+//    (the affine, sticking response d sigma_kk / d eps_l of the touching contacts: branch d,
+//    normal n, stiffnesses k_n, k_s; specimen_stiffness()), gives the rate that would correct
+//    the fraction 'relaxation' of the stress error within one servo interval T:
+//      edot_k = target (relaxation e_k + integral_relaxation I_k) / (S_k T),
+//    e_k = (sigma_kk - target) / target, I_k the sum of the past errors (anti-windup: not
+//    summed while the rate is capped). The affine stiffness bounds the specimen's true one
+//    from above, so the correction per interval never exceeds 'relaxation' of the error
+//    whatever E, k_n or N: the loop converges for any stiffness and size (as PFC's servo,
+//    which derives its gain from the contact stiffness and the number of contacts).
+//  "gains": edot_k = gain e_k + integral_gain int e_k dt, fixed by the scene. When its loop gain
+//    gain T S_k / target exceeds 2 and the error (above 5 %) has alternated in sign at 20
+//    updates in a row, the servo over-corrects and can never settle: the stage stops with what
+//    it saw (ServoDivergence: axis, error, gain, stiffness, loop gain, the largest stable gain).
+//
+// Both cap |edot_k| at max_strain_rate (extension positive: a specimen above the target
+// expands); axes not under control keep their fixed rate.
+#pragma once
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+#include <array>
+#include <stdexcept>
+#include <string>
+
+namespace fabrica {
+
+// M_kl of the header, over every rank's touching particle-particle contacts (collective: one
+// sum of 9 numbers). Zero without contacts.
+Mat3 specimen_stiffness(Simulation& sim);
+
+// The servo cannot converge (gains mode, loop gain above 2): the message says what it saw.
+class ServoDivergence : public std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class Servo {
+ public:
+  // 'interval' is the time between two updates [s] (servo_interval steps).
+  Servo(const TriaxialSpec& tx, real_t interval, std::array<bool, 3> axes, Vec3 fixed);
+  // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one, for
+  // the specimen stiffness 'M' (specimen_stiffness). Throws ServoDivergence (see the header).
+  Vec3 update(const Mat3& stress, real_t elapsed, const Mat3& M);
+  // Whether update() reads M for this stress: always with "stiffness"; with "gains" only when
+  // an error above 5 % has changed sign (the over-correction check), so that fixed gains cost
+  // no contact loop otherwise. The same on every rank (reduced stress).
+  bool needs_stiffness(const Mat3& stress) const;
+  const Vec3& integral() const { return integral_; }  // for checkpoints
+  void set_integral(const Vec3& i) { integral_ = i; }
+  // At the last update, for messages: the gain of each axis in 1/s (rate per unit relative
+  // error) and the last stiffness S_k it saw [Pa] (with "gains": 0 until it first needed one).
+  const Vec3& gain() const { return gain_; }
+  const Vec3& stiffness() const { return stiffness_; }
+  std::string describe() const;  // "gain (g1, g2, g3) 1/s, stiffness (S1, S2, S3) Pa"
+
+ private:
+  ServoMode mode_;
+  real_t target_, kp_, ki_, cap_, relax_, irelax_, interval_;
+  std::array<bool, 3> axes_;
+  Vec3 fixed_;
+  Vec3 integral_ = Vec3::Zero();
+  Vec3 gain_ = Vec3::Zero(), stiffness_ = Vec3::Zero();
+  Vec3 last_error_ = Vec3::Zero();  // gains mode: the over-correction check (not checkpointed:
+  std::array<int, 3> flips_{};      // a restart counts its 20 updates afresh)
+};
+
+}  // namespace fabrica
