@@ -37,9 +37,12 @@ int size() {
   return s;
 }
 
-// A directory shared by the ranks (named by rank 0), empty at the start.
+// A directory shared by the ranks, empty at the start: under the working directory (ctest's is
+// this build's tests/io), not the shared /tmp, where another build's run of the same test on the
+// same machine emptied or filled it under this one (seen with a sanitizer build beside a
+// release build).
 std::string fresh_dir(const std::string& name) {
-  const std::string d = (fs::temp_directory_path() / ("fabrica-" + name + "-np" + std::to_string(size()))).string();
+  const std::string d = (fs::current_path() / ("fabrica-" + name + "-np" + std::to_string(size()))).string();
   if (rank() == 0) {
     fs::remove_all(d);
     fs::create_directories(d);
