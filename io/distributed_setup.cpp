@@ -4,8 +4,10 @@
 #include "core/generate.hpp"
 #include "core/neighbor.hpp"
 #include "core/timestep.hpp"
+#include "io/errors.hpp"
 #include "io/lammps_data.hpp"
 #include "io/memory_check.hpp"
+#include "parallel/byte_buffer.hpp"
 #include "parallel/exchange.hpp"
 #include "parallel/guard.hpp"
 
@@ -23,27 +25,6 @@
 namespace fabrica {
 
 namespace {
-
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
-
-template <class T>
-void put(std::vector<char>& buf, const T& v) {
-  const std::size_t n = buf.size();
-  buf.resize(n + sizeof(T));
-  std::memcpy(buf.data() + n, &v, sizeof(T));
-}
-template <class T>
-T get(const char*& in) {
-  T v;
-  std::memcpy(static_cast<void*>(&v), in, sizeof(T));
-  in += sizeof(T);
-  return v;
-}
 
 // What a rank read of the body, travelling to the directory rank of its id.
 struct AtomLine {
@@ -288,10 +269,10 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
       for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
         for (int k = 0; k < 3; ++k)
           if (s.particles.x[a][k] < 0 || s.particles.x[a][k] > L[k])
-            throw InputError(sc.path + ": [cell] size = [" + num(L[0]) + ", " + num(L[1]) + ", " +
-                             num(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
+            throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
+                             number_text(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
                              " of " + sc.data_file + " lies outside the cell (coordinate " +
-                             std::to_string(k + 1) + " = " + num(s.particles.x[a][k] + df.lo[k]) + ")");
+                             std::to_string(k + 1) + " = " + number_text(s.particles.x[a][k] + df.lo[k]) + ")");
     });
     double rmin = s.particles.n_owned() ? s.particles.min_radius() : 1e300;
     MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);

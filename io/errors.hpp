@@ -1,5 +1,6 @@
 // Errors in user input. Every message names the file, the field (or line) and the value.
 #pragma once
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -9,5 +10,13 @@ class InputError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// A value as the messages show it: 6 significant digits.
+inline std::string number_text(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
+}
 
 }  // namespace fabrica

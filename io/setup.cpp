@@ -6,6 +6,7 @@
 #include "core/generate.hpp"
 #include "core/neighbor.hpp"
 #include "core/timestep.hpp"
+#include "io/errors.hpp"
 #include "io/lammps_data.hpp"
 
 #include <algorithm>
@@ -17,27 +18,18 @@
 
 namespace fabrica {
 
-namespace {
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
-}  // namespace
-
 real_t scene_time_step(const Scene& sc, real_t critical_dt) {
   const std::string where = sc.path + ": [run] ";
   if (sc.time_step) {
     if (*sc.time_step > critical_dt && !sc.force_time_step)
-      throw InputError(where + "time_step = " + num(*sc.time_step) +
-                       " s exceeds the critical estimate " + num(critical_dt) +
+      throw InputError(where + "time_step = " + number_text(*sc.time_step) +
+                       " s exceeds the critical estimate " + number_text(critical_dt) +
                        " s; lower it or set force_time_step = true");
     return *sc.time_step;
   }
   if (sc.time_step_fraction > 1.0 && !sc.force_time_step)
-    throw InputError(where + "time_step_fraction = " + num(sc.time_step_fraction) +
-                     " is above 1 (critical estimate " + num(critical_dt) +
+    throw InputError(where + "time_step_fraction = " + number_text(sc.time_step_fraction) +
+                     " is above 1 (critical estimate " + number_text(critical_dt) +
                      " s); lower it or set force_time_step = true");
   return sc.time_step_fraction * critical_dt;
 }
@@ -84,7 +76,7 @@ PeriodicCell region_cell(const Scene& sc, RegionCut& cut, real_t solid_volume) {
   const GenerateSpec& g = sc.generate;
   const Vec3 L = sc.cell_size ? *sc.cell_size
                               : Vec3(g.aspect * std::cbrt(solid_volume / g.solid_fraction / g.aspect.prod()));
-  check_neighbour_grid(sc.path + ": [particles] d_min = " + num(g.d_min), L, 0.5 * g.d_min, sc.skin);
+  check_neighbour_grid(sc.path + ": [particles] d_min = " + number_text(g.d_min), L, 0.5 * g.d_min, sc.skin);
   PeriodicCell cell(L);
   check_cell_size(cell, 0.5 * g.d_max, sc.skin);
   cut.grid = RegionGrid(cut.spec, cut.expected, L);  // the same cut, the real cell's sides
@@ -97,8 +89,8 @@ std::string overlap_message(const Scene& sc, const OverlapReport& ov) {
                                : sc.path + ": [particles] (generated, seed " +
                                      std::to_string(sc.generate.seed) + ")";
   return from + ": particles " + std::to_string(ov.a) + " and " + std::to_string(ov.b) +
-         " overlap by " + num(ov.ratio) + " of the smaller radius (" + num(ov.overlap) +
-         " m), above " + sc.path + ": [run] max_initial_overlap = " + num(sc.max_initial_overlap) +
+         " overlap by " + number_text(ov.ratio) + " of the smaller radius (" + number_text(ov.overlap) +
+         " m), above " + sc.path + ": [run] max_initial_overlap = " + number_text(sc.max_initial_overlap) +
          "; fix the specimen (a bad generation or data file) or raise the limit";
 }
 
@@ -112,10 +104,10 @@ Setup make_setup(const Scene& sc) {
     for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
       for (int k = 0; k < 3; ++k)
         if (s.particles.x[a][k] < 0 || s.particles.x[a][k] > L[k])
-          throw InputError(sc.path + ": [cell] size = [" + num(L[0]) + ", " + num(L[1]) + ", " +
-                           num(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
+          throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
+                           number_text(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
                            " of " + sc.data_file + " lies outside the cell (coordinate " +
-                           std::to_string(k + 1) + " = " + num(s.particles.x[a][k] + df.lo[k]) + ")");
+                           std::to_string(k + 1) + " = " + number_text(s.particles.x[a][k] + df.lo[k]) + ")");
     check_neighbour_grid(sc.data_file, L, s.particles.min_radius(), sc.skin);
     s.cell = PeriodicCell(L);
   } else {
@@ -153,7 +145,7 @@ Setup make_setup(const Scene& sc) {
       const real_t V = vs / g.solid_fraction;
       L = g.aspect * std::cbrt(V / g.aspect.prod());
     }
-    check_neighbour_grid(sc.path + ": [particles] d_min = " + num(g.d_min), L, 0.5 * g.d_min, sc.skin);
+    check_neighbour_grid(sc.path + ": [particles] d_min = " + number_text(g.d_min), L, 0.5 * g.d_min, sc.skin);
     s.cell = PeriodicCell(L);
     try {
       check_cell_size(s.cell, 0.5 * g.d_max, sc.skin);

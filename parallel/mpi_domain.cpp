@@ -1,5 +1,6 @@
 #include "parallel/mpi_domain.hpp"
 
+#include "parallel/byte_buffer.hpp"
 #include "parallel/properties.hpp"
 
 #include <algorithm>
@@ -20,20 +21,6 @@ struct HistoryRecord {
   GlobalId a, b;
   ContactHistory h;
 };
-
-template <class T>
-void put(std::vector<char>& buf, const T& v) {
-  const std::size_t s = buf.size();
-  buf.resize(s + sizeof(T));
-  std::memcpy(buf.data() + s, &v, sizeof(T));
-}
-template <class T>
-T get(const char*& in) {
-  T v;
-  std::memcpy(static_cast<void*>(&v), in, sizeof(T));
-  in += sizeof(T);
-  return v;
-}
 
 }  // namespace
 
