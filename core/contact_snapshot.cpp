@@ -5,12 +5,12 @@
 
 namespace fabrica {
 
-std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell,
-                                           const ContactLawParams& law, const PairList& pairs) {
+void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
+                             const ContactLawParams& law, const PairList& pairs,
+                             const std::function<void(const ContactRecord&)>& fn) {
   std::array<Vec3, 27> shift;
   for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
   const bool rolling = law.rolling() && pairs.mr.size() == pairs.size();
-  std::vector<ContactRecord> out;
   for (std::size_t q = 0; q < pairs.size(); ++q) {
     const Index i = pairs.i[q], j = pairs.j[q];
     if (!pairs.touching[q] || std::size_t(i) >= p.n_owned()) continue;
@@ -37,8 +37,14 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
     } else {
       c.rolling = true;  // no rolling resistance: every contact rolls freely (spec section 5)
     }
-    out.push_back(c);
+    fn(c);
   }
+}
+
+std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell,
+                                           const ContactLawParams& law, const PairList& pairs) {
+  std::vector<ContactRecord> out;
+  for_each_contact_record(p, cell, law, pairs, [&](const ContactRecord& c) { out.push_back(c); });
   return out;
 }
 

@@ -12,6 +12,7 @@
 #include "core/contact_list.hpp"
 #include "core/particles.hpp"
 
+#include <functional>
 #include <vector>
 
 namespace fabrica {
@@ -36,5 +37,10 @@ struct ContactRecord {
 // This rank's records (see above). 'law' must be the law of the step that produced the springs.
 std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell,
                                            const ContactLawParams& law, const PairList& pairs);
+// The same records, one at a time and in the same order, without holding them all (snapshots
+// of large specimens).
+void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
+                             const ContactLawParams& law, const PairList& pairs,
+                             const std::function<void(const ContactRecord&)>& fn);
 
 }  // namespace fabrica

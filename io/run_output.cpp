@@ -1,9 +1,8 @@
 #include "io/run_output.hpp"
 
-#include "core/contact_snapshot.hpp"
-#include "core/exact_sum.hpp"
 #include "io/layout.hpp"
 #include "io/snapshot.hpp"
+#include "io/snapshot_writer.hpp"
 #include "io/verify.hpp"
 #include "io/version.hpp"
 #include "io/write_check.hpp"
@@ -51,80 +50,6 @@ std::vector<std::string> split_csv(const std::string& line) {
     r.push_back(c);
   }
   return r;
-}
-
-// Plain records for the MPI exchange (Eigen vectors are not trivially copyable).
-struct PartRec {
-  std::int64_t id;
-  double x[3], v[3], w[3], r;
-};
-struct ContRec {
-  std::int64_t id1, id2;
-  double normal[3], branch[3], overlap, fn, ft[3], mr[3];
-  std::uint8_t sliding, rolling;
-  double x1[3];  // centre of body 1, filled after the exchange (for the XDMF line cells)
-};
-
-void put(double* d, const Vec3& v) { d[0] = v[0], d[1] = v[1], d[2] = v[2]; }
-
-// Sends each record to the rank that owns its key's slice of [lo, hi] (one MPI_Alltoallv of
-// bytes). Before: any distribution. After: this rank holds every record whose key falls in
-// its slice, in no particular order.
-template <class Rec, class Key>
-std::vector<Rec> redistribute(MPI_Comm comm, int size, const std::vector<Rec>& recs, std::int64_t lo,
-                              std::int64_t hi, Key key) {
-  const double span = double(hi - lo + 1);
-  auto dest = [&](std::int64_t k) {
-    return std::min(size - 1, int(double(k - lo) * size / span));
-  };
-  std::vector<int> scount(size, 0), rcount(size), sdisp(size, 0), rdisp(size, 0);
-  for (const Rec& r : recs) scount[dest(key(r))] += int(sizeof(Rec));
-  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
-  for (int k = 1; k < size; ++k) {
-    sdisp[k] = sdisp[k - 1] + scount[k - 1];
-    rdisp[k] = rdisp[k - 1] + rcount[k - 1];
-  }
-  std::vector<Rec> send(recs.size());
-  std::vector<int> fill = sdisp;
-  for (const Rec& r : recs) {
-    const int d = dest(key(r));
-    std::memcpy(reinterpret_cast<char*>(send.data()) + fill[d], &r, sizeof(Rec));
-    fill[d] += int(sizeof(Rec));
-  }
-  std::vector<Rec> recv(std::size_t(rdisp[size - 1] + rcount[size - 1]) / sizeof(Rec));
-  MPI_Alltoallv(send.data(), scount.data(), sdisp.data(), MPI_BYTE, recv.data(), rcount.data(),
-                rdisp.data(), MPI_BYTE, comm);
-  return recv;
-}
-
-// This rank's first row and the total number of rows, for 'n' rows here (ranks in order).
-std::pair<hsize_t, hsize_t> slab(MPI_Comm comm, std::size_t n) {
-  long long mine = (long long)n, before = 0, total = 0;
-  MPI_Exscan(&mine, &before, 1, MPI_LONG_LONG, MPI_SUM, comm);
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  if (rank == 0) before = 0;  // MPI_Exscan leaves rank 0's result undefined
-  MPI_Allreduce(&mine, &total, 1, MPI_LONG_LONG, MPI_SUM, comm);
-  return {hsize_t(before), hsize_t(total)};
-}
-
-// Writes one column of records (rows [row0, row0 + n) of 'total') as a new dataset of T.
-template <class T>
-h5::Type type_of() {
-  if constexpr (std::is_same_v<T, double>) return h5::Type::F64;
-  else if constexpr (std::is_same_v<T, std::int64_t>) return h5::Type::I64;
-  else return h5::Type::U8;
-}
-template <class T, class Rec, class Get>
-double write_column(const h5::Group& g, const std::string& name, const std::string& unit, hsize_t cols,
-                    const std::vector<Rec>& recs, hsize_t row0, hsize_t total, Get get) {
-  h5::Dataset d = g.create_dataset(name, type_of<T>(), total, cols);
-  d.set_attr("unit", unit);
-  const std::size_t w = std::max<hsize_t>(cols, 1);
-  std::vector<T> buf(recs.size() * w);
-  for (std::size_t i = 0; i < recs.size(); ++i) get(recs[i], &buf[i * w]);
-  if (total > 0) d.write_rows(type_of<T>(), row0, recs.size(), buf.data(), true);  // same on all ranks
-  return double(total * w * sizeof(T));
 }
 
 std::string xml_escape(const std::string& s) {
@@ -418,62 +343,8 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   const auto t0 = clock_type::now();
   const std::string gp = layout::snapshot_path(case_name, sim.step_count());
   if (file_.exists(gp)) return;  // same answer on every rank
-  const Particles& p = sim.particles();
-  std::vector<PartRec> parts(p.n_owned());
-  std::int64_t lo = std::numeric_limits<std::int64_t>::max(), hi = std::numeric_limits<std::int64_t>::min();
-  for (std::size_t i = 0; i < p.n_owned(); ++i) {
-    PartRec& r = parts[i];
-    r.id = p.id[i];
-    put(r.x, p.x[i]), put(r.v, p.v[i]), put(r.w, p.w[i]);
-    r.r = p.radius[i];
-    lo = std::min(lo, r.id), hi = std::max(hi, r.id);
-  }
-  MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_INT64_T, MPI_MIN, comm_);
-  MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_INT64_T, MPI_MAX, comm_);
-  if (hi < lo) lo = hi = 0;  // no particles at all
-  std::vector<ContRec> conts;
-  for (const ContactRecord& c : contact_records(p, sim.cell(), sim.params().law, sim.pairs())) {
-    ContRec r{};
-    r.id1 = c.id1, r.id2 = c.id2;
-    put(r.normal, c.normal), put(r.branch, c.branch), put(r.ft, c.ft), put(r.mr, c.mr);
-    r.overlap = c.overlap, r.fn = c.fn;
-    r.sliding = c.sliding, r.rolling = c.rolling;
-    conts.push_back(r);
-  }
-  if (size_ > 1) {
-    parts = redistribute(comm_, size_, parts, lo, hi, [](const PartRec& r) { return r.id; });
-    conts = redistribute(comm_, size_, conts, lo, hi, [](const ContRec& r) { return r.id1; });
-  }
-  std::sort(parts.begin(), parts.end(), [](const PartRec& a, const PartRec& b) { return a.id < b.id; });
-  std::sort(conts.begin(), conts.end(), [](const ContRec& a, const ContRec& b) {
-    return a.id1 != b.id1 ? a.id1 < b.id1 : a.id2 < b.id2;
-  });
-  // Body 1 of every contact is here: particles and contacts went by the same id slices (by id
-  // and id1). Its centre is the first end of the contact's line cell in the XDMF sidecar.
-  for (ContRec& r : conts) {
-    const auto it = std::lower_bound(parts.begin(), parts.end(), r.id1,
-                                     [](const PartRec& a, std::int64_t id) { return a.id < id; });
-    if (it == parts.end() || it->id != r.id1)
-      throw std::logic_error("RunOutput::snapshot: body 1 of a contact is not on its rank");
-    std::copy(it->x, it->x + 3, r.x1);
-  }
-  // Strong contacts: f_n > strong_ratio x the mean f_n of all contacts, the threshold of the
-  // fabric analysis (core/fabric.cpp), with the same exact sum, so the same on any number of ranks.
-  double strong_threshold = 0;
-  {
-    ExactSums s(1);
-    for (const ContRec& r : conts) s.add(0, r.fn);
-    s.normalize();
-    std::vector<std::int64_t> buf(s.words().begin(), s.words().end());
-    buf.push_back(std::int64_t(conts.size()));
-    MPI_Allreduce(MPI_IN_PLACE, buf.data(), int(buf.size()), MPI_INT64_T, MPI_SUM, comm_);
-    std::copy(buf.begin(), buf.end() - 1, s.words().begin());
-    s.normalize();
-    if (buf.back() > 0) strong_threshold = strong_ratio_ * (s.value(0) / double(buf.back()));
-  }
-
-  const auto [p0, np] = slab(comm_, parts.size());
-  const auto [c0, nc] = slab(comm_, conts.size());
+  const SnapshotWriter writer(comm_, sim, strong_ratio_);
+  const hsize_t np = hsize_t(writer.particles()), nc = hsize_t(writer.contacts());
   // Room on the disk for the snapshot first (data, HDF5's objects for it, the file's metadata
   // flushed after it): a write that fails part-way would leave run.h5 unreadable (its superblock
   // would name an end of file that never reached the disk), so a snapshot that cannot fit is
@@ -498,52 +369,23 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   g.set_attr("particles", std::int64_t(np));
   g.set_attr("contacts", std::int64_t(nc));
 
-  h5::Group pg = g.create_group("particles");
-  double bytes = 0;
-  bytes += write_column<std::int64_t>(pg, "id", "1", 0, parts, p0, np, [](const PartRec& r, std::int64_t* d) { *d = r.id; });
-  bytes += write_column<double>(pg, "position", "m", 3, parts, p0, np,
-                        [](const PartRec& r, double* d) { std::copy(r.x, r.x + 3, d); });
-  bytes += write_column<double>(pg, "velocity", "m/s", 3, parts, p0, np,
-                        [](const PartRec& r, double* d) { std::copy(r.v, r.v + 3, d); });
-  bytes += write_column<double>(pg, "spin", "rad/s", 3, parts, p0, np,
-                        [](const PartRec& r, double* d) { std::copy(r.w, r.w + 3, d); });
-  bytes += write_column<double>(pg, "radius", "m", 0, parts, p0, np, [](const PartRec& r, double* d) { *d = r.r; });
-
-  h5::Group cg = g.create_group("contacts");
-  bytes += write_column<std::int64_t>(cg, "id1", "1", 0, conts, c0, nc, [](const ContRec& r, std::int64_t* d) { *d = r.id1; });
-  bytes += write_column<std::int64_t>(cg, "id2", "1", 0, conts, c0, nc, [](const ContRec& r, std::int64_t* d) { *d = r.id2; });
-  bytes += write_column<double>(cg, "normal", "1", 3, conts, c0, nc,
-                        [](const ContRec& r, double* d) { std::copy(r.normal, r.normal + 3, d); });
-  bytes += write_column<double>(cg, "branch", "m", 3, conts, c0, nc,
-                        [](const ContRec& r, double* d) { std::copy(r.branch, r.branch + 3, d); });
-  bytes += write_column<double>(cg, "overlap", "m", 0, conts, c0, nc, [](const ContRec& r, double* d) { *d = r.overlap; });
-  bytes += write_column<double>(cg, "fn", "N", 0, conts, c0, nc, [](const ContRec& r, double* d) { *d = r.fn; });
-  bytes += write_column<double>(cg, "ft", "N", 3, conts, c0, nc,
-                        [](const ContRec& r, double* d) { std::copy(r.ft, r.ft + 3, d); });
-  bytes += write_column<double>(cg, "mr", "N m", 3, conts, c0, nc,
-                        [](const ContRec& r, double* d) { std::copy(r.mr, r.mr + 3, d); });
-  bytes += write_column<std::uint8_t>(cg, "sliding", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.sliding; });
-  bytes += write_column<std::uint8_t>(cg, "rolling", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.rolling; });
-  // For the contacts' XDMF sidecar (line cells): the strong flag, |f_t|, |m_r| and both ends.
-  bytes += write_column<std::uint8_t>(cg, "strong", "bool", 0, conts, c0, nc,
-                        [&](const ContRec& r, std::uint8_t* d) { *d = r.fn > strong_threshold; });
-  bytes += write_column<double>(cg, "ft_norm", "N", 0, conts, c0, nc,
-                        [](const ContRec& r, double* d) { *d = std::sqrt(r.ft[0] * r.ft[0] + r.ft[1] * r.ft[1] + r.ft[2] * r.ft[2]); });
-  bytes += write_column<double>(cg, "mr_norm", "N m", 0, conts, c0, nc,
-                        [](const ContRec& r, double* d) { *d = std::sqrt(r.mr[0] * r.mr[0] + r.mr[1] * r.mr[1] + r.mr[2] * r.mr[2]); });
-  bytes += write_column<double>(cg, "ends", "m", 6, conts, c0, nc, [](const ContRec& r, double* d) {
-    for (int k = 0; k < 3; ++k) d[k] = r.x1[k], d[3 + k] = r.x1[k] + r.branch[k];
-  });
+  double bytes = writer.write(g);
   const std::int64_t need = std::max(std::int64_t(np), 2 * std::int64_t(nc));
   if (need > vertices_) {  // same on every rank: extend the XDMF connectivity
     h5::Dataset vd = file_.open_dataset(layout::kVertexIndex);
     vd.extend(hsize_t(need));
+    // Rank 0 writes the new values 0, 1, 2, ... in blocks of a bounded size (every rank takes
+    // part in each collective write, the others with no rows).
+    constexpr std::int64_t kBlock = std::int64_t(1) << 18;
     std::vector<std::int64_t> idx;
-    if (rank_ == 0)
-      for (std::int64_t k = vertices_; k < need; ++k) idx.push_back(k);
-    std::int64_t none = 0;  // a valid pointer for the empty selections
-    vd.write_rows(h5::Type::I64, hsize_t(vertices_), idx.size(), idx.empty() ? &none : idx.data(), true);
-    bytes += double(idx.size() * sizeof(std::int64_t));
+    for (std::int64_t first = vertices_; first < need; first += kBlock) {
+      const std::int64_t n = std::min(kBlock, need - first);
+      idx.assign(rank_ == 0 ? std::size_t(n) : 1, 0);  // a valid pointer for the empty selections
+      if (rank_ == 0)
+        for (std::int64_t k = 0; k < n; ++k) idx[std::size_t(k)] = first + k;
+      vd.write_rows(h5::Type::I64, hsize_t(first), rank_ == 0 ? hsize_t(n) : 0, idx.data(), true);
+    }
+    bytes += double(need - vertices_) * double(sizeof(std::int64_t));
     vertices_ = need;
   }
   bytes_ += bytes;

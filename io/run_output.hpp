@@ -5,10 +5,9 @@
 //   /snapshots/<case>/<step>/contacts/{id1,id2,normal,branch,overlap,fn,ft,mr,sliding,rolling,
 //                                      strong,ft_norm,mr_norm,ends}
 //   /series/<case>/<column>          the macro series, one extendible dataset per CSV column
-// Snapshots are stored in global id order whatever the number of ranks: each rank sends its
-// particles (and the contacts whose id1 it owns) to the rank owning that slice of the id range
-// (one MPI_Alltoallv), sorts them and writes one contiguous hyperslab; nothing is gathered on
-// one rank. Every member function is collective: every rank calls it with the same arguments.
+// Snapshots are stored in global id order whatever the number of ranks, written in rounds of a
+// bounded size by io/snapshot_writer.hpp; nothing is gathered on one rank.
+// Every member function is collective: every rank calls it with the same arguments.
 #pragma once
 #include "core/simulation.hpp"
 #include "io/h5.hpp"
