@@ -279,16 +279,25 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   g.mat3("energy.stress_prev", ea.stress_prev);
   add_fields(prefix + ".global", g);
 
-  std::string parts;
-  write_particles(sim.particles(), parts);
-  staged_.push_back({prefix + ".particles", SectionKind::Distributed,
-                     std::uint32_t(particle_record_bytes()), std::move(parts)});
-  std::string contacts;
-  sim.for_each_contact([&](GlobalId a, GlobalId b, const ContactHistory& h) {
-    write_contact(a, b, h, contacts);
-  });
-  staged_.push_back({prefix + ".contacts", SectionKind::Distributed,
-                     std::uint32_t(contact_record_bytes()), std::move(contacts)});
+  Staged parts{prefix + ".particles", SectionKind::Distributed,
+               std::uint32_t(particle_record_bytes()), {}};
+  parts.records = sim.particles().n_owned();
+  parts.produce = [&sim](std::uint64_t first, std::uint64_t n, std::string& out) {
+    write_particles(sim.particles(), std::size_t(first), std::size_t(n), out);
+  };
+  staged_.push_back(std::move(parts));
+  Staged contacts{prefix + ".contacts", SectionKind::Distributed,
+                  std::uint32_t(contact_record_bytes()), {}};
+  sim.for_each_contact([&](GlobalId, GlobalId, const ContactHistory&) { ++contacts.records; });
+  // Records [first, first + n) of the contacts in for_each_contact's order (one pass each).
+  contacts.produce = [&sim](std::uint64_t first, std::uint64_t n, std::string& out) {
+    std::uint64_t k = 0;
+    sim.for_each_contact([&](GlobalId a, GlobalId b, const ContactHistory& h) {
+      if (k >= first && k < first + n) write_contact(a, b, h, out);
+      ++k;
+    });
+  };
+  staged_.push_back(std::move(contacts));
   FieldWriter d;
   write_dissipation(d, sim.dissipation());
   staged_.push_back({prefix + ".dissipation", SectionKind::PerRank, 32, d.take_bytes()});
@@ -302,7 +311,7 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
   if (ns > kMaxSections) throw std::logic_error("checkpoint: too many sections");
   // Sizes of every rank's blocks, and the offsets that follow.
   std::vector<std::uint64_t> mine(ns), all(ns * std::size_t(size_));
-  for (std::size_t s = 0; s < ns; ++s) mine[s] = staged_[s].local.size();
+  for (std::size_t s = 0; s < ns; ++s) mine[s] = staged_[s].bytes();
   MPI_Allgather(mine.data(), int(ns), MPI_UINT64_T, all.data(), int(ns), MPI_UINT64_T, comm_);
   std::vector<std::uint64_t> my_offset(ns);
   head_.sections.clear();
@@ -325,16 +334,10 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
   head_.file_bytes = at + kTrailerBytes;
   const std::string header = encode_header(head_);
 
-  // Checksum: each rank its blocks (rank 0 the header and global sections).
+  // Checksum: each rank its blocks (rank 0 the header and global sections), summed over the
+  // ranks once every block is written.
   std::uint64_t part = 0;
   if (rank_ == 0) part += checksum(header.data(), header.size(), 0);
-  for (std::size_t s = 0; s < ns; ++s)
-    if (staged_[s].kind != SectionKind::Global || rank_ == 0)
-      part += checksum(staged_[s].local.data(), staged_[s].local.size(), my_offset[s]);
-  std::uint64_t sum = 0;
-  MPI_Reduce(&part, &sum, 1, MPI_UINT64_T, MPI_SUM, 0, comm_);  // unsigned: modulo 2^64
-  std::string trailer(kEndMagic, 8);
-  put_le(trailer, sum, 8);
   const std::string tmp = path + ".tmp";
   MPI_File fh;
   check_mpi(MPI_File_open(comm_, tmp.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &fh),
@@ -363,9 +366,35 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
   try {
     check_mpi(MPI_File_set_size(fh, 0), comm_, "truncate " + tmp, path);
     write_at(0, header, rank_ == 0, "header");
-    for (std::size_t s = 0; s < ns; ++s)
-      write_at(my_offset[s], staged_[s].local, staged_[s].kind != SectionKind::Global || rank_ == 0,
-               staged_[s].name);
+    for (std::size_t s = 0; s < ns; ++s) {
+      const Staged& st = staged_[s];
+      const bool mine_to_write = st.kind != SectionKind::Global || rank_ == 0;
+      if (!st.produce) {
+        write_at(my_offset[s], st.local, mine_to_write, st.name);
+        if (mine_to_write) part += checksum(st.local.data(), st.local.size(), my_offset[s]);
+        continue;
+      }
+      // Block by block; every rank takes part in as many collective writes as the rank with
+      // the most blocks (the others with none left write nothing).
+      std::uint64_t blocks = (st.records + block_records_ - 1) / block_records_;
+      MPI_Allreduce(MPI_IN_PLACE, &blocks, 1, MPI_UINT64_T, MPI_MAX, comm_);
+      std::string block;
+      for (std::uint64_t b = 0; b < blocks; ++b) {
+        const std::uint64_t first = std::min(st.records, b * block_records_);
+        const std::uint64_t n = std::min(block_records_, st.records - first);
+        block.clear();
+        st.produce(first, n, block);
+        if (block.size() != n * st.record_bytes)
+          throw std::logic_error("checkpoint: section " + st.name + " changed while it was written");
+        const std::uint64_t offset = my_offset[s] + first * st.record_bytes;
+        write_at(offset, block, true, st.name);
+        part += checksum(block.data(), block.size(), offset);
+      }
+    }
+    std::uint64_t sum = 0;
+    MPI_Reduce(&part, &sum, 1, MPI_UINT64_T, MPI_SUM, 0, comm_);  // unsigned: modulo 2^64
+    std::string trailer(kEndMagic, 8);
+    put_le(trailer, sum, 8);
     write_at(at, trailer, rank_ == 0, "trailer");
     check_mpi(MPI_File_sync(fh), comm_, "sync " + tmp, path);
   } catch (const CollectiveError&) {  // every rank is here: close, keep the last checkpoint

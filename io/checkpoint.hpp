@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -110,11 +111,17 @@ class CheckpointWriter {
 
   // The state of 'sim' under sections "<prefix>.global", ".particles", ".contacts",
   // ".dissipation". The step and time of the header are those of the first simulation added.
+  // The particle and contact records are made by write(), in blocks of kBlockRecords: 'sim'
+  // must outlive it, unchanged.
   void add_simulation(const std::string& prefix, const Simulation& sim);
   // Bytes every rank knows identically (written by rank 0).
   void add_global(const std::string& name, std::string bytes);
   // Fields every rank knows identically, with their layout (read with Checkpoint::fields).
   void add_fields(const std::string& name, const FieldWriter& fields);
+
+  static constexpr std::uint64_t kBlockRecords = std::uint64_t(1) << 16;
+  // Records per block (tests: many blocks from a small specimen; the file is the same).
+  void set_block_records(std::uint64_t n) { block_records_ = n > 0 ? n : 1; }
 
   // Writes 'path' atomically (path.tmp, sync, rename). Collective; throws CollectiveError on
   // an I/O failure (the same on every rank). Returns the file size in bytes.
@@ -126,12 +133,19 @@ class CheckpointWriter {
     SectionKind kind;
     std::uint32_t record_bytes;  // 0: a global section
     std::string local;           // this rank's block, or the whole (global) section
+    // Distributed records made at write time, a block at a time, instead of 'local', so that a
+    // rank never holds its whole share of the file: 'records' here, and produce(first, n, out)
+    // appends records [first, first + n) of this rank to out.
+    std::uint64_t records = 0;
+    std::function<void(std::uint64_t, std::uint64_t, std::string&)> produce;
+    std::uint64_t bytes() const { return produce ? records * record_bytes : local.size(); }
   };
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   CheckpointHeader head_;
   std::vector<Staged> staged_;
   bool have_step_ = false;
+  std::uint64_t block_records_ = kBlockRecords;
 };
 
 // A checkpoint read and checked: magic, format version, size, section table, checksum, and

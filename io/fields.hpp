@@ -28,6 +28,14 @@ class FieldWriter {
   FieldWriter& vec3(const char* name, const Vec3& v);
   FieldWriter& mat3(const char* name, const Mat3& m);
   FieldWriter& text(const char* name, const std::string& v);  // u64 length, then the bytes
+  // One name for every type, so that one list of fields serves writing and reading
+  // (FieldReader::field takes the same arguments by reference).
+  FieldWriter& field(const char* name, std::uint8_t v) { return u8(name, v); }
+  FieldWriter& field(const char* name, std::int32_t v) { return i32(name, v); }
+  FieldWriter& field(const char* name, std::int64_t v) { return i64(name, v); }
+  FieldWriter& field(const char* name, double v) { return f64(name, v); }
+  FieldWriter& field(const char* name, const Vec3& v) { return vec3(name, v); }
+  FieldWriter& field(const char* name, const Mat3& v) { return mat3(name, v); }
 
   const std::string& schema() const { return schema_; }
   const std::string& bytes() const { return bytes_; }
@@ -55,6 +63,13 @@ class FieldReader {
   Vec3 vec3(const char* name);
   Mat3 mat3(const char* name);
   std::string text(const char* name);
+  // The counterparts of FieldWriter::field: read into v.
+  void field(const char* name, std::uint8_t& v) { v = u8(name); }
+  void field(const char* name, std::int32_t& v) { v = i32(name); }
+  void field(const char* name, std::int64_t& v) { v = i64(name); }
+  void field(const char* name, double& v) { v = f64(name); }
+  void field(const char* name, Vec3& v) { v = vec3(name); }
+  void field(const char* name, Mat3& v) { v = mat3(name); }
 
   // Throws unless every field and byte has been read.
   void done() const;

@@ -8,90 +8,87 @@
 
 namespace fabrica {
 
-void write_law(FieldWriter& w, const ContactLawParams& l) {
-  w.u8("law.stiffness_mode", l.stiffness_mode == NormalStiffnessMode::Direct ? 1 : 0);
-  w.f64("law.youngs_modulus", l.youngs_modulus).f64("law.normal_stiffness", l.normal_stiffness);
-  w.f64("law.stiffness_ratio", l.stiffness_ratio).f64("law.friction", l.friction);
-  w.f64("law.rolling_friction", l.rolling_friction);
-  w.f64("law.damping_ratio_n", l.damping_ratio_n).f64("law.damping_ratio_s", l.damping_ratio_s);
-  w.f64("law.damping_rate_n", l.damping_rate_n).f64("law.damping_rate_s", l.damping_rate_s);
+namespace {
+
+// Each struct's fields, listed once: 'io' is a FieldWriter (with a const struct) or a
+// FieldReader (with a struct to fill), both taking field(name, value).
+template <class Io, class Law>
+void law_fields(Io& io, Law& l) {
+  // The mode as u8: 1 for Direct (k_n given), 0 for Deformability (from E).
+  std::uint8_t direct = l.stiffness_mode == NormalStiffnessMode::Direct ? 1 : 0;
+  io.field("law.stiffness_mode", direct);
+  if constexpr (!std::is_const_v<Law>)
+    l.stiffness_mode = direct ? NormalStiffnessMode::Direct : NormalStiffnessMode::Deformability;
+  io.field("law.youngs_modulus", l.youngs_modulus);
+  io.field("law.normal_stiffness", l.normal_stiffness);
+  io.field("law.stiffness_ratio", l.stiffness_ratio);
+  io.field("law.friction", l.friction);
+  io.field("law.rolling_friction", l.rolling_friction);
+  io.field("law.damping_ratio_n", l.damping_ratio_n);
+  io.field("law.damping_ratio_s", l.damping_ratio_s);
+  io.field("law.damping_rate_n", l.damping_rate_n);
+  io.field("law.damping_rate_s", l.damping_rate_s);
 }
 
+template <class Io, class D>
+void dissipation_fields(Io& io, D& d) {
+  io.field("dissipation.friction", d.friction);
+  io.field("dissipation.rolling", d.rolling);
+  io.field("dissipation.viscous", d.viscous);
+  io.field("dissipation.local", d.local);
+}
+
+template <class Io, class M>
+void macro_fields(Io& io, M& m) {
+  io.field("macro.stress", m.stress);
+  io.field("macro.p", m.p);
+  io.field("macro.q", m.q);
+  io.field("macro.coordination", m.coordination);
+  io.field("macro.mech_coordination", m.mech_coordination);
+  io.field("macro.contacts", m.contacts);
+  io.field("macro.sliding", m.sliding);
+  io.field("macro.rolling", m.rolling);
+  io.field("macro.kinetic", m.kinetic);
+  io.field("macro.e_normal", m.e_normal);
+  io.field("macro.e_shear", m.e_shear);
+  io.field("macro.e_rolling", m.e_rolling);
+  dissipation_fields(io, m.dissipated);
+  io.field("macro.unbalanced", m.unbalanced);
+  io.field("macro.volume", m.volume);
+  io.field("macro.void_ratio", m.void_ratio);
+  io.field("macro.particles", m.particles);
+  io.field("macro.mean_overlap", m.mean_overlap);
+  io.field("macro.max_overlap_ratio", m.max_overlap_ratio);
+  io.field("macro.max_overlap_a", m.max_overlap_a);
+  io.field("macro.max_overlap_b", m.max_overlap_b);
+  io.field("macro.first_nonfinite", m.first_nonfinite);
+  io.field("macro.fastest", m.fastest);
+  io.field("macro.fastest_v", m.fastest_v);
+  io.field("macro.fastest_w", m.fastest_w);
+  io.field("macro.energy_input", m.energy_input);
+  io.field("macro.gravity_work", m.gravity_work);
+}
+
+}  // namespace
+
+void write_law(FieldWriter& w, const ContactLawParams& l) { law_fields(w, l); }
 ContactLawParams read_law(FieldReader& r) {
   ContactLawParams l;
-  l.stiffness_mode = r.u8("law.stiffness_mode") ? NormalStiffnessMode::Direct
-                                                : NormalStiffnessMode::Deformability;
-  l.youngs_modulus = r.f64("law.youngs_modulus");
-  l.normal_stiffness = r.f64("law.normal_stiffness");
-  l.stiffness_ratio = r.f64("law.stiffness_ratio");
-  l.friction = r.f64("law.friction");
-  l.rolling_friction = r.f64("law.rolling_friction");
-  l.damping_ratio_n = r.f64("law.damping_ratio_n");
-  l.damping_ratio_s = r.f64("law.damping_ratio_s");
-  l.damping_rate_n = r.f64("law.damping_rate_n");
-  l.damping_rate_s = r.f64("law.damping_rate_s");
+  law_fields(r, l);
   return l;
 }
 
-void write_dissipation(FieldWriter& w, const Dissipation& d) {
-  w.f64("dissipation.friction", d.friction).f64("dissipation.rolling", d.rolling);
-  w.f64("dissipation.viscous", d.viscous).f64("dissipation.local", d.local);
-}
-
+void write_dissipation(FieldWriter& w, const Dissipation& d) { dissipation_fields(w, d); }
 Dissipation read_dissipation(FieldReader& r) {
   Dissipation d;
-  d.friction = r.f64("dissipation.friction");
-  d.rolling = r.f64("dissipation.rolling");
-  d.viscous = r.f64("dissipation.viscous");
-  d.local = r.f64("dissipation.local");
+  dissipation_fields(r, d);
   return d;
 }
 
-void write_macro(FieldWriter& w, const MacroState& m) {
-  w.mat3("macro.stress", m.stress).f64("macro.p", m.p).f64("macro.q", m.q);
-  w.f64("macro.coordination", m.coordination).f64("macro.mech_coordination", m.mech_coordination);
-  w.i64("macro.contacts", m.contacts).i64("macro.sliding", m.sliding).i64("macro.rolling", m.rolling);
-  w.f64("macro.kinetic", m.kinetic).f64("macro.e_normal", m.e_normal);
-  w.f64("macro.e_shear", m.e_shear).f64("macro.e_rolling", m.e_rolling);
-  write_dissipation(w, m.dissipated);
-  w.f64("macro.unbalanced", m.unbalanced).f64("macro.volume", m.volume);
-  w.f64("macro.void_ratio", m.void_ratio).i64("macro.particles", m.particles);
-  w.f64("macro.mean_overlap", m.mean_overlap).f64("macro.max_overlap_ratio", m.max_overlap_ratio);
-  w.i64("macro.max_overlap_a", m.max_overlap_a).i64("macro.max_overlap_b", m.max_overlap_b);
-  w.i64("macro.first_nonfinite", m.first_nonfinite).i64("macro.fastest", m.fastest);
-  w.vec3("macro.fastest_v", m.fastest_v).vec3("macro.fastest_w", m.fastest_w);
-  w.f64("macro.energy_input", m.energy_input).f64("macro.gravity_work", m.gravity_work);
-}
-
+void write_macro(FieldWriter& w, const MacroState& m) { macro_fields(w, m); }
 MacroState read_macro(FieldReader& r) {
   MacroState m;
-  m.stress = r.mat3("macro.stress");
-  m.p = r.f64("macro.p");
-  m.q = r.f64("macro.q");
-  m.coordination = r.f64("macro.coordination");
-  m.mech_coordination = r.f64("macro.mech_coordination");
-  m.contacts = r.i64("macro.contacts");
-  m.sliding = r.i64("macro.sliding");
-  m.rolling = r.i64("macro.rolling");
-  m.kinetic = r.f64("macro.kinetic");
-  m.e_normal = r.f64("macro.e_normal");
-  m.e_shear = r.f64("macro.e_shear");
-  m.e_rolling = r.f64("macro.e_rolling");
-  m.dissipated = read_dissipation(r);
-  m.unbalanced = r.f64("macro.unbalanced");
-  m.volume = r.f64("macro.volume");
-  m.void_ratio = r.f64("macro.void_ratio");
-  m.particles = r.i64("macro.particles");
-  m.mean_overlap = r.f64("macro.mean_overlap");
-  m.max_overlap_ratio = r.f64("macro.max_overlap_ratio");
-  m.max_overlap_a = r.i64("macro.max_overlap_a");
-  m.max_overlap_b = r.i64("macro.max_overlap_b");
-  m.first_nonfinite = r.i64("macro.first_nonfinite");
-  m.fastest = r.i64("macro.fastest");
-  m.fastest_v = r.vec3("macro.fastest_v");
-  m.fastest_w = r.vec3("macro.fastest_w");
-  m.energy_input = r.f64("macro.energy_input");
-  m.gravity_work = r.f64("macro.gravity_work");
+  macro_fields(r, m);
   return m;
 }
 
@@ -152,11 +149,13 @@ std::size_t particle_record_bytes() {
   return b;
 }
 
-void write_particles(const Particles& p, std::string& out) {
-  out.reserve(out.size() + p.n_owned() * particle_record_bytes());
-  for (std::size_t a = 0; a < p.n_owned(); ++a)
+void write_particles(const Particles& p, std::size_t first, std::size_t n, std::string& out) {
+  out.reserve(out.size() + n * particle_record_bytes());
+  for (std::size_t a = first; a < first + n; ++a)
     for_each_property(p, [&](const char*, const auto& vec, Travel) { put_value(out, vec[a]); });
 }
+
+void write_particles(const Particles& p, std::string& out) { write_particles(p, 0, p.n_owned(), out); }
 
 void read_particles(const char* in, std::size_t n, Particles& p) {
   const std::size_t first = p.append_owned(n);

@@ -23,6 +23,8 @@ Dissipation read_dissipation(FieldReader& r);
 std::string particle_record_schema();
 std::size_t particle_record_bytes();
 void write_particles(const Particles& p, std::string& out);  // the owned ones
+// Owned particles [first, first + n) only.
+void write_particles(const Particles& p, std::size_t first, std::size_t n, std::string& out);
 // Appends n records from 'in' (n * particle_record_bytes() bytes) as owned particles.
 void read_particles(const char* in, std::size_t n, Particles& p);
 
