@@ -28,16 +28,20 @@ struct ContRec {
 
 void put(double* d, const Vec3& v) { d[0] = v[0], d[1] = v[1], d[2] = v[2]; }
 
-// The first id of round k of 'rounds' over [lo, hi] (round 'rounds' starts at hi + 1).
+// The first id of round k of 'rounds' over [lo, hi] (round 'rounds' starts at hi + 1), in
+// unsigned arithmetic that cannot overflow for fewer than 2^31 rounds.
 std::int64_t round_start(std::int64_t lo, std::int64_t hi, int k, int rounds) {
-  const __int128 span = __int128(hi) - lo + 1;
-  return std::int64_t(lo + span * k / rounds);
+  const std::uint64_t span = std::uint64_t(hi) - std::uint64_t(lo) + 1;
+  const std::uint64_t K = std::uint64_t(rounds), kk = std::uint64_t(k);
+  return std::int64_t(std::uint64_t(lo) + span / K * kk + span % K * kk / K);
 }
 
-// The rank whose slice of the ids [b0, b1) holds 'id' (b0 <= id < b1).
+// The rank whose slice of the ids [b0, b1) holds 'id' (b0 <= id < b1): slices of
+// ceil((b1 - b0) / size) ids, in rank order.
 int slice_rank(std::int64_t id, std::int64_t b0, std::int64_t b1, int size) {
-  const __int128 r = (__int128(id) - b0) * size / (__int128(b1) - b0);
-  return int(std::min<__int128>(size - 1, r));
+  const std::uint64_t width = std::uint64_t(b1) - std::uint64_t(b0);
+  const std::uint64_t slice = width / std::uint64_t(size) + (width % std::uint64_t(size) != 0);
+  return int(std::min<std::uint64_t>(std::uint64_t(size - 1), (std::uint64_t(id) - std::uint64_t(b0)) / slice));
 }
 
 // Sends each record to the rank dest(record) (one MPI_Alltoallv of bytes) and returns what this

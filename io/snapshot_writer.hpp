@@ -22,8 +22,9 @@ namespace fabrica {
 
 class SnapshotWriter {
  public:
-  // Records per rank and round, on average: 2^17 particles (88 B each) and contacts (168 B).
-  static constexpr std::int64_t kRoundRecords = std::int64_t(1) << 17;
+  // Records per rank and round, on average: 2^15 particles (88 B each) and contacts (168 B),
+  // about 8 MB, twice while they travel.
+  static constexpr std::int64_t kRoundRecords = std::int64_t(1) << 15;
 
   // Collective: counts the particles and contacts over every rank, their id range, and the
   // strong-contact threshold (f_n above strong_ratio x the mean f_n of all contacts, with the

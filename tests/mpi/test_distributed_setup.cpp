@@ -90,7 +90,9 @@ TEST(DistributedSetup, SameParticlesCellAndStepAsTheSerialSetup) {
   EXPECT_EQ(s.holding, P > 1 ? Holding::Share : Holding::Whole);
   EXPECT_EQ(sum_all((long long)s.particles.n_owned()), (long long)N);
   // Each rank its subdomain's share: slabs of a Cartesian cut, within 1.5 x the mean.
-  if (P > 1) EXPECT_LE(s.particles.n_owned(), 1.5 * double(N) / double(P));
+  if (P > 1) {
+    EXPECT_LE(s.particles.n_owned(), 1.5 * double(N) / double(P));
+  }
   EXPECT_EQ(s.cell.lengths(), ref.cell.lengths());
   EXPECT_EQ(s.critical_dt, ref.critical_dt);
   EXPECT_EQ(s.params.dt, ref.params.dt);
@@ -187,7 +189,9 @@ TEST(DistributedSetup, GeneratedByRegionsIsTheSameOnAnyRankCount) {
   const fabrica::Setup s = make_run_setup(sc, MPI_COMM_WORLD, cartesian());
   ASSERT_EQ(ref.particles.n_owned(), 100000u);
   EXPECT_EQ(sum_all((long long)s.particles.n_owned()), 100000);
-  if (comm_size() > 1) EXPECT_LE(s.particles.n_owned(), 1.5 * 100000.0 / comm_size());
+  if (comm_size() > 1) {
+    EXPECT_LE(s.particles.n_owned(), 1.5 * 100000.0 / comm_size());
+  }
   EXPECT_EQ(s.cell.lengths(), ref.cell.lengths());
   EXPECT_EQ(s.params.dt, ref.params.dt);
   std::unordered_map<GlobalId, std::size_t> at;
