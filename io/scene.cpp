@@ -189,6 +189,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     if (!(a->minCoeff() > 0)) P.fail("aspect", Section::node_text(*table("particles")->get("aspect")), "must be positive");
     g.aspect = *a;
   }
+  // Default: sequential below kRegionsFrom spheres (the study's specimens, unchanged), regions
+  // from there on (no rank makes the whole specimen).
+  g.placement = g.count >= GenerateSpec::kRegionsFrom ? GenerateSpec::Placement::Regions
+                                                      : GenerateSpec::Placement::Sequential;
   if (auto pl = P.string("placement")) {
     if (*pl == "sequential") g.placement = GenerateSpec::Placement::Sequential;
     else if (*pl == "regions") g.placement = GenerateSpec::Placement::Regions;

@@ -31,8 +31,10 @@ struct GenerateSpec {
   Vec3 aspect = Vec3(2, 1, 1);     // cell length ratios (axis 1 = loading axis)
   // "sequential": one random sequential addition over the whole cell (the study's specimens;
   // every rank makes the whole specimen); "regions": region by region (core/region_packing.hpp),
-  // each rank only its share, the same specimen on any rank count.
+  // each rank only its share, the same specimen on any rank count. Without the key:
+  // sequential below kRegionsFrom spheres, regions from there on.
   enum class Placement { Sequential, Regions } placement = Placement::Sequential;
+  static constexpr std::int64_t kRegionsFrom = 200000;
 };
 
 // Optional isotropic compression at a constant strain rate until the mean stress reaches a

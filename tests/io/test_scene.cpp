@@ -221,3 +221,19 @@ TEST(Scene, ServoModeAndItsKeys) {
 TEST(Scene, StageListIsRefused) {
   expect_error("[[stage]]\nkind = \"hold\"\n", {"[[stage]]", "not implemented", "[triaxial]"});
 }
+
+// Without the key, a generated specimen is placed sequentially below 200,000 spheres (the
+// study's specimens unchanged) and by regions from 200,000 on; the key overrides either way.
+TEST(Scene, PlacementDefaultsToRegionsForLargeSpecimens) {
+  auto placement = [](const std::string& particles) {
+    return parse_scene("[particles]\n" + particles + "\n", "p.toml").generate.placement;
+  };
+  using P = GenerateSpec::Placement;
+  EXPECT_EQ(placement("count = 13584"), P::Sequential);
+  EXPECT_EQ(placement("count = 199999"), P::Sequential);
+  EXPECT_EQ(placement("count = 200000"), P::Regions);
+  EXPECT_EQ(placement("count = 4000000"), P::Regions);
+  EXPECT_EQ(placement("count = 4000000\nplacement = \"sequential\""), P::Sequential);
+  EXPECT_EQ(placement("count = 1000\nplacement = \"regions\""), P::Regions);
+  EXPECT_EQ(GenerateSpec::kRegionsFrom, 200000);
+}
