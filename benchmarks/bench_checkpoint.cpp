@@ -1,17 +1,20 @@
-// bench_checkpoint: the cost of a checkpoint of the shared dense-13584 scene.
+// bench_checkpoint: the cost of a checkpoint of the shared dense-13584 scene (or of SCENE, e.g.
+// a tiled packing of benchmarks/make_tiled.py).
 //
-//   mpirun -np P bench_checkpoint [REPS=5] [DIR=.]
+//   mpirun -np P bench_checkpoint [REPS=5] [DIR=.] [SCENE]
 //
 // The scene runs to its first neighbour rebuild after 100 steps (one rank: the serial domain,
 // as a one-rank run of fabrica; several: the MPI domain), then REPS times: writes DIR/bench.ckpt
-// (collective MPI-IO, sync, atomic rename), reads and checks it (rank 0 reads, checksum,
-// broadcast), and builds the restored Simulation from it (decomposition, lists). Times are the
+// (collective MPI-IO, sync, atomic rename), reads and checks it (each rank the header and its
+// 1/P of the records with MPI-IO, the checksum summed over the ranks), and builds the restored
+// Simulation from it (the records to their owners, decomposition, lists). Times are the
 // slowest rank's, between barriers; the minimum and the median over REPS are printed, with a
 // mean step of the run for scale. The last line is machine-readable.
 #include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
 #include "io/checkpoint.hpp"
 #include "io/scene.hpp"
+#include "io/distributed_setup.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
@@ -48,12 +51,15 @@ int main(int argc, char** argv) {
   MpiContext mpi(argc, argv);
   const int reps = argc > 1 ? std::atoi(argv[1]) : 5;
   const std::string dir = argc > 2 ? argv[2] : ".";
-  const std::string scene_path = std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
+  const std::string scene_path =
+      argc > 3 ? argv[3] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
   const Scene scene = load_scene(scene_path);
-  Setup s = make_setup(scene);
+  // Each rank its share (the data file read in byte ranges on several ranks), as fabrica does.
+  Setup s = make_run_setup(scene, mpi.comm(), MpiDomainOptions{});
+  const std::int64_t spheres = specimen_totals(s.particles, mpi.comm()).count;
   std::unique_ptr<MpiDomain> domain =
       mpi.size() > 1 ? std::make_unique<MpiDomain>(mpi.comm()) : nullptr;
-  Simulation sim(s.particles, s.cell, s.params, domain.get());
+  Simulation sim(std::move(s.particles), s.cell, s.params, domain.get(), s.holding);
   const double t_steps = timed(mpi.comm(), [&] {
     while (sim.step_count() < 100 || !sim.rebuilt_last_step()) sim.step(false);
   });
@@ -78,13 +84,14 @@ int main(int argc, char** argv) {
   }
   if (mpi.rank() == 0) {
     std::filesystem::remove(path);
-    std::printf("dense-13584 on %d rank(s), step %lld: checkpoint of %.2f MB\n", mpi.size(),
-                (long long)sim.step_count(), double(bytes) / 1e6);
+    std::printf("%s (%lld spheres) on %d rank(s), step %lld: checkpoint of %.2f MB\n",
+                scene_path.c_str(), (long long)spheres,
+                mpi.size(), (long long)sim.step_count(), double(bytes) / 1e6);
     std::printf("  write (MPI-IO, sync, rename): min %.4f s, median %.4f s\n",
                 *std::min_element(tw.begin(), tw.end()), median(tw));
-    std::printf("  read and check (rank 0 reads, checksum, broadcast): min %.4f s, median %.4f s\n",
+    std::printf("  read and check (each rank its part, checksum summed): min %.4f s, median %.4f s\n",
                 *std::min_element(tr.begin(), tr.end()), median(tr));
-    std::printf("  restore (decomposition, contact lists): min %.4f s, median %.4f s\n",
+    std::printf("  restore (to the owners, decomposition, contact lists): min %.4f s, median %.4f s\n",
                 *std::min_element(tb.begin(), tb.end()), median(tb));
     std::printf("  one time step of the run: %.4f s\n", per_step);
     std::printf("bench_checkpoint ranks=%d bytes=%llu write_s=%.4f read_s=%.4f restore_s=%.4f step_s=%.5f\n",
