@@ -6,6 +6,7 @@
 #include "io/verify.hpp"
 #include "io/version.hpp"
 #include "io/write_check.hpp"
+#include "io/xdmf.hpp"
 #include "parallel/guard.hpp"
 
 #include <algorithm>
@@ -48,18 +49,6 @@ std::vector<std::string> split_csv(const std::string& line) {
   for (std::string c; std::getline(s, c, ',');) {
     while (!c.empty() && (c.back() == '\n' || c.back() == '\r' || c.back() == ' ')) c.pop_back();
     r.push_back(c);
-  }
-  return r;
-}
-
-std::string xml_escape(const std::string& s) {
-  std::string r;
-  for (char c : s) {
-    if (c == '&') r += "&amp;";
-    else if (c == '<') r += "&lt;";
-    else if (c == '>') r += "&gt;";
-    else if (c == '"') r += "&quot;";
-    else r += c;
   }
   return r;
 }
@@ -436,7 +425,7 @@ void RunOutput::close_after_error() {
 }
 
 void RunOutput::write_xmf() const {
-  std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> e, ce;
+  std::vector<XdmfEntry> e, ce;
   std::vector<std::string> cases;
   for (const XmfEntry& x : xmf_) {
     e.emplace_back(x.case_name, x.step, x.time, x.particles);
@@ -451,126 +440,15 @@ void RunOutput::write_xmf() const {
   // so each case gets its own file as well.
   if (cases.size() > 1)
     for (const std::string& c : cases) {
-      std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> ec;
+      std::vector<XdmfEntry> ec;
       for (const auto& t : e)
         if (std::get<0>(t) == c) ec.push_back(t);
       write_xdmf((dir / ("run_" + c + ".xmf")).string(), "run.h5", ec, vertices_);
-      std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>> cc;
+      std::vector<XdmfEntry> cc;
       for (const auto& t : ce)
         if (std::get<0>(t) == c) cc.push_back(t);
       write_contacts_xdmf((dir / ("run_" + c + "_contacts.xmf")).string(), "run.h5", cc, vertices_);
     }
-}
-
-namespace {
-// The XML prologue of a sidecar into x (full precision for the times); returns the cases of
-// 'entries' in their first-seen order.
-std::vector<std::string> xdmf_begin(
-    std::ostringstream& x,
-    const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries) {
-  x.precision(17);
-  x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-       "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-       "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n  <Domain>\n";
-  std::vector<std::string> cases;
-  for (const auto& e : entries)
-    if (std::find(cases.begin(), cases.end(), std::get<0>(e)) == cases.end()) cases.push_back(std::get<0>(e));
-  return cases;
-}
-
-// An HDF DataItem of 'rows' (x 'cols' when non-zero) values at 'dataset' (file:/path).
-std::string hdf_item(const std::string& dataset, std::int64_t rows, int cols, const char* type,
-                     int prec) {
-  std::ostringstream d;
-  d << "<DataItem Dimensions=\"" << rows;
-  if (cols) d << ' ' << cols;
-  d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">"
-    << xml_escape(dataset) << "</DataItem>";
-  return d.str();
-}
-}  // namespace
-
-void write_xdmf(const std::string& path, const std::string& h5file,
-                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
-                std::int64_t vertices) {
-  std::ostringstream x;
-  const std::vector<std::string> cases = xdmf_begin(x, entries);
-  for (const std::string& c : cases) {
-    x << "    <Grid Name=\"" << xml_escape(c) << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-    for (const auto& [cn, step, time, n] : entries) {
-      if (cn != c) continue;
-      const std::string base = h5file + ":/" + layout::snapshot_path(cn, step) + "/particles/";
-      auto item = [&](const std::string& ds, int cols, const char* type, int prec) {
-        return hdf_item(base + ds, n, cols, type, prec);
-      };
-      x << "      <Grid Name=\"" << xml_escape(c) << "_" << layout::step_name(step) << "\" GridType=\"Uniform\">\n"
-        << "        <Time Value=\"" << time << "\"/>\n"
-        << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n"
-        << "          <DataItem ItemType=\"HyperSlab\" Dimensions=\"" << n << "\" Type=\"HyperSlab\">\n"
-        << "            <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 " << n << "</DataItem>\n"
-        << "            <DataItem Dimensions=\"" << vertices << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
-        << xml_escape(h5file + ":/" + layout::kVertexIndex) << "</DataItem>\n"
-        << "          </DataItem>\n        </Topology>\n"
-        << "        <Geometry GeometryType=\"XYZ\">\n          " << item("position", 3, "Float", 8) << "\n        </Geometry>\n"
-        << "        <Attribute Name=\"radius\" AttributeType=\"Scalar\" Center=\"Node\">\n          "
-        << item("radius", 0, "Float", 8) << "\n        </Attribute>\n"
-        << "        <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n          "
-        << item("velocity", 3, "Float", 8) << "\n        </Attribute>\n"
-        << "        <Attribute Name=\"spin\" AttributeType=\"Vector\" Center=\"Node\">\n          "
-        << item("spin", 3, "Float", 8) << "\n        </Attribute>\n"
-        << "        <Attribute Name=\"id\" AttributeType=\"Scalar\" Center=\"Node\">\n          "
-        << item("id", 0, "Int", 8) << "\n        </Attribute>\n"
-        << "      </Grid>\n";
-    }
-    x << "    </Grid>\n";
-  }
-  x << "  </Domain>\n</Xdmf>\n";
-  // Written to a temporary file, checked, synced and renamed (io/write_check.hpp): a reader (or
-  // a crash, or a full disk) never sees half a file, and a failed write keeps the previous one.
-  write_file_atomic(path, x.str(), "xdmf");
-}
-
-void write_contacts_xdmf(const std::string& path, const std::string& h5file,
-                         const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
-                         std::int64_t vertices) {
-  std::ostringstream x;
-  const std::vector<std::string> cases = xdmf_begin(x, entries);
-  for (const std::string& c : cases) {
-    x << "    <Grid Name=\"" << xml_escape(c) << "_contacts\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-    for (const auto& [cn, step, time, m] : entries) {
-      if (cn != c) continue;
-      const std::string base = h5file + ":/" + layout::snapshot_path(cn, step) + "/contacts/";
-      auto item = [&](const std::string& ds, int cols, const char* type, int prec) {
-        return hdf_item(base + ds, m, cols, type, prec);
-      };
-      auto attribute = [&](const char* name, const std::string& ds, const char* type, int prec) {
-        return std::string("        <Attribute Name=\"") + name +
-               "\" AttributeType=\"Scalar\" Center=\"Cell\">\n          " + item(ds, 0, type, prec) +
-               "\n        </Attribute>\n";
-      };
-      // M two-node line cells over 2M points: the ends (x1, x1 + branch) of every contact,
-      // connectivity 0, 1, ..., 2M-1 (the first 2M values of the vertex index).
-      x << "      <Grid Name=\"" << xml_escape(c) << "_contacts_" << layout::step_name(step) << "\" GridType=\"Uniform\">\n"
-        << "        <Time Value=\"" << time << "\"/>\n"
-        << "        <Topology TopologyType=\"Polyline\" NumberOfElements=\"" << m << "\" NodesPerElement=\"2\">\n"
-        << "          <DataItem ItemType=\"HyperSlab\" Dimensions=\"" << m << " 2\" Type=\"HyperSlab\">\n"
-        << "            <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 " << 2 * m << "</DataItem>\n"
-        << "            <DataItem Dimensions=\"" << vertices << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
-        << xml_escape(h5file + ":/" + layout::kVertexIndex) << "</DataItem>\n"
-        << "          </DataItem>\n        </Topology>\n"
-        << "        <Geometry GeometryType=\"XYZ\">\n          " << item("ends", 6, "Float", 8) << "\n        </Geometry>\n"
-        << attribute("fn", "fn", "Float", 8) << attribute("ft_norm", "ft_norm", "Float", 8)
-        << attribute("mr_norm", "mr_norm", "Float", 8) << attribute("sliding", "sliding", "UChar", 1)
-        << attribute("rolling", "rolling", "UChar", 1) << attribute("strong", "strong", "UChar", 1)
-        << attribute("id1", "id1", "Int", 8) << attribute("id2", "id2", "Int", 8)
-        << "      </Grid>\n";
-    }
-    x << "    </Grid>\n";
-  }
-  x << "  </Domain>\n</Xdmf>\n";
-  // Written to a temporary file, checked, synced and renamed (io/write_check.hpp): a reader (or
-  // a crash, or a full disk) never sees half a file, and a failed write keeps the previous one.
-  write_file_atomic(path, x.str(), "xdmf");
 }
 
 }  // namespace fabrica

@@ -120,18 +120,4 @@ class RunOutput {
   bool failed_ = false;  // a write of this file failed: it is not flushed again
 };
 
-// The XDMF 3 sidecar for the snapshots of 'entries' (case, step, time, particles) in h5file (a
-// name relative to the xmf): one temporal collection per case, each snapshot a Polyvertex grid
-// whose connectivity is the first N values of the dataset layout::kVertexIndex (length
-// 'vertices' >= every N). Written to path.tmp, then renamed.
-void write_xdmf(const std::string& path, const std::string& h5file,
-                const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
-                std::int64_t vertices);
-// The contacts' sidecar for 'entries' (case, step, time, contacts M > 0): each snapshot a
-// Polyline grid of M two-node cells whose points are contacts/ends (x1, x1 + branch), with the
-// cell attributes fn, ft_norm, mr_norm, sliding, rolling, strong, id1, id2.
-void write_contacts_xdmf(const std::string& path, const std::string& h5file,
-                         const std::vector<std::tuple<std::string, std::int64_t, double, std::int64_t>>& entries,
-                         std::int64_t vertices);
-
 }  // namespace fabrica
