@@ -35,16 +35,20 @@ display_answers() {
 
 # pvpython's first X connection is sometimes refused under load although the server is up and
 # answers xdpyinfo ("bad X server connection", then SIGABRT; 2 to 4 runs in 15 with two busy loops
-# beside it, none in 12 idle; once in CI). That failure alone is retried, up to 3 attempts, and
-# reported.
+# beside it, none in 12 idle; once in CI; twice in a row with three other test suites running
+# on the machine). Two xvfb-run -a started at the same moment (ctest -j2 runs both ParaView
+# checks at once) can also pick the same display number, so each attempt starts its search for
+# a free one at a random number. That failure alone is retried, up to 5 attempts a second or
+# two apart, and reported.
 render() {
   local log rc attempt
   log=$(mktemp)
-  for attempt in 1 2 3; do
+  for attempt in 1 2 3 4 5; do
     "$@" >"$log" 2>&1; rc=$?
     cat "$log"
-    if [ $rc -ne 0 ] && grep -q "bad X server connection" "$log" && [ $attempt -lt 3 ]; then
-      echo "$name: pvpython could not open the X display (attempt $attempt of 3); retrying"
+    if [ $rc -ne 0 ] && grep -q "bad X server connection" "$log" && [ $attempt -lt 5 ]; then
+      echo "$name: pvpython could not open the X display (attempt $attempt of 5); retrying"
+      sleep $((1 + RANDOM % 2))
       continue
     fi
     break
@@ -54,7 +58,8 @@ render() {
 }
 
 if command -v xvfb-run >/dev/null; then
-  render env -u DISPLAY xvfb-run -a pvpython --force-offscreen-rendering "$script" "$out" --png "$png"
+  xvfb() { env -u DISPLAY xvfb-run -a -n $((100 + RANDOM % 800)) "$@"; }
+  render xvfb pvpython --force-offscreen-rendering "$script" "$out" --png "$png"
 elif display_answers; then
   render pvpython --force-offscreen-rendering "$script" "$out" --png "$png"
 else
