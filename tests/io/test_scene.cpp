@@ -237,3 +237,18 @@ TEST(Scene, PlacementDefaultsToRegionsForLargeSpecimens) {
   EXPECT_EQ(placement("count = 1000\nplacement = \"regions\""), P::Regions);
   EXPECT_EQ(GenerateSpec::kRegionsFrom, 200000);
 }
+
+// The example scenes parse, and say what their comments say.
+TEST(Scene, ExampleScenesAreValid) {
+  const std::string dir = std::string(FABRICA_SOURCE_DIR) + "/examples/";
+  const Scene paper = load_scene(dir + "paper.toml");
+  EXPECT_EQ(paper.generate.count, 13584);
+  EXPECT_EQ(paper.generate.placement, GenerateSpec::Placement::Sequential);
+  EXPECT_EQ(paper.triaxial.rolling_friction_cases.size(), 6u);
+  const Scene large = load_scene(dir + "large.toml");
+  EXPECT_EQ(large.generate.count, 200000);
+  EXPECT_EQ(large.generate.placement, GenerateSpec::Placement::Regions);
+  EXPECT_TRUE(large.triaxial.enabled);
+  EXPECT_EQ(large.triaxial.rolling_friction_cases, std::vector<real_t>{0.1});
+  EXPECT_EQ(large.checkpoint_seconds, 600.0);
+}
