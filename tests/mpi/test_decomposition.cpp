@@ -150,7 +150,10 @@ TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
   Particles p;
   const real_t R = 0.05;
   p.add({7, R, 2650, Vec3(0.10, 0.15, 0.15), Vec3(20.0, 0.05, 0), Vec3(0, 0, 3.0)});
-  p.add({3, R, 2650, Vec3(0.10, 0.15 + 2 * R - 0.002, 0.15), Vec3(20.0, -0.05, 0), Vec3(0, 0, -3.0)});
+  // Spins +3 and -1 rad/s about z: the contact points slide past each other at 0.1 m/s (with
+  // +3 and -3 they would not slide at all, and the shear spring would be zero but for rounding)
+  // and roll relative to each other at 4 rad/s, so both springs reach their caps.
+  p.add({3, R, 2650, Vec3(0.10, 0.15 + 2 * R - 0.002, 0.15), Vec3(20.0, -0.05, 0), Vec3(0, 0, -1.0)});
   // Spectators so that every rank owns something.
   for (int k = 0; k < 8; ++k) p.add({100 + k, 0.02, 2650, Vec3(0.2 + 0.25 * k, 0.05, 0.05)});
   const PeriodicCell cell(Vec3(2.0, 0.3, 0.3));
@@ -187,8 +190,10 @@ TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
   double buf[6] = {0, 0, 0, 0, 0, 0};
   if (here) std::copy(fs_p.data(), fs_p.data() + 3, buf), std::copy(mr_p.data(), mr_p.data() + 3, buf + 3);
   MPI_Allreduce(MPI_IN_PLACE, buf, 6, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-  EXPECT_GT(fs_s.norm(), 0.0);
-  EXPECT_GT(mr_s.norm(), 0.0);
+  // Both springs are well away from zero (a tenth of the normal force and more), not rounding.
+  const real_t fn = par.law.normal_stiffness * 0.002;
+  EXPECT_GT(fs_s.norm(), 0.1 * fn);
+  EXPECT_GT(mr_s.norm(), 0.1 * par.law.rolling_friction * 0.5 * R * fn);
   for (int k = 0; k < 3; ++k) {
     EXPECT_EQ(buf[k], fs_s[k]);
     EXPECT_EQ(buf[3 + k], mr_s[k]);

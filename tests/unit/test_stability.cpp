@@ -234,7 +234,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"kappa_100", 0.25, 100, 3, 0, 5e-2, Expect::Completes},
                       Case{"kappa_100_forced_2", 2.0, 100, 3, 0, 0, Expect::SpeedGuard},
                       Case{"diameter_ratio_10", 0.25, 1, 10, 0.1, 1e-2, Expect::Completes},
-                      Case{"diameter_ratio_10_forced_2", 2.0, 1, 10, 0.1, 0, Expect::SpeedGuard},
+                      Case{"diameter_ratio_10_forced_3", 3.0, 1, 10, 0.1, 0, Expect::SpeedGuard},
                       Case{"mu_r_1", 0.25, 1, 3, 1.0, 1e-2, Expect::Completes},
                       Case{"mu_r_1_forced_2", 2.0, 1, 3, 1.0, 0, Expect::EnergyGuard}),
     [](const auto& info) { return std::string(info.param.name); });
