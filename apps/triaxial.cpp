@@ -1,5 +1,9 @@
 #include "apps/triaxial.hpp"
 
+#include "apps/app_checkpoint.hpp"
+#include "apps/series_file.hpp"
+#include "apps/stage_cursor.hpp"
+
 #include "io/distributed_setup.hpp"
 
 #include "core/contact_snapshot.hpp"
@@ -31,251 +35,12 @@ namespace {
 const char* const kStageNames[] = {"consolidation", "equilibration", "shear"};
 }  // namespace
 
-void write_series_header(std::ostream& out) {
-  out << "stage,step,time,eps1,eps2,eps3,epsv,s11,s22,s33,s12,s23,s13,p,q,q_p,void_ratio,Z,Z_m,"
-         "sliding_fraction,rolling_fraction,inertial_number,unbalanced,kinetic,e_normal,e_shear,"
-         "e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,boundary_work,"
-         "energy_error,mean_overlap_d,max_overlap_r\n";
-}
-
-TriaxialRun::TriaxialRun(const Scene& scene, Simulation& sim, real_t mean_diameter,
-                         real_t density, std::ostream* series, std::ostream* log,
-                         const TriaxialRun* parent)
-    : scene_(scene), tx_(scene.triaxial), sim_(sim), d_mean_(mean_diameter), density_(density),
-      series_(series), log_(log), l0_(sim.cell().lengths()) {
-  if (parent) {  // a branch of the parent's simulation: the account continues
-    in_pos_ = parent->in_pos_;
-    input_seen_ = parent->input_seen_;
-    l0_ = parent->l0_;
-  } else {
-    input_seen_ = sim_.macro().energy_input - sim_.energy_account().e0;
-  }
-}
-
-void TriaxialRun::track_input(const MacroState& m) {
-  const real_t input = m.energy_input - sim_.energy_account().e0;  // boundary + gravity work
-  in_pos_ += std::max<real_t>(0, input - input_seen_);
-  input_seen_ = input;
-}
-
-real_t TriaxialRun::energy_error(const MacroState& m) const {
-  const real_t in = energy_in();
-  return in > 0 ? (m.energy_input - energy_books(m)) / in : 0.0;
-}
-
-void TriaxialRun::row(Stage stage, const MacroState& m, const Vec3& eps) {
-  if (!series_ && !output_) return;
-  static const char* names[] = {"consolidation", "equilibration", "shear"};
-  const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
-  const real_t inertial =
-      m.p > 0 ? std::abs(sim_.cell().strain_rate()[0]) * d_mean_ * std::sqrt(density_ / m.p) : 0;
-  const Dissipation& d = m.dissipated;
-  const real_t values[] = {sim_.time(), eps[0], eps[1], eps[2], eps.sum(),
-                           m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
-                           m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.p > 0 ? m.q / m.p : 0.0,
-                           m.void_ratio, m.coordination, m.mech_coordination,
-                           real_t(m.sliding) / nc, real_t(m.rolling) / nc, inertial, m.unbalanced,
-                           m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
-                           d.viscous, d.local, sim_.boundary_work(), energy_error(m), m.mean_overlap / d_mean_,
-                           m.max_overlap_ratio};
-  if (output_) {
-    static const std::string header = [] {
-      std::ostringstream h;
-      write_series_header(h);
-      return h.str();
-    }();
-    output_->series_row(case_, header, names[int(stage)], sim_.step_count(), values);
-  }
-  if (!series_) return;
-  *series_ << names[int(stage)] << ',' << sim_.step_count();
-  for (real_t v : values) *series_ << fmt::format(",{:.10g}", v);
-  *series_ << '\n';
-}
-
-void TriaxialRun::fabric_row(Stage stage, const Vec3& eps) {
-  if (!scene_.fabric.enabled) return;
-  const auto t0 = std::chrono::steady_clock::now();
-  const auto records = contact_records(sim_.particles(), sim_.cell(), sim_.params().law, sim_.pairs());
-  const FabricOptions opt{scene_.fabric.strong_ratio, int(scene_.fabric.rose_bins)};
-  const FabricResult r = analyse_fabric(records, sim_.cell().volume(), opt, sim_.domain());
-  if (fabric_out_) write_fabric_rows(*fabric_out_, kStageNames[int(stage)], sim_.step_count(), eps[0], r);
-  fabric_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-StageResult TriaxialRun::run_stage(Stage stage, const StageCursor* resume) {
-  using clock = std::chrono::steady_clock;
-  static const char* names[] = {"consolidation", "equilibration", "shear"};
-  const real_t target = tx_.confining_pressure;
-  Servo servo = stage == Stage::Shear
-                    ? make_servo({false, true, true}, Vec3(-tx_.axial_strain_rate, 0, 0))
-                    : make_servo({true, true, true}, Vec3::Zero());
-  auto done = [&](const MacroState& m, const Vec3& eps) {
-    if (stage == Stage::Shear) return eps[0] >= tx_.axial_strain;
-    for (int k = 0; k < 3; ++k)
-      if (std::abs(m.stress(k, k) - target) > tx_.stress_tolerance * target) return false;
-    return m.unbalanced < tx_.unbalanced_tolerance;
-  };
-  auto strain = [&] {
-    Vec3 e;
-    for (int k = 0; k < 3; ++k) e[k] = std::log(l0_[k] / sim_.cell().lengths()[k]);
-    return e;
-  };
-  StageResult res;
-  bool servo_warned = false;
-  real_t last_servo = sim_.time();
-  std::int64_t k = 1;
-  if (resume) {  // the rates are the checkpoint's
-    res = resume->result;
-    servo.set_integral(resume->servo_integral);
-    last_servo = resume->last_servo;
-    k = resume->k + 1;
-  } else {
-    sim_.cell().set_strain_rate(update_servo(servo, stage, sim_.macro(), 0.0));
-  }
-  const std::int64_t k0 = k - 1;
-  const auto t0 = clock::now();
-  auto last_print = t0;
-  for (;; ++k) {
-    if (k > tx_.max_stage_steps)
-      throw CollectiveError(fmt::format(
-          "{}: [triaxial] max_stage_steps = {}: the {} stage did not converge (last p = {:.6g} Pa, "
-          "target {:.6g} Pa, s11 {:.6g}, s22 {:.6g}, s33 {:.6g} Pa, unbalanced-force ratio {:.3g}; "
-          "servo {}); raise max_stage_steps or the damping",
-          scene_.path, tx_.max_stage_steps, names[int(stage)], res.state.p, target,
-          res.state.stress(0, 0), res.state.stress(1, 1), res.state.stress(2, 2),
-          res.state.unbalanced, servo.describe()));
-    const bool out = k % scene_.output_every == 0;
-    const bool measure = out || k % tx_.servo_interval == 0;
-    sim_.step(measure);  // the boundary work is the simulation's (Simulation::boundary_work)
-    if (!sim_.step_guard().empty()) throw BlowUpError(sim_.step_guard());  // every step
-    if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain());
-    if (measure) {
-      const MacroState& m = sim_.macro();
-      track_input(m);
-      res.state = m;
-      const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap, scene_.kinetic_runaway);
-      if (!bad.empty()) throw BlowUpError(bad);
-      const Vec3 eps = strain();
-      res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
-      const bool finished = done(m, eps);
-      // Over every row of the series: the output instants and the stage's last row (a stage
-      // shorter than output_every has only that one).
-      if (stage == Stage::Shear && (out || finished)) {
-        const real_t qp = m.p > 0 ? m.q / m.p : 0;
-        if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
-        for (int a = 1; a < 3; ++a)
-          res.max_lateral_error =
-              std::max(res.max_lateral_error, std::abs(m.stress(a, a) - target) / target);
-      }
-      if (out) row(stage, m, eps);
-      if (out && stage == Stage::Shear) fabric_row(stage, eps);
-      if (out && row_check_) row_check_();
-      const Vec3 rates = update_servo(servo, stage, m, sim_.time() - last_servo);
-      sim_.cell().set_strain_rate(rates);
-      last_servo = sim_.time();
-      // A servo that cannot follow the loading: a lateral axis at the rate cap while its stress
-      // is far from the target (10 x the stage's tolerance). Said once per stage.
-      if (stage == Stage::Shear && !servo_warned && log_)
-        for (int a = 1; a < 3; ++a)
-          if (std::abs(rates[a]) >= tx_.max_strain_rate &&
-              std::abs(m.stress(a, a) - target) > 10 * tx_.stress_tolerance * target) {
-            servo_warned = true;
-            *log_ << fmt::format("  warning: step {}: the servo is at its rate cap ([triaxial] "
-                                 "max_strain_rate = {} 1/s) on axis {} and s{}{} = {:.4g} Pa is {:.1f} % "
-                                 "from the target {:.4g} Pa: it cannot follow the axial loading "
-                                 "({} 1/s); raise max_strain_rate or lower axial_strain_rate\n",
-                                 sim_.step_count(), tx_.max_strain_rate, a + 1, a + 1, a + 1,
-                                 m.stress(a, a), 100 * std::abs(m.stress(a, a) - target) / target,
-                                 target, tx_.axial_strain_rate);
-            log_->flush();
-            break;
-          }
-      const auto now = clock::now();
-      if (log_ && std::chrono::duration<double>(now - last_print).count() > tx_.progress_seconds) {
-        last_print = now;
-        const double secs = std::chrono::duration<double>(now - t0).count();
-        std::string eta;
-        if (stage == Stage::Shear && eps[0] > 0)
-          eta = fmt::format(", {:.0f} s left", secs * (tx_.axial_strain - eps[0]) / eps[0]);
-        *log_ << fmt::format("  [{}] step {}: eps1 {:.4f}, p {:.1f} kPa, q/p {:.4f}, e {:.4f}, "
-                             "unbalanced {:.2e}, {:.0f} steps/s{}\n",
-                             names[int(stage)], sim_.step_count(), eps[0], m.p / 1e3,
-                             m.p > 0 ? m.q / m.p : 0, m.void_ratio, m.unbalanced,
-                             double(k - k0) / secs, eta);
-        log_->flush();
-      }
-      if (finished) {
-        res.steps = k;
-        res.strain = eps;
-        if (!out) row(stage, m, eps);
-        if ((!out && stage == Stage::Shear) || stage == Stage::Consolidation) fabric_row(stage, eps);
-        if (row_check_) row_check_();
-        if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
-        return res;
-      }
-    }
-    if (hook_)
-      hook_(StageCursor{stage, k, servo.integral(), last_servo, res, l0_, in_pos_, input_seen_});
-  }
-}
-
-Servo TriaxialRun::make_servo(std::array<bool, 3> axes, Vec3 fixed) const {
-  return Servo(tx_, real_t(tx_.servo_interval) * sim_.params().dt, axes, fixed);
-}
-
-Vec3 TriaxialRun::update_servo(Servo& servo, Stage stage, const MacroState& m, real_t elapsed) {
-  // Collective when needed: every rank takes the same decision from the reduced stress.
-  const Mat3 M = servo.needs_stiffness(m.stress) ? specimen_stiffness(sim_) : Mat3::Zero();
-  try {
-    return servo.update(m.stress, elapsed, M);
-  } catch (const ServoDivergence& e) {  // the same on every rank (reduced values only)
-    throw CollectiveError(fmt::format("{}: [triaxial] the {} stage stopped at step {}: {} (p = "
-                                      "{:.6g} Pa, target {:.6g} Pa; servo {})",
-                                      scene_.path, kStageNames[int(stage)], sim_.step_count(),
-                                      e.what(), m.p, tx_.confining_pressure, servo.describe()));
-  }
-}
-
-StageResult TriaxialRun::consolidate() {
-  ContactLawParams law = sim_.params().law;
-  law.friction = tx_.consolidation_friction;
-  law.rolling_friction = 0;
-  sim_.set_law(law);
-  sim_.set_local_damping(tx_.preparation_damping);
-  return run_stage(Stage::Consolidation);
-}
-
-StageResult TriaxialRun::equilibrate(real_t rolling_friction) {
-  ContactLawParams law = scene_.law;
-  law.rolling_friction = rolling_friction;
-  sim_.set_law(law);
-  sim_.set_local_damping(tx_.preparation_damping);
-  return run_stage(Stage::Equilibration);
-}
-
-StageResult TriaxialRun::shear() {
-  sim_.set_local_damping(tx_.shear_damping);
-  l0_ = sim_.cell().lengths();  // strains of the shear stage are measured from here
-  return run_stage(Stage::Shear);
-}
-
-StageCursor TriaxialRun::account() const {
-  StageCursor a;
-  a.l0 = l0_;
-  a.input_positive = in_pos_;
-  a.input_seen = input_seen_;
-  return a;
-}
-
-void TriaxialRun::set_account(const StageCursor& a) {
-  l0_ = a.l0;
-  in_pos_ = a.input_positive;
-  input_seen_ = a.input_seen;
-}
-
 StageResult TriaxialRun::resume(const StageCursor& at) {
   set_account(at);  // the contact law and damping are the simulation's, restored with it
-  return run_stage(at.stage, &at);
+  if (at.stage == kShear) return run(shear_stage(scene_), kShear, &at);
+  const StageSpec st = at.stage == kConsolidation ? consolidation_stage(scene_)
+                                                   : equilibration_stage(scene_, sim_.params().law.rolling_friction);
+  return run(st, at.stage, &at);
 }
 
 // The fabric files of one directory (rank 0 only; 'open' false: no files, null streams).
@@ -337,6 +102,8 @@ Scene triaxial_setup_scene(const Scene& scene) {
   Scene sized = scene;
   for (real_t mur : scene.triaxial.rolling_friction_cases)
     sized.law.rolling_friction = std::max(sized.law.rolling_friction, mur);
+  for (const StageSpec& st : scene.stages)
+    if (st.rolling_friction) sized.law.rolling_friction = std::max(sized.law.rolling_friction, *st.rolling_friction);
   return sized;
 }
 
@@ -382,15 +149,16 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
   double t_cons = 0;
   std::string summary_rows;
   if (restart) {
-    BytesIn in(restart->section("app"), restart->path() + ": section app");
-    current_case = in.get<std::int32_t>();
-    at = in.get<StageCursor>();
-    prep_account = in.get<StageCursor>();
-    c = in.get<StageResult>();
-    e_saved = in.get<StageResult>();
-    t_cons = in.get<double>();
-    summary_rows = in.get_string();
-    if (!in.done() || current_case < -1 || current_case >= std::int32_t(cases.size()))
+    FieldReader in = restart->fields("app");
+    current_case = in.i32("case");
+    at = read_cursor(in);
+    prep_account = read_cursor(in);
+    c = read_result(in);
+    e_saved = read_result(in);
+    t_cons = in.f64("consolidation_seconds");
+    summary_rows = in.text("summary_rows");
+    in.done();
+    if (current_case < -1 || current_case >= std::int32_t(cases.size()))
       throw InputError(restart->path() + ": section app: case " + std::to_string(current_case) +
                        " of a sweep of " + std::to_string(cases.size()) +
                        ": not the state of this build's triaxial application");
@@ -410,93 +178,74 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
     output->resume_after(restart_step, names, std::size_t(start_case + 1));
   }
   const fs::path out(outdir);
-  // A series file; on a restart in its stage, its rows after the checkpoint's step are dropped.
-  // Rank 0 writes the CSV files; every write is checked (io/write_check.hpp) and the ranks agree
-  // on the outcome (parallel/guard.hpp), so that a failed write ends every rank.
-  auto open_series = [&](const fs::path& p, std::ofstream& f, bool resuming) {
-    agree(mpi.comm(), [&] {
-      if (!root) return;
-      make_output_directory(p.parent_path().string());
-      if (resuming && keep_series_through(p.string(), 1, restart_step)) {
-        open_checked(f, p.string(), std::ios::app);
-      } else {
-        open_checked(f, p.string());
-        write_series_header(f);
-      }
-      check_stream(f, p.string());
-    });
-  };
-  std::ofstream cons_series;
-  const std::string cons_series_path = (out / "consolidation.csv").string();
   agree(mpi.comm(), [&] {  // the output directory exists before any rank writes a checkpoint
     if (root) make_output_directory(out.string());
   });
-  if (start_case < 0) open_series(cons_series_path, cons_series, restart != nullptr);
+  const std::string header = [] {
+    std::ostringstream h;
+    write_series_header(h);
+    return h.str();
+  }();
+  // The consolidation's series and fabric files; on a restart in it, rows after its step go.
+  std::optional<SeriesFile> cons_series;
   std::optional<FabricFiles> cons_fabric;
-  if (start_case < 0)
+  if (start_case < 0) {
+    cons_series.emplace(mpi.comm(), (out / "consolidation.csv").string(), header, 1,
+                        restart ? restart_step : -1);
     agree(mpi.comm(), [&] {
       cons_fabric.emplace(root && scene.fabric.enabled, out, "consolidation_",
                           int(scene.fabric.rose_bins), restart ? restart_step : -1);
     });
-
-  // Checkpoints: the current simulation, the consolidated one (inside a case) and the state of
-  // the protocol, at rebuild steps (TriaxialRun::on_step).
+  }
+  // Where the protocol is: the current simulation and its files (the consolidation's, then
+  // each case's).
   Simulation* current = prepared.get();
-  std::ofstream* current_series = &cons_series;
-  std::string current_series_path = cons_series_path;
+  SeriesFile* current_series = cons_series ? &*cons_series : nullptr;
   FabricFiles* current_fabric = cons_fabric ? &*cons_fabric : nullptr;
   // After every series row, on every rank: the rows so far are written (rank 0's check, agreed).
   auto row_check = [&] {
+    if (current_series) current_series->check();
     agree(mpi.comm(), [&] {
-      if (!root) return;
-      if (current_series) check_stream(*current_series, current_series_path);
-      if (current_fabric) current_fabric->check();
+      if (root && current_fabric) current_fabric->check();
     });
   };
+  // Checkpoints: the current simulation, the consolidated one (inside a case) and the state of
+  // the protocol, at rebuild steps (StageRun::on_step).
   StageCursor prep_acc;
   StageResult e_res;
-  CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
-                              prepared->step_count());
-  auto save = [&](const StageCursor& cur, bool blowup) {
-    agree(mpi.comm(), [&] {  // on disk: a checkpoint never refers to rows that are not
-      if (root && current_series) sync_stream(*current_series, current_series_path);
+  AppCheckpoint ckpt(mpi.comm(), scene, outdir, "triaxial", prepared->step_count(), [&] {
+    if (current_series) current_series->sync();
+    agree(mpi.comm(), [&] {
       if (root && current_fabric) current_fabric->flush();
     });
-    // run.h5 on disk up to here: a checkpoint never refers to output that is not (collective).
-    if (output) output->flush();
-    const auto t = clock::now();
-    CheckpointWriter w(mpi.comm(), scene_fingerprint(scene.text), "triaxial", blowup);
-    w.add_simulation("sim", *current);
-    if (current_case >= 0) w.add_simulation("prep", *prepared);
-    w.add_global("app", Bytes().put(current_case).put(cur).put(prep_acc).put(c).put(e_res)
-                            .put(t_cons).put_string(summary_rows).str());
-    const std::string path = (out / (blowup ? "blowup.ckpt" : "checkpoint.ckpt")).string();
-    const std::uint64_t bytes = w.write(path);
-    schedule.taken(current->step_count());
-    const double secs = std::chrono::duration<double>(clock::now() - t).count();
-    if (log && blowup)
-      *log << fmt::format("  state at the blow-up, step {}: {} ({:.1f} MB in {:.2f} s)\n",
-                          current->step_count(), path, double(bytes) / 1e6, secs);
-    else if (log)
-      *log << fmt::format("  checkpoint at step {} ({}, {}): {} ({:.1f} MB in {:.2f} s)\n",
-                          current->step_count(),
-                          current_case < 0 ? std::string("consolidation") : cases[current_case].name,
-                          kStageNames[int(cur.stage)], path, double(bytes) / 1e6, secs)
-           << std::flush;
-    return path;
+    if (output) output->flush();  // collective
+  }, log, "  ");
+  auto sims = [&] {
+    AppCheckpoint::Sims v{{"sim", current}};
+    if (current_case >= 0) v.push_back({"prep", prepared.get()});
+    return v;
+  };
+  auto app_fields = [&](const StageCursor& cur) {
+    FieldWriter app;
+    app.i32("case", current_case);
+    write_cursor(app, cur);
+    write_cursor(app, prep_acc);
+    write_result(app, c);
+    write_result(app, e_res);
+    app.f64("consolidation_seconds", t_cons).text("summary_rows", summary_rows);
+    return app;
   };
   // A blow-up: the state at detection goes to OUT/blowup.ckpt. Called where the simulation that
-  // blew up is still alive (inside a case, its simulation and streams are the case's locals).
-  auto blowup = [&](const BlowUpError& err) {
-    const std::string path = save(StageCursor{}, true);
-    throw CollectiveError(std::string(err.what()) + "; the state at detection is saved in " +
-                          path + " (for post-mortem: a run cannot restart from it)");
-  };
+  // blew up is still alive (inside a case, its simulation and files are the case's locals).
+  auto blowup = [&](const BlowUpError& err) { ckpt.blowup(err, sims(), app_fields(StageCursor{})); };
   auto hook = [&](const StageCursor& cur) {
-    if (schedule.due(*current)) save(cur, false);
+    if (ckpt.due(*current))
+      ckpt.save(sims(), app_fields(cur),
+                fmt::format(" ({}, {})", current_case < 0 ? std::string("consolidation") : cases[current_case].name,
+                            kStageNames[cur.stage]));
   };
   try {
-    TriaxialRun prep(scene, *prepared, d_mean, density, root ? &cons_series : nullptr, log);
+    TriaxialRun prep(scene, *prepared, d_mean, density, cons_series ? cons_series->stream() : nullptr, log);
     if (cons_fabric) prep.set_fabric_output(cons_fabric->streams());
     prep.set_output(output, "consolidation");
     prep.on_row(row_check);
@@ -508,8 +257,8 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
       // checkpoint restores exactly (docs/checkpoint.md), for the cases after a restart.
       prepared->rebuild();
       t_cons = std::chrono::duration<double>(clock::now() - t0).count();
-      agree(mpi.comm(), [&] {  // complete on disk before any checkpoint of a case
-        if (root) close_checked(cons_series, cons_series_path);
+      cons_series->close();  // complete on disk before any checkpoint of a case
+      agree(mpi.comm(), [&] {
         if (cons_fabric) cons_fabric->close();
       });
       current_series = nullptr;
@@ -545,9 +294,8 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
           resuming ? std::make_unique<Simulation>(std::move(*case_snapshot), d2.get())
                    : std::make_unique<Simulation>(*prepared, d2.get());
       Simulation& sim = *simp;
-      std::ofstream series;
-      const std::string series_path = (out / tc.name / "series.csv").string();
-      open_series(series_path, series, resuming);
+      SeriesFile series(mpi.comm(), (out / tc.name / "series.csv").string(), header, 1,
+                        resuming ? restart_step : -1);
       std::optional<FabricFiles> fabric;
       agree(mpi.comm(), [&] {
         fabric.emplace(root && scene.fabric.enabled, out / tc.name, "", int(scene.fabric.rose_bins),
@@ -555,11 +303,10 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
       });
       current = &sim;
       current_series = &series;
-      current_series_path = series_path;
       current_fabric = &*fabric;
       current_case = std::int32_t(i);
-      schedule.rebase(sim.step_count());
-      TriaxialRun run(scene, sim, d_mean, density, root ? &series : nullptr, log, &prep);
+      ckpt.rebase(sim.step_count());
+      TriaxialRun run(scene, sim, d_mean, density, series.stream(), log, &prep);
       run.on_step(hook);
       run.set_fabric_output(fabric->streams());
       run.on_row(row_check);
@@ -570,7 +317,7 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
       StageResult e, sh;
       e_res = StageResult{};
       try {
-        if (resuming && at.stage == TriaxialStage::Shear) {
+        if (resuming && at.stage == kShear) {
           e = e_res = e_saved;
           sh = run.resume(at);
         } else {
@@ -601,10 +348,8 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                       sh.strain.sum(), qp_end, sh.max_lateral_error,
                       std::max(e.max_energy_error, sh.max_energy_error), inertial, secs);
       summary_rows += row;
-      agree(mpi.comm(), [&] {
-        if (root) close_checked(series, series_path);
-        fabric->close();
-      });
+      series.close();
+      agree(mpi.comm(), [&] { fabric->close(); });
       write_summary();
       current = prepared.get();  // the case's simulation and series end here
       current_series = nullptr;

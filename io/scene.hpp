@@ -5,6 +5,7 @@
 #include "core/contact_law.hpp"
 #include "core/types.hpp"
 #include "io/errors.hpp"
+#include "io/stage_spec.hpp"
 
 #include <cstdint>
 #include <optional>
@@ -51,8 +52,6 @@ struct CompressSpec {
 // conventional triaxial compression along axis 1 with the lateral stresses held by the servo.
 // How the servo sets its gains (apps/servo.hpp): from the specimen's measured stiffness, or
 // fixed by the scene (the default when servo_gain or servo_integral_gain is given).
-enum class ServoMode { Stiffness, Gains };
-
 struct TriaxialSpec {
   bool enabled = false;
   real_t confining_pressure = 200e3;    // Pa
@@ -79,6 +78,11 @@ struct TriaxialSpec {
   std::int64_t max_stage_steps = 2000000;  // a stage that does not converge ends the run
   std::vector<real_t> rolling_friction_cases;  // a sweep over mu_r (empty: [contact] value)
   real_t progress_seconds = 5.0;        // a progress line at most this often
+  // The servo keys above as the stages take them (apps/triaxial_stages.hpp).
+  ServoSettings servo_settings() const {
+    return {servo, servo_relaxation, servo_integral_relaxation, servo_gain, servo_integral_gain,
+            max_strain_rate, servo_interval, stress_tolerance, unbalanced_tolerance};
+  }
 };
 
 // Domain decomposition over MPI ranks (ignored on one rank).
@@ -125,6 +129,9 @@ struct Scene {
   TriaxialSpec triaxial;
   ParallelSpec parallel;
   FabricSpec fabric;
+  // The [[stage]] tables, in order (io/stage_spec.hpp; empty: none). A scene gives them, or
+  // [triaxial], or neither (a plain run).
+  std::vector<StageSpec> stages;
 };
 
 Scene load_scene(const std::string& path);
