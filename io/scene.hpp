@@ -95,7 +95,7 @@ struct ParallelSpec {
 // Fabric analysis of the contact sub-networks (core/fabric.hpp, docs/fabric.md) at the output
 // rows of a triaxial test's shear stage and at the end of consolidation.
 struct FabricSpec {
-  bool enabled = true;       // used by [triaxial] scenes only
+  bool enabled = true;       // used by [triaxial] and [[stage]] scenes
   real_t strong_ratio = 1.0; // strong contact: f_n > strong_ratio * mean f_n (> 0)
   std::int64_t rose_bins = 36;  // rose diagram bins over [0, pi) (1 .. 3600)
 };

@@ -251,6 +251,8 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
   if (auto v = s.number("local_damping"))
     st.local_damping = s.checked("local_damping", *v, *v >= 0 && *v < 1, "must lie in [0, 1)");
   st.reset_strain = s.boolean("reset_strain").value_or(false);
+  st.fabric = StageFabric::AtRows;  // with [fabric] enabled: at every row of every stage
+  st.track_peak = true;             // the peak q/p and stress error of stages.csv
   ServoSettings& sv = st.servo;
   if (auto v = s.number("max_strain_rate")) sv.max_strain_rate = s.checked("max_strain_rate", *v, *v > 0, "must be positive");
   if (auto v = s.number("servo_relaxation"))
