@@ -5,17 +5,13 @@
 // that branches every case from the consolidated state.
 #pragma once
 #include "parallel/mpi_domain.hpp"
+#include "apps/fabric_files.hpp"
 #include "apps/fabric_output.hpp"
 #include "apps/stage_run.hpp"
 #include "apps/triaxial_stages.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
 
-#include <array>
-#include <cstdint>
-#include <filesystem>
-#include <fstream>
-#include <functional>
 #include <memory>
 #include <string>
 
@@ -42,26 +38,6 @@ class TriaxialRun : public StageRun {
   StageResult resume(const StageCursor& at);
 };
 
-
-// DIR/<prefix>fabric.csv, sff.csv, rose.csv with their headers (when 'open'; rank 0). With
-// 'resume_step' >= 0 (a restart in the stage that writes them) the existing files keep their
-// rows up to that step (the others are written again) and are appended to.
-class FabricFiles {
- public:
-  FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins,
-              std::int64_t resume_step = -1);
-  const FabricStreams* streams() const { return streams_.fabric ? &streams_ : nullptr; }
-  // Each throws a WriteError naming the file if a write so far failed (io/write_check.hpp).
-  void check();  // the rows so far written
-  void flush();  // the rows so far on disk (before a checkpoint)
-  void close();  // synced and closed
-
- private:
-  std::array<std::string, 3> paths_;
-  std::ofstream fabric_, sff_, rose_;
-  FabricStreams streams_;
-};
-
 class MpiContext;
 class Checkpoint;
 struct Setup;
@@ -70,9 +46,9 @@ struct Setup;
 MpiDomainOptions domain_options(const Scene& scene);
 std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 
-// The whole test for a scene with [triaxial]: one consolidation, then for each case of the sweep
-// (or the single [contact] rolling_friction) a branch of the consolidated state that is
-// re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0), and
+// The whole test for a scene with [triaxial] (apps/triaxial_sweep.hpp): one consolidation, then
+// for each case of the sweep (or the single [contact] rolling_friction) a branch of the
+// consolidated state that is re-equilibrated and sheared. Writes OUT/<case>/series.csv and OUT/summary.csv (rank 0), and
 // with 'output' the same series and the snapshots into run.h5 (cases "consolidation" and each
 // case's name). Checkpoints ([run] checkpoint_every / checkpoint_seconds) go to OUT/checkpoint.ckpt; with
 // 'restart' the test continues from one (docs/checkpoint.md).
