@@ -269,6 +269,9 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
     if (*n <= 0) s.fail("max_steps", std::to_string(*n), "must be positive");
     st.max_steps = *n;
   }
+  if (st.end.steps && *st.end.steps > st.max_steps)
+    s.fail("end.steps", std::to_string(*st.end.steps),
+           "exceeds max_steps = " + std::to_string(st.max_steps) + " (raise max_steps)");
   for (int k = 0; k < 3; ++k)
     if (st.mode[k] == AxisMode::StrainRate && std::abs(st.rate[k]) > sv.max_strain_rate)
       s.fail(ty == 0 ? "control.axis_" + std::to_string(k + 1) + ".strain_rate" : std::string("axial_strain_rate"),

@@ -296,6 +296,7 @@ end = { strain = -0.01, strain_axis = 1 }
   expect_error("[[stage]]\ntype = \"anisotropic\"\nstress = [1e5, -1, 1e5]\nend = { at_rest = true }\n", {"stage[1].stress", "three positive"});
   expect_error("[[stage]]\ntype = \"hold\"\npressure = 1e5\nend = { steps = 1 }\n", {"stage[1].pressure", "not used"});
   expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 0 }\n", {"stage[1].end.steps = 0"});
+  expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 3000000 }\n", {"stage[1].end.steps = 3000000", "max_steps"});
   expect_error("[[stage]]\ntype = \"hold\"\nend = { stepz = 3 }\n", {"stage[1].end.stepz", "unknown key"});
   expect_error("[[stage]]\ntype = \"cyclic_strain\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 0.01\n", {"stage[1].cycles", "(missing)"});
   expect_error("[[stage]]\ntype = \"cyclic_stress\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 2e5\ncycles = 1\n",
