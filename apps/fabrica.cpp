@@ -4,7 +4,10 @@
 //   fabrica info OUT/run.h5
 //   fabrica fabric OUT/run.h5 [--case C] [--step S | --all] [--strong-ratio R] [--bins B] [-o DIR]
 //   fabrica checkpoint-info CKPT
+#include "apps/app_checkpoint.hpp"
 #include "apps/fabric_offline.hpp"
+#include "apps/series_file.hpp"
+#include "apps/stage_driver.hpp"
 #include "apps/triaxial.hpp"
 #include "core/simulation.hpp"
 #include "io/checkpoint.hpp"
@@ -44,7 +47,7 @@ constexpr const char* kSeriesHeader =
     "step,time,s11,s22,s33,s12,s23,s13,p,q,Z,contacts,sliding,rolling,kinetic,e_normal,"
     "e_shear,e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,void_ratio\n";
 
-void print_row(const Simulation& sim, const MacroState& m, std::ofstream* csv, RunOutput* out) {
+void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, RunOutput* out) {
   if (out) {
     const double v[] = {sim.time(), m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
                         m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.coordination, double(m.contacts),
@@ -99,7 +102,7 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   if (!restart.empty()) {
     Checkpoint::Expect ex;
     ex.scene_text = &scene.text;
-    ex.app = scene.triaxial.enabled ? "triaxial" : "run";
+    ex.app = scene.triaxial.enabled ? "triaxial" : !scene.stages.empty() ? "stages" : "run";
     ckpt = Checkpoint::read(mpi.comm(), restart, ex);
   }
   agree(mpi.comm(), [&] {  // rank 0 speaks for all
@@ -114,8 +117,8 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   // The set-up made here is the run's (made once).
   std::optional<Setup> setup;
   if (!ckpt)
-    setup = make_run_setup(scene.triaxial.enabled ? triaxial_setup_scene(scene) : scene, mpi.comm(),
-                           domain_options(scene));
+    setup = make_run_setup(scene.triaxial.enabled || !scene.stages.empty() ? triaxial_setup_scene(scene) : scene,
+                           mpi.comm(), domain_options(scene));
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
@@ -130,6 +133,8 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
     rc = scene.triaxial.enabled
              ? run_triaxial(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr,
                             setup ? &*setup : nullptr)
+             : !scene.stages.empty()
+             ? run_stages(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, setup ? &*setup : nullptr)
              : run_plain(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, restart,
                          setup ? &*setup : nullptr);
   } catch (const CollectiveError&) {  // met by every rank: the file can be closed (collective)
@@ -160,10 +165,10 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   const bool root = mpi.rank() == 0;
   Cursor at;
   if (ckpt) {
-    BytesIn in(ckpt->section("app"), restart + ": section app");
-    at.phase = in.get<std::int32_t>();
-    at.k = in.get<std::int64_t>();
-    if (!in.done()) throw InputError(restart + ": section app: unexpected extra bytes");
+    FieldReader in = ckpt->fields("app");
+    at.phase = in.i32("phase");
+    at.k = in.i64("k");
+    in.done();
   }
   std::optional<SimulationSnapshot> saved;  // decoded (and checked) before any file is touched
   if (ckpt) saved = ckpt->simulation("sim", mpi.comm());
@@ -177,29 +182,11 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
              s.params.dt, s.params.dt / s.critical_dt);
   fmt::print("{} MPI rank(s){}\n", mpi.size(),
              mpi.size() > 1 ? ", " + scene.parallel.decomposition + " decomposition" : "");
-  std::ofstream csv;
   const fs::path series_path = fs::path(outdir) / "series.csv";
-  const std::string csv_path = series_path.string();
-  // Rank 0 writes the CSV; every write is checked (io/write_check.hpp) and the ranks agree on
-  // the outcome, so that a failed write (full disk, read-only directory) ends every rank. The
-  // output directory exists before any rank writes to it.
-  agree(mpi.comm(), [&] {
-    if (!root) return;
-    make_output_directory(outdir);
-    // On a restart the rows after the checkpoint's step go (the run writes them again).
-    if (ckpt && keep_series_through(csv_path, 0, ckpt->header().step))
-      open_checked(csv, csv_path, std::ios::app);
-    else
-      open_checked(csv, csv_path);
-    if (csv.tellp() == 0) csv << kSeriesHeader;
-    check_stream(csv, csv_path);
+  agree(mpi.comm(), [&] {  // the output directory exists before any rank writes to it
+    if (root) make_output_directory(outdir);
   });
-  auto check_csv = [&](bool sync) {
-    agree(mpi.comm(), [&] {
-      if (root && sync) sync_stream(csv, csv_path);
-      else if (root) check_stream(csv, csv_path);
-    });
-  };
+  SeriesFile csv(mpi.comm(), series_path.string(), kSeriesHeader, 0, ckpt ? ckpt->header().step : -1);
 
   const ContactLawParams law = scene.law;
   const auto t0 = std::chrono::steady_clock::now();
@@ -224,27 +211,15 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   if (ckpt)
     fmt::print("-- restarted from {} at step {} (written on {} rank(s))\n", restart,
                sim.step_count(), ckpt->header().ranks);
-  const std::uint64_t fingerprint = scene_fingerprint(scene.text);
-  const std::string ckpt_path = (fs::path(outdir) / "checkpoint.ckpt").string();
-  CheckpointSchedule schedule(mpi.comm(), scene.checkpoint_every, scene.checkpoint_seconds,
-                              sim.step_count());
-  auto save = [&](std::int32_t phase, std::int64_t k, bool blowup = false) {
-    check_csv(true);  // on disk: a checkpoint never refers to rows that are not
-    // run.h5 on disk up to here: a checkpoint never refers to output that is not (collective).
-    if (out) out->flush();
-    const auto t = std::chrono::steady_clock::now();
-    CheckpointWriter w(mpi.comm(), fingerprint, "run", blowup);
-    w.add_simulation("sim", sim);
-    w.add_global("app", Bytes().put(phase).put(k).str());
-    const std::string path = blowup ? (fs::path(outdir) / "blowup.ckpt").string() : ckpt_path;
-    const std::uint64_t bytes = w.write(path);
-    schedule.taken(sim.step_count());
-    fmt::print("-- {} at step {}: {} ({:.1f} MB in {:.2f} s)\n",
-               blowup ? "state at the blow-up" : "checkpoint", sim.step_count(), path,
-               double(bytes) / 1e6,
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
-    std::fflush(stdout);
-    return path;
+  AppCheckpoint checkpoints(mpi.comm(), scene, outdir, "run", sim.step_count(), [&] {
+    csv.sync();                // on disk: a checkpoint never refers to rows that are not
+    if (out) out->flush();     // nor to output that is not (collective)
+  }, root ? &std::cout : nullptr, "-- ");
+  const AppCheckpoint::Sims sims{{"sim", &sim}};
+  auto save = [&](std::int32_t phase, std::int64_t k) {
+    FieldWriter app;
+    app.i32("phase", phase).i64("k", k);
+    checkpoints.save(sims, app);
   };
   try {
     print_header();
@@ -264,7 +239,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
           if (k % 2000 == 0) print_row(sim, m, nullptr, nullptr);
           if (m.p >= scene.compress.target_pressure) break;
         }
-        if (schedule.due(sim)) save(0, k);
+        if (checkpoints.due(sim)) save(0, k);
       }
       if (k == scene.compress.max_steps)
         throw std::runtime_error(fmt::format("{}: [compress] max_steps = {} reached before p = {} Pa",
@@ -285,20 +260,19 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
       if (measure) {
         const MacroState m = sim.macro();
         check_sane(sim, m, scene);
-        print_row(sim, m, root ? &csv : nullptr, out);
-        check_csv(false);
+        print_row(sim, m, csv.stream(), out);
+        csv.check();
       }
-      if (k < scene.steps && schedule.due(sim)) save(1, k);
+      if (k < scene.steps && checkpoints.due(sim)) save(1, k);
     }
     snapshot(true);
   } catch (const BlowUpError& e) {  // every rank is here (the diagnosis is collective)
-    const std::string path = save(0, 0, true);
-    throw CollectiveError(std::string(e.what()) + "; the state at detection is saved in " + path +
-                          " (for post-mortem: a run cannot restart from it)");
+    FieldWriter app;
+    app.i32("phase", 0).i64("k", 0);
+    checkpoints.blowup(e, sims, app);
   }
-  agree(mpi.comm(), [&] {
-    if (root) close_checked(csv, csv_path);
-  });
+  std::fflush(stdout);
+  csv.close();
   const std::int64_t steps_done = sim.step_count() - first_step;
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double n_total = double(sim.macro().particles);

@@ -46,15 +46,16 @@ Mat3 specimen_stiffness(Simulation& sim) {
   return M;
 }
 
-Servo::Servo(const TriaxialSpec& tx, real_t interval, std::array<bool, 3> axes, Vec3 fixed)
-    : mode_(tx.servo), target_(tx.confining_pressure), kp_(tx.servo_gain),
-      ki_(tx.servo_integral_gain), cap_(tx.max_strain_rate), relax_(tx.servo_relaxation),
-      irelax_(tx.servo_integral_relaxation), interval_(interval), axes_(axes), fixed_(fixed) {}
+Servo::Servo(const ServoSettings& s, real_t interval, std::array<bool, 3> axes, Vec3 fixed, Vec3 target)
+    : mode_(s.mode), target_(target), kp_(s.gain), ki_(s.integral_gain), cap_(s.max_strain_rate),
+      relax_(s.relaxation), irelax_(s.integral_relaxation), interval_(interval), axes_(axes),
+      fixed_(fixed) {}
 
 Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
   Vec3 r = fixed_;
   for (int k = 0; k < 3; ++k) {
     if (!axes_[k]) continue;
+    const real_t target = target_[k];
     real_t S = 0;  // the stiffness against the servo's own strain: every controlled axis moves
     for (int l = 0; l < 3; ++l)
       if (axes_[l]) S += M(k, l);
@@ -64,7 +65,7 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
     // bits (summation order), and a dense packing amplifies any difference in the imposed
     // strain rate to O(1) within ~1000 steps; rounded, the servo acts identically on any number
     // of ranks (tests/regression, SameCurveOnOneAndManyRanks).
-    const real_t e = std::round((stress(k, k) - target_) / target_ * 1e6) * 1e-6;
+    const real_t e = std::round((stress(k, k) - target) / target * 1e6) * 1e-6;
     if (mode_ == ServoMode::Gains) {
       gain_[k] = kp_;
       // The multiply-adds are explicit, rounded as the fixed-gain servo always was (GCC fused
@@ -78,7 +79,7 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
       r[k] = std::clamp(std::fma(ki_, integral_[k], pe), -cap_, cap_);
       // Over-correction: a loop gain above 2 with the error alternating in sign, above 5 %,
       // at 20 updates in a row (the issue-13 lattice: p between 31 and 149 kPa for ever).
-      const real_t loop = kp_ * interval_ * S / target_;
+      const real_t loop = kp_ * interval_ * S / target;
       flips_[k] = loop > 2 && std::abs(e) > 0.05 && e * last_error_[k] < 0 ? flips_[k] + 1 : 0;
       last_error_[k] = e;
       if (flips_[k] >= 20)
@@ -88,7 +89,7 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
             "{:.6g} Pa over a servo interval of {:.6g} s is a loop gain of {:.3g} (above 2 each "
             "correction overshoots by more than the error it corrects); use servo = \"stiffness\" "
             "(the default without servo_gain) or a servo_gain below {:.6g} 1/s",
-            k + 1, e, kp_, S, interval_, loop, 2 * target_ / (interval_ * S)));
+            k + 1, e, kp_, S, interval_, loop, 2 * target / (interval_ * S)));
       continue;
     }
     if (S <= 0) {  // no contact resists: approach at the cap
@@ -96,7 +97,7 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
       r[k] = e > 0 ? cap_ : (e < 0 ? -cap_ : 0.0);
       continue;
     }
-    const real_t g = target_ / (S * interval_);  // 1/s: the rate that moves sigma by 'target' in T
+    const real_t g = target / (S * interval_);  // 1/s: the rate that moves sigma by 'target' in T
     gain_[k] = relax_ * g;
     const real_t trial = g * (relax_ * e + irelax_ * (integral_[k] + e));
     if (std::abs(trial) < cap_) integral_[k] += e;  // anti-windup
@@ -109,7 +110,7 @@ bool Servo::needs_stiffness(const Mat3& stress) const {
   if (mode_ == ServoMode::Stiffness) return true;
   for (int k = 0; k < 3; ++k) {
     if (!axes_[k]) continue;
-    const real_t e = std::round((stress(k, k) - target_) / target_ * 1e6) * 1e-6;
+    const real_t e = std::round((stress(k, k) - target_[k]) / target_[k] * 1e6) * 1e-6;
     if (std::abs(e) > 0.05 && e * last_error_[k] < 0) return true;
   }
   return false;

@@ -41,8 +41,12 @@ class ServoDivergence : public std::runtime_error {
 
 class Servo {
  public:
-  // 'interval' is the time between two updates [s] (servo_interval steps).
-  Servo(const TriaxialSpec& tx, real_t interval, std::array<bool, 3> axes, Vec3 fixed);
+  // 'interval' is the time between two updates [s] (servo_interval steps); 'target' the stress
+  // of each servo-controlled axis [Pa] (compression positive, > 0).
+  Servo(const ServoSettings& s, real_t interval, std::array<bool, 3> axes, Vec3 fixed, Vec3 target);
+  // A target that moves with the path (constant p, true triaxial): set before update().
+  void set_target(int k, real_t target) { target_[k] = target; }
+  const Vec3& target() const { return target_; }
   // The rates after a measurement of 'stress', 'elapsed' seconds after the previous one, for
   // the specimen stiffness 'M' (specimen_stiffness). Throws ServoDivergence (see the header).
   Vec3 update(const Mat3& stress, real_t elapsed, const Mat3& M);
@@ -60,7 +64,8 @@ class Servo {
 
  private:
   ServoMode mode_;
-  real_t target_, kp_, ki_, cap_, relax_, irelax_, interval_;
+  Vec3 target_;
+  real_t kp_, ki_, cap_, relax_, irelax_, interval_;
   std::array<bool, 3> axes_;
   Vec3 fixed_;
   Vec3 integral_ = Vec3::Zero();

@@ -1,6 +1,7 @@
 #include "io/scene.hpp"
 
 #include "io/fault.hpp"
+#include "io/stage_parse.hpp"
 
 #include <toml++/toml.h>
 
@@ -134,14 +135,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
                                                "triaxial", "parallel", "fabric"};
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
-    if (key == "stage")  // refused by name: a list of loading stages is not implemented
-      throw InputError(path + ": [[stage]]: loading paths as a list of stages are not implemented "
-                       "in this version; the periodic triaxial test is set up with [triaxial] "
-                       "(docs/scene.md)");
+    if (key == "stage") continue;  // [[stage]]: io/stage_parse.cpp, below
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
                        ": unknown top-level entry (expected one of the tables [particles], "
-                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric])");
+                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], or [[stage]])");
   }
   auto table = [&](const char* name) { return root[name].as_table(); };
 
@@ -370,6 +368,18 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (tx.enabled && cp.enabled)
     throw InputError(path + ": [compress] and [triaxial] both given: the triaxial test consolidates "
                      "the specimen itself; remove [compress]");
+
+  // The loading stages ([[stage]], io/stage_parse.cpp): one protocol per scene.
+  sc.stages = parse_stages(root.get("stage"), path);
+  if (!sc.stages.empty() && tx.enabled)
+    throw InputError(path + ": [[stage]] and [triaxial] both given: [triaxial] is the study's "
+                     "protocol as stages (docs/triaxial.md); give one of them");
+  if (!sc.stages.empty() && cp.enabled)
+    throw InputError(path + ": [[stage]] and [compress] both given: prepare the specimen with a "
+                     "stage (type = \"isotropic\"); remove [compress]");
+  if (!sc.stages.empty() && R.has("steps"))
+    throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
+                     ": not used with [[stage]], whose stages end by their end conditions; remove it");
 
   Section M(table("parallel"), path, "parallel");
   ParallelSpec& ps = sc.parallel;

@@ -5,6 +5,7 @@
 #include "core/contact_law.hpp"
 #include "core/types.hpp"
 #include "io/errors.hpp"
+#include "io/stage_spec.hpp"
 
 #include <cstdint>
 #include <optional>
@@ -53,8 +54,6 @@ struct CompressSpec {
 // conventional triaxial compression along axis 1 with the lateral stresses held by the servo.
 // How the servo sets its gains (apps/servo.hpp): from the specimen's measured stiffness, or
 // fixed by the scene (the default when servo_gain or servo_integral_gain is given).
-enum class ServoMode { Stiffness, Gains };
-
 struct TriaxialSpec {
   bool enabled = false;
   real_t confining_pressure = 200e3;    // Pa
@@ -81,6 +80,11 @@ struct TriaxialSpec {
   std::int64_t max_stage_steps = 2000000;  // a stage that does not converge ends the run
   std::vector<real_t> rolling_friction_cases;  // a sweep over mu_r (empty: [contact] value)
   real_t progress_seconds = 5.0;        // a progress line at most this often
+  // The servo keys above as the stages take them (apps/triaxial_stages.hpp).
+  ServoSettings servo_settings() const {
+    return {servo, servo_relaxation, servo_integral_relaxation, servo_gain, servo_integral_gain,
+            max_strain_rate, servo_interval, stress_tolerance, unbalanced_tolerance};
+  }
 };
 
 // Domain decomposition over MPI ranks (ignored on one rank).
@@ -93,7 +97,7 @@ struct ParallelSpec {
 // Fabric analysis of the contact sub-networks (core/fabric.hpp, docs/fabric.md) at the output
 // rows of a triaxial test's shear stage and at the end of consolidation.
 struct FabricSpec {
-  bool enabled = true;       // used by [triaxial] scenes only
+  bool enabled = true;       // used by [triaxial] and [[stage]] scenes
   real_t strong_ratio = 1.0; // strong contact: f_n > strong_ratio * mean f_n (> 0)
   std::int64_t rose_bins = 36;  // rose diagram bins over [0, pi) (1 .. 3600)
 };
@@ -127,6 +131,9 @@ struct Scene {
   TriaxialSpec triaxial;
   ParallelSpec parallel;
   FabricSpec fabric;
+  // The [[stage]] tables, in order (io/stage_spec.hpp; empty: none). A scene gives them, or
+  // [triaxial], or neither (a plain run).
+  std::vector<StageSpec> stages;
 };
 
 Scene load_scene(const std::string& path);

@@ -9,6 +9,7 @@
 // servo consolidates it, and the same fixed gains now stop with what they saw.
 #include "apps/servo.hpp"
 #include "apps/triaxial.hpp"
+#include "tests/apps/fcc_lattice.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
@@ -105,29 +106,6 @@ TEST(Servo, ThousandSpheres) { run(scene_text(1000, "youngs_modulus = 1e8", 1.0)
 
 // The issue's lattice: 108 spheres (3 x 3 x 3 FCC cells), R = 10 mm, k_n = k_s = 1e8 N/m, nearest
 // neighbours 1e-9 m closer than touching (p = 0.7 kPa), target 100 kPa.
-struct Fcc {
-  static constexpr real_t R = 0.01, kn = 1e8;
-  real_t a = 2 * std::sqrt(2.0) * R - 1e-9 * std::sqrt(2.0);  // lattice constant
-  Simulation make() const {
-    Particles p;
-    const Vec3 basis[4] = {Vec3(0, 0, 0), Vec3(0.5, 0.5, 0), Vec3(0.5, 0, 0.5), Vec3(0, 0.5, 0.5)};
-    GlobalId id = 0;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        for (int k = 0; k < 3; ++k)
-          for (const Vec3& b : basis)
-            p.add({id++, R, 2650.0, (Vec3(i, j, k) + b + Vec3::Constant(0.25)) * a});
-    SimulationParams sp;
-    sp.law.stiffness_mode = NormalStiffnessMode::Direct;
-    sp.law.normal_stiffness = kn;
-    sp.law.stiffness_ratio = 1.0;
-    const real_t m = 2650.0 * 4.0 / 3.0 * std::numbers::pi * R * R * R;
-    sp.dt = 0.1 * std::sqrt(m / kn);
-    sp.skin = 0.001;
-    return Simulation(std::move(p), PeriodicCell(Vec3::Constant(3 * a)), sp);
-  }
-};
-
 const char* kFccScene = R"(
 [run]
 output_every = 100

@@ -217,9 +217,100 @@ TEST(Scene, ServoModeAndItsKeys) {
   expect_error("[triaxial]\nservo_integral_relaxation = 0.6\n", {"servo_integral_relaxation", "0.6"});
 }
 
-// A list of loading stages is refused by name, with what to use instead.
-TEST(Scene, StageListIsRefused) {
-  expect_error("[[stage]]\nkind = \"hold\"\n", {"[[stage]]", "not implemented", "[triaxial]"});
+// [[stage]] tables (io/stage_parse.cpp): each type's controls, end conditions, contact
+// parameters and servo keys; bad input refused with stage[i].field and the value.
+TEST(Scene, StageList) {
+  const Scene s = parse_scene(R"(
+[[stage]]
+type = "isotropic"
+pressure = 1e5
+friction = 1.0
+local_damping = 0.7
+end = { at_rest = true }
+[[stage]]
+name = "by hand"
+type = "mixed"
+control.axis_1 = { strain_rate = -0.5 }
+control.axis_2 = { stress = 2e5 }
+control.axis_3 = { stress = 3e5 }
+max_strain_rate = 2.0
+servo_interval = 4
+end = { strain = 0.1, q_p = 1.5 }
+[[stage]]
+type = "true_triaxial"
+pressure = 1e5
+b = 0.5
+axial_strain_rate = 0.2
+end = { steps = 100 }
+[[stage]]
+type = "cyclic_stress"
+pressure = 1e5
+axial_strain_rate = 0.2
+amplitude = 5e4
+cycles = 3
+[[stage]]
+type = "triaxial_extension"
+pressure = 1e5
+axial_strain_rate = 0.2
+end = { strain = -0.01, strain_axis = 1 }
+)", "s.toml");
+  ASSERT_EQ(s.stages.size(), 5u);
+  const StageSpec& a = s.stages[0];
+  EXPECT_EQ(a.name, "isotropic");
+  EXPECT_EQ(a.where, "stage[1]");
+  EXPECT_EQ(a.stress, Vec3::Constant(1e5));
+  EXPECT_TRUE(a.end.at_rest);
+  EXPECT_EQ(*a.friction, 1.0);
+  EXPECT_FALSE(a.rolling_friction);
+  EXPECT_EQ(*a.local_damping, 0.7);
+  const StageSpec& m = s.stages[1];
+  EXPECT_EQ(m.name, "by hand");
+  EXPECT_EQ(m.mode[0], AxisMode::StrainRate);
+  EXPECT_EQ(m.rate[0], -0.5);
+  EXPECT_EQ(m.mode[2], AxisMode::Stress);
+  EXPECT_EQ(m.stress[2], 3e5);
+  EXPECT_EQ(m.servo.max_strain_rate, 2.0);
+  EXPECT_EQ(m.servo.interval, 4);
+  EXPECT_EQ(*m.end.strain, 0.1);
+  EXPECT_EQ(*m.end.q_p, 1.5);
+  EXPECT_EQ(s.stages[2].path, StagePath::TrueTriaxial);
+  EXPECT_EQ(s.stages[2].b, 0.5);
+  EXPECT_EQ(s.stages[2].rate[0], -0.2);
+  EXPECT_EQ(*s.stages[2].end.steps, 100);
+  EXPECT_EQ(s.stages[3].path, StagePath::CyclicStress);
+  EXPECT_EQ(s.stages[3].cycles, 3);
+  EXPECT_TRUE(s.stages[3].end.cycles);
+  EXPECT_EQ(s.stages[4].rate[0], 0.2);  // extension lengthens axis 1
+
+  expect_error("[[stage]]\ntype = \"shear\"\nend = { steps = 1 }\n", {"stage[1].type", "\"shear\"", "unknown stage type"});
+  expect_error("[[stage]]\nend = { steps = 1 }\n", {"stage[1].type", "(missing)"});
+  expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n[[stage]]\ntype = \"mixed\"\n"
+               "control.axis_1 = { stress = 1e5, strain_rate = 0.1 }\ncontrol.axis_2 = { stress = 1e5 }\n"
+               "control.axis_3 = { stress = 1e5 }\nend = { steps = 1 }\n",
+               {"stage[2].control.axis_1", "contradictory controls"});
+  expect_error("[[stage]]\ntype = \"mixed\"\ncontrol.axis_1 = { stress = 1e5 }\ncontrol.axis_2 = { stress = 1e5 }\n"
+               "end = { steps = 1 }\n", {"stage[1].control.axis_3", "(missing)"});
+  expect_error("[[stage]]\ntype = \"isotropic\"\npressure = 1e5\n", {"stage[1].end", "no end condition"});
+  expect_error("[[stage]]\ntype = \"isotropic\"\npressure = 0\nend = { at_rest = true }\n", {"stage[1].pressure = 0", "positive"});
+  expect_error("[[stage]]\ntype = \"isotropic\"\nend = { at_rest = true }\n", {"stage[1].pressure", "(missing)"});
+  expect_error("[[stage]]\ntype = \"anisotropic\"\nstress = [1e5, -1, 1e5]\nend = { at_rest = true }\n", {"stage[1].stress", "three positive"});
+  expect_error("[[stage]]\ntype = \"hold\"\npressure = 1e5\nend = { steps = 1 }\n", {"stage[1].pressure", "not used"});
+  expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 0 }\n", {"stage[1].end.steps = 0"});
+  expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 3000000 }\n", {"stage[1].end.steps = 3000000", "max_steps"});
+  expect_error("[[stage]]\ntype = \"hold\"\nend = { stepz = 3 }\n", {"stage[1].end.stepz", "unknown key"});
+  expect_error("[[stage]]\ntype = \"cyclic_strain\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 0.01\n", {"stage[1].cycles", "(missing)"});
+  expect_error("[[stage]]\ntype = \"cyclic_stress\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 2e5\ncycles = 1\n",
+               {"stage[1].amplitude = 200000", "below pressure"});
+  expect_error("[[stage]]\ntype = \"triaxial_compression\"\npressure = 1e5\naxial_strain_rate = 0.1\nend = { strain = -0.1 }\n",
+               {"stage[1].end.strain = -0.1", "never reached"});
+  expect_error("[[stage]]\ntype = \"triaxial_compression\"\npressure = 1e5\naxial_strain_rate = 5\nend = { strain = 0.1 }\n",
+               {"stage[1].axial_strain_rate = 5", "max_strain_rate"});
+  expect_error("[[stage]]\ntype = \"hold\"\nlocal_damping = 1.0\nend = { steps = 1 }\n", {"stage[1].local_damping = 1", "[0, 1)"});
+  expect_error("[[stage]]\ntype = \"hold\"\nname = \"a,b\"\nend = { steps = 1 }\n", {"stage[1].name", "commas"});
+  expect_error("stage = 3\n", {"stage = 3", "array of tables"});
+  expect_error("[triaxial]\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[[stage]] and [triaxial] both given"});
+  expect_error("[compress]\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[[stage]] and [compress] both given"});
+  expect_error("[run]\nsteps = 5\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[run] steps = 5", "[[stage]]"});
 }
 
 // Without the key, a generated specimen is placed sequentially below 200,000 spheres (the

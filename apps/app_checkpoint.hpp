@@ -1,0 +1,47 @@
+// The checkpoints of an application (docs/checkpoint.md): OUT/checkpoint.ckpt when the
+// schedule ([run] checkpoint_every / checkpoint_seconds) falls due, and OUT/blowup.ckpt with the
+// state at a numerical blow-up (for post-mortem). Before each, the application's files are put
+// on disk ('flush': a checkpoint never refers to rows or output that are not). Collective.
+#pragma once
+#include "core/simulation.hpp"
+#include "io/checkpoint.hpp"
+#include "io/fields.hpp"
+#include "io/scene.hpp"
+
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace fabrica {
+
+class BlowUpError;
+
+class AppCheckpoint {
+ public:
+  // 'app': "run", "triaxial" or "stages" (the header's application); 'step': the step the
+  // schedule counts from; log lines start with 'indent' (rank 0's 'log', or null).
+  AppCheckpoint(MPI_Comm comm, const Scene& scene, std::string outdir, std::string app,
+                std::int64_t step, std::function<void()> flush, std::ostream* log, std::string indent);
+  using Sims = std::vector<std::pair<std::string, const Simulation*>>;  // prefix, simulation
+  // Whether one is due at the end of this step (collective: the ranks agree).
+  bool due(const Simulation& sim) { return schedule_.due(sim); }
+  void rebase(std::int64_t step) { schedule_.rebase(step); }
+  // Writes the simulations (the first one's step and time head the file) and the
+  // application's fields; the log line says 'label' (e.g. " (mur_0.2, shear)"). The path.
+  std::string save(const Sims& sims, const FieldWriter& app, const std::string& label = "");
+  // The state at a blow-up to OUT/blowup.ckpt; throws the error with where it is saved.
+  [[noreturn]] void blowup(const BlowUpError& err, const Sims& sims, const FieldWriter& app);
+
+ private:
+  std::string write(const Sims& sims, const FieldWriter& app, bool blowup, const std::string& label);
+  MPI_Comm comm_;
+  std::uint64_t fingerprint_;
+  std::string outdir_, app_;
+  CheckpointSchedule schedule_;
+  std::function<void()> flush_;
+  std::ostream* log_;
+  std::string indent_;
+};
+
+}  // namespace fabrica

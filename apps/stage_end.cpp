@@ -1,0 +1,28 @@
+#include "apps/stage_end.hpp"
+
+#include <cmath>
+
+namespace fabrica {
+
+bool at_rest(const StageSpec& st, const EndProbe& at) {
+  for (int k = 0; k < 3; ++k) {
+    if (st.mode[k] != AxisMode::Stress) continue;
+    const real_t target = at.targets[k];
+    if (std::abs(at.m->stress(k, k) - target) > st.servo.stress_tolerance * target) return false;
+  }
+  return at.m->unbalanced < st.servo.unbalanced_tolerance;
+}
+
+bool stage_done(const StageSpec& st, const EndProbe& at) {
+  const StageEnd& e = st.end;
+  if (e.steps && at.steps >= *e.steps) return true;
+  if (e.strain) {
+    const real_t eps = at.eps[e.strain_axis];
+    if (*e.strain > 0 ? eps >= *e.strain : eps <= *e.strain) return true;
+  }
+  if (e.q_p && at.m->p > 0 && at.m->q / at.m->p >= *e.q_p) return true;
+  if (e.cycles && at.cycles_done) return true;
+  return e.at_rest && at_rest(st, at);
+}
+
+}  // namespace fabrica

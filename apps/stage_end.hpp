@@ -1,0 +1,29 @@
+// The end conditions of a stage (io/stage_spec.hpp, StageEnd), checked at its measurements:
+// the stage ends when any one it gives is met.
+//   steps     the stage's step count reaches it (the driver measures at that step);
+//   strain    eps of the axis, from the stage's start, reaches the value (its sign: the way);
+//   q_p       q/p reaches the value;
+//   at_rest   every stress-controlled axis within stress_tolerance of its target (relative)
+//             and the unbalanced-force ratio below unbalanced_tolerance;
+//   cycles    a cyclic path's cycles done (apps/stage_control.hpp).
+#pragma once
+#include "core/measures.hpp"
+#include "io/stage_spec.hpp"
+
+#include <cstdint>
+
+namespace fabrica {
+
+struct EndProbe {
+  std::int64_t steps = 0;       // of the stage
+  const MacroState* m = nullptr;
+  Vec3 eps = Vec3::Zero();      // the stage's strains
+  Vec3 targets = Vec3::Zero();  // stress targets of the stress axes (0 elsewhere)
+  bool cycles_done = false;
+};
+
+bool stage_done(const StageSpec& st, const EndProbe& at);
+// 'at_rest' alone (without the other conditions).
+bool at_rest(const StageSpec& st, const EndProbe& at);
+
+}  // namespace fabrica

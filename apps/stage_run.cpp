@@ -1,0 +1,259 @@
+#include "apps/stage_run.hpp"
+
+#include "apps/stage_end.hpp"
+#include "core/contact_snapshot.hpp"
+#include "core/fabric.hpp"
+#include "io/run_output.hpp"
+#include "parallel/guard.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace fabrica {
+
+void write_series_header(std::ostream& out) {
+  out << "stage,step,time,eps1,eps2,eps3,epsv,s11,s22,s33,s12,s23,s13,p,q,q_p,void_ratio,Z,Z_m,"
+         "sliding_fraction,rolling_fraction,inertial_number,unbalanced,kinetic,e_normal,e_shear,"
+         "e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,boundary_work,"
+         "energy_error,mean_overlap_d,max_overlap_r\n";
+}
+
+StageRun::StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density,
+                   std::ostream* series, std::ostream* log, const StageRun* parent)
+    : scene_(scene), sim_(sim), d_mean_(mean_diameter), density_(density), series_(series),
+      log_(log), l0_(sim.cell().lengths()) {
+  if (parent) {  // a branch of the parent's simulation: the account continues
+    in_pos_ = parent->in_pos_;
+    input_seen_ = parent->input_seen_;
+    l0_ = parent->l0_;
+  } else {
+    input_seen_ = sim_.macro().energy_input - sim_.energy_account().e0;
+  }
+}
+
+void StageRun::track_input(const MacroState& m) {
+  const real_t input = m.energy_input - sim_.energy_account().e0;  // boundary + gravity work
+  in_pos_ += std::max<real_t>(0, input - input_seen_);
+  input_seen_ = input;
+}
+
+real_t StageRun::energy_error(const MacroState& m) const {
+  const real_t in = energy_in();
+  return in > 0 ? (m.energy_input - energy_books(m)) / in : 0.0;
+}
+
+Vec3 StageRun::strain(const Vec3& l0) const {
+  Vec3 e;
+  for (int k = 0; k < 3; ++k) e[k] = std::log(l0[k] / sim_.cell().lengths()[k]);
+  return e;
+}
+
+void StageRun::row(const StageSpec& st, const MacroState& m, const Vec3& eps) {
+  if (!series_ && !output_) return;
+  const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
+  const real_t inertial =
+      m.p > 0 ? std::abs(sim_.cell().strain_rate()[0]) * d_mean_ * std::sqrt(density_ / m.p) : 0;
+  const Dissipation& d = m.dissipated;
+  const real_t values[] = {sim_.time(), eps[0], eps[1], eps[2], eps.sum(),
+                           m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
+                           m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.p > 0 ? m.q / m.p : 0.0,
+                           m.void_ratio, m.coordination, m.mech_coordination,
+                           real_t(m.sliding) / nc, real_t(m.rolling) / nc, inertial, m.unbalanced,
+                           m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
+                           d.viscous, d.local, sim_.boundary_work(), energy_error(m),
+                           m.mean_overlap / d_mean_, m.max_overlap_ratio};
+  if (output_) {
+    static const std::string header = [] {
+      std::ostringstream h;
+      write_series_header(h);
+      return h.str();
+    }();
+    output_->series_row(case_, header, st.name, sim_.step_count(), values);
+  }
+  if (!series_) return;
+  *series_ << st.name << ',' << sim_.step_count();
+  for (real_t v : values) *series_ << fmt::format(",{:.10g}", v);
+  *series_ << '\n';
+}
+
+void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
+  if (!scene_.fabric.enabled) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto records = contact_records(sim_.particles(), sim_.cell(), sim_.params().law, sim_.pairs());
+  const FabricOptions opt{scene_.fabric.strong_ratio, int(scene_.fabric.rose_bins)};
+  const FabricResult r = analyse_fabric(records, sim_.cell().volume(), opt, sim_.domain());
+  if (fabric_out_) write_fabric_rows(*fabric_out_, st.name, sim_.step_count(), eps[0], r);
+  fabric_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void StageRun::apply_contact(const StageSpec& st) {
+  if (st.friction || st.rolling_friction) {
+    ContactLawParams law = sim_.params().law;
+    if (st.friction) law.friction = *st.friction;
+    if (st.rolling_friction) law.rolling_friction = *st.rolling_friction;
+    sim_.set_law(law);
+  }
+  if (st.local_damping) sim_.set_local_damping(*st.local_damping);
+}
+
+Vec3 StageRun::update(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps,
+                      real_t elapsed) {
+  // Collective when needed: every rank takes the same decision from the reduced stress.
+  const Mat3 M = c.needs_stiffness(m.stress) ? specimen_stiffness(sim_) : Mat3::Zero();
+  try {
+    return c.update(m.stress, eps, elapsed, M);
+  } catch (const ServoDivergence& e) {  // the same on every rank (reduced values only)
+    const Vec3 t = c.targets();
+    throw CollectiveError(fmt::format("{}: {} the {} stage stopped at step {}: {} (p = {:.6g} Pa, "
+                                      "target {:.6g} Pa; servo {})",
+                                      scene_.path, st.where, st.name, sim_.step_count(), e.what(),
+                                      m.p, t.maxCoeff(), c.servo().describe()));
+  }
+}
+
+// A servo that cannot follow the loading: a stress axis at the rate cap while its stress is far
+// from the target (10 x the stage's tolerance), in a stage that drives another axis, after the
+// stage's first 50 servo updates.
+bool StageRun::warn_cap(const StageSpec& st, const StageControl& c, const MacroState& m,
+                        const Vec3& rates) {
+  const real_t cap = st.servo.max_strain_rate, tol = st.servo.stress_tolerance;
+  const Vec3 t = c.targets();
+  for (int a = 0; a < 3; ++a) {
+    if (!c.stress_axes()[a] || std::abs(rates[a]) < cap) continue;
+    if (std::abs(m.stress(a, a) - t[a]) <= 10 * tol * t[a]) continue;
+    *log_ << fmt::format("  warning: step {}: the servo is at its rate cap ({} max_strain_rate = {} "
+                         "1/s) on axis {} and s{}{} = {:.4g} Pa is {:.1f} % from the target {:.4g} "
+                         "Pa: it cannot follow the axial loading ({} 1/s); raise max_strain_rate "
+                         "or lower axial_strain_rate\n",
+                         sim_.step_count(), st.where, cap, a + 1, a + 1, a + 1, m.stress(a, a),
+                         100 * std::abs(m.stress(a, a) - t[a]) / t[a], t[a], std::abs(st.rate[0]));
+    log_->flush();
+    return true;
+  }
+  return false;
+}
+
+void StageRun::progress(const StageSpec& st, const MacroState& m, const Vec3& eps, double secs,
+                        std::int64_t steps) {
+  std::string eta;
+  if (st.end.strain) {
+    const real_t x = eps[st.end.strain_axis] / *st.end.strain;
+    if (x > 0) eta = fmt::format(", {:.0f} s left", secs * (1 - x) / x);
+  }
+  *log_ << fmt::format("  [{}] step {}: eps1 {:.4f}, p {:.1f} kPa, q/p {:.4f}, e {:.4f}, "
+                       "unbalanced {:.2e}, {:.0f} steps/s{}\n",
+                       st.name, sim_.step_count(), eps[0], m.p / 1e3, m.p > 0 ? m.q / m.p : 0,
+                       m.void_ratio, m.unbalanced, double(steps) / secs, eta);
+  log_->flush();
+}
+
+StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCursor* resume) {
+  using clock = std::chrono::steady_clock;
+  StageControl control(st, real_t(st.servo.interval) * sim_.params().dt);
+  StageResult res;
+  bool warned = false;
+  std::int64_t updates = 0;  // servo updates of this stage in this process (for the warning)
+  real_t last_servo = sim_.time();
+  std::int64_t k = 1;
+  Vec3 stage_l0 = sim_.cell().lengths();
+  const bool drives = st.mode[0] == AxisMode::StrainRate || st.mode[1] == AxisMode::StrainRate ||
+                      st.mode[2] == AxisMode::StrainRate;
+  if (resume) {  // the rates, the contact parameters and the account are the checkpoint's
+    res = resume->result;
+    control.set_state(resume->control);
+    last_servo = resume->last_servo;
+    k = resume->k + 1;
+    stage_l0 = resume->stage_l0;
+  } else {
+    apply_contact(st);
+    if (st.reset_strain) l0_ = sim_.cell().lengths();
+    sim_.cell().set_strain_rate(update(control, st, sim_.macro(), Vec3::Zero(), 0.0));
+  }
+  const std::int64_t k0 = k - 1;
+  const auto t0 = clock::now();
+  auto last_print = t0;
+  for (;; ++k) {
+    if (k > st.max_steps)
+      throw CollectiveError(fmt::format(
+          "{}: {} = {}: the {} stage did not converge (last p = {:.6g} Pa, target {:.6g} Pa, "
+          "s11 {:.6g}, s22 {:.6g}, s33 {:.6g} Pa, unbalanced-force ratio {:.3g}; servo {}); raise "
+          "it or the damping",
+          scene_.path, st.where == "[triaxial]" ? "[triaxial] max_stage_steps" : st.where + ".max_steps",
+          st.max_steps, st.name, res.state.p, control.targets().maxCoeff(), res.state.stress(0, 0),
+          res.state.stress(1, 1), res.state.stress(2, 2), res.state.unbalanced,
+          control.servo().describe()));
+    const bool out = k % scene_.output_every == 0;
+    const bool measure = out || k % st.servo.interval == 0 || (st.end.steps && k == *st.end.steps);
+    sim_.step(measure);  // the boundary work is the simulation's (Simulation::boundary_work)
+    if (!sim_.step_guard().empty()) throw BlowUpError(sim_.step_guard());  // every step
+    if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain(l0_));
+    if (measure) {
+      const MacroState& m = sim_.macro();
+      track_input(m);
+      res.state = m;
+      const std::string bad = diagnose(m, sim_.step_count(), scene_.max_overlap, scene_.kinetic_runaway);
+      if (!bad.empty()) throw BlowUpError(bad);
+      const Vec3 eps = strain(l0_);
+      const Vec3 eps_stage = strain(stage_l0);
+      res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
+      const Vec3 targets = control.targets();
+      const bool finished = stage_done(
+          st, EndProbe{k, &m, eps_stage, targets, control.cycles_done(m.stress, eps_stage)});
+      // Over every row of the series: the output instants and the stage's last row (a stage
+      // shorter than output_every has only that one).
+      if (st.track_peak && (out || finished)) {
+        const real_t qp = m.p > 0 ? m.q / m.p : 0;
+        if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
+        for (int a = 0; a < 3; ++a)
+          if (control.stress_axes()[a])
+            res.max_lateral_error =
+                std::max(res.max_lateral_error, std::abs(m.stress(a, a) - targets[a]) / targets[a]);
+      }
+      if (out) row(st, m, eps);
+      if (out && st.fabric == StageFabric::AtRows) fabric_row(st, eps);
+      if (out && row_check_) row_check_();
+      const Vec3 rates = update(control, st, m, eps_stage, sim_.time() - last_servo);
+      sim_.cell().set_strain_rate(rates);
+      last_servo = sim_.time();
+      // Said once, and not in the stage's first 50 updates: a new stage's targets may jump
+      // (constant p after an anisotropic state), and the servo at its cap then is no failure.
+      if (drives && !warned && log_ && ++updates > 50) warned = warn_cap(st, control, m, rates);
+      const auto now = clock::now();
+      if (log_ && std::chrono::duration<double>(now - last_print).count() > scene_.triaxial.progress_seconds) {
+        last_print = now;
+        progress(st, m, eps_stage, std::chrono::duration<double>(now - t0).count(), k - k0);
+      }
+      if (finished) {
+        res.steps = k;
+        res.strain = eps;
+        if (!out) row(st, m, eps);
+        if ((!out && st.fabric == StageFabric::AtRows) || st.fabric == StageFabric::AtEnd) fabric_row(st, eps);
+        if (row_check_) row_check_();
+        if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
+        return res;
+      }
+    }
+    if (hook_)
+      hook_(StageCursor{index, k, control.state(), last_servo, res, l0_, stage_l0, in_pos_, input_seen_});
+  }
+}
+
+StageCursor StageRun::account() const {
+  StageCursor a;
+  a.l0 = l0_;
+  a.input_positive = in_pos_;
+  a.input_seen = input_seen_;
+  return a;
+}
+
+void StageRun::set_account(const StageCursor& a) {
+  l0_ = a.l0;
+  in_pos_ = a.input_positive;
+  input_seen_ = a.input_seen;
+}
+
+}  // namespace fabrica

@@ -1,0 +1,119 @@
+// One simulation through loading stages (io/stage_spec.hpp), one at a time: each step, the
+// control law's strain rates (apps/stage_control.hpp) at every servo interval, the end
+// conditions (apps/stage_end.hpp), the series rows, the fabric rows, the HDF5 output and the
+// run's energy account. Every rank runs the same control flow; every decision is taken from
+// reduced (identical) values.
+#pragma once
+#include "apps/fabric_output.hpp"
+#include "apps/stage_control.hpp"
+#include "core/simulation.hpp"
+#include "io/scene.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <ostream>
+#include <string>
+
+namespace fabrica {
+
+class RunOutput;
+
+struct StageResult {
+  std::int64_t steps = 0;
+  MacroState state;
+  Vec3 strain = Vec3::Zero();  // the series' strains at the end (eps_i = ln(l_i0 / l_i))
+  // With track_peak, over every row of the series (the output instants and the stage's last
+  // row): the largest q/p and eps1 there, and the largest relative error of the stress axes'
+  // stresses, max |sigma_kk - target_k| / target_k.
+  real_t peak_q_p = 0;
+  real_t peak_eps1 = 0;
+  real_t max_lateral_error = 0;
+  real_t max_energy_error = 0;   // over the stage, relative to the energy put in (energy_in)
+};
+
+// Where a run is inside a stage, with the run's own account: what a checkpoint saves to resume
+// the stage bit for bit (apps/stage_cursor.hpp writes it as named fields).
+struct StageCursor {
+  std::int32_t stage = 0;        // index in the run's list of stages
+  std::int64_t k = 0;            // steps of the stage done
+  ControlState control;
+  real_t last_servo = 0;         // s, time of the last servo update
+  StageResult result;            // so far
+  Vec3 l0 = Vec3::Zero();        // the series' strain reference
+  Vec3 stage_l0 = Vec3::Zero();  // the stage's strain reference (end conditions)
+  real_t input_positive = 0;     // J, energy_in() less the initial energy
+  real_t input_seen = 0;         // J, boundary + gravity work at the last measurement
+};
+
+class StageRun {
+ public:
+  // With a parent (the run 'sim' was copied from), strains and the energy account continue.
+  // 'series': rank 0's stream of rows (others pass null); 'log': progress lines (or null).
+  StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density,
+           std::ostream* series, std::ostream* log, const StageRun* parent = nullptr);
+
+  // Runs stage 'st' (index 'index' of the run's list, for the cursor) to its end; with
+  // 'resume' from a checkpoint's cursor (the simulation restored from it: the stage's contact
+  // parameters are not applied again).
+  StageResult run(const StageSpec& st, std::int32_t index, const StageCursor* resume = nullptr);
+  // Called at the end of every step of a stage that does not end there (to take checkpoints).
+  void on_step(std::function<void(const StageCursor&)> hook) { hook_ = std::move(hook); }
+  // Called on every rank after every series row (to check and agree that it was written).
+  void on_row(std::function<void()> check) { row_check_ = std::move(check); }
+
+  real_t boundary_work() const { return sim_.boundary_work(); }
+  // The total energy put in [J]: the simulation's initial energy plus every positive increment
+  // of the boundary and gravity work between two measurements. It never decreases, so it can
+  // normalise the energy error of a specimen that unloads (the net work may pass through zero).
+  real_t energy_in() const { return sim_.energy_account().e0 + in_pos_; }
+  // The run's account (strain reference, energy put in) in the fields of a cursor, and its
+  // restoration (the parent of the cases, on a restart).
+  StageCursor account() const;
+  void set_account(const StageCursor& a);
+
+  // Fabric analysis ([fabric] enabled, at the rows the stage's 'fabric' says), on every rank
+  // (collective); rows go to 'out' (rank 0's streams; others pass null or nothing). Wall
+  // seconds spent in it (records, analysis, output) so far:
+  void set_fabric_output(const FabricStreams* out) { fabric_out_ = out; }
+  double fabric_seconds() const { return fabric_seconds_; }
+  // Optional HDF5 output (io/run_output.hpp): the series rows and the snapshots (every
+  // [run] snapshot_every steps and at the end of each stage) go to case 'case_name' of 'out'.
+  void set_output(RunOutput* out, std::string case_name) {
+    output_ = out;
+    case_ = std::move(case_name);
+  }
+
+ protected:
+  const Scene& scene_;
+  Simulation& sim_;
+
+ private:
+  void apply_contact(const StageSpec& st);
+  void row(const StageSpec& st, const MacroState& m, const Vec3& eps);
+  void fabric_row(const StageSpec& st, const Vec3& eps);
+  Vec3 strain(const Vec3& l0) const;
+  // The rates for measurement 'm' (collective: the specimen's stiffness is reduced).
+  Vec3 update(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps, real_t elapsed);
+  bool warn_cap(const StageSpec& st, const StageControl& c, const MacroState& m, const Vec3& rates);
+  void progress(const StageSpec& st, const MacroState& m, const Vec3& eps, double secs, std::int64_t steps);
+  // (energy put in - stored - dissipated) / energy_in(), from the simulation's one account.
+  real_t energy_error(const MacroState& m) const;
+  void track_input(const MacroState& m);  // at every measurement: energy_in() grows
+
+  real_t d_mean_, density_;
+  std::ostream* series_;
+  std::ostream* log_;
+  Vec3 l0_;          // cell lengths at the start of the current strain reference
+  real_t in_pos_ = 0;      // J, sum of the positive increments of input_seen_
+  real_t input_seen_ = 0;  // J, boundary + gravity work at the last measurement
+  std::function<void(const StageCursor&)> hook_;
+  std::function<void()> row_check_;
+  const FabricStreams* fabric_out_ = nullptr;
+  double fabric_seconds_ = 0;
+  RunOutput* output_ = nullptr;
+  std::string case_;
+};
+
+void write_series_header(std::ostream& out);
+
+}  // namespace fabrica

@@ -1,0 +1,54 @@
+#include "apps/triaxial_stages.hpp"
+
+namespace fabrica {
+
+namespace {
+StageSpec isotropic(const Scene& scene, const char* name) {
+  const TriaxialSpec& tx = scene.triaxial;
+  StageSpec st;
+  st.name = name;
+  st.where = "[triaxial]";
+  st.stress = Vec3::Constant(tx.confining_pressure);
+  st.end.at_rest = true;
+  st.local_damping = tx.preparation_damping;
+  st.servo = tx.servo_settings();
+  st.max_steps = tx.max_stage_steps;
+  return st;
+}
+}  // namespace
+
+StageSpec consolidation_stage(const Scene& scene) {
+  StageSpec st = isotropic(scene, "consolidation");
+  st.friction = scene.triaxial.consolidation_friction;
+  st.rolling_friction = 0;
+  st.fabric = StageFabric::AtEnd;
+  return st;
+}
+
+StageSpec equilibration_stage(const Scene& scene, real_t rolling_friction) {
+  StageSpec st = isotropic(scene, "equilibration");
+  st.friction = scene.law.friction;
+  st.rolling_friction = rolling_friction;
+  return st;
+}
+
+StageSpec shear_stage(const Scene& scene) {
+  const TriaxialSpec& tx = scene.triaxial;
+  StageSpec st;
+  st.name = "shear";
+  st.where = "[triaxial]";
+  st.mode = {AxisMode::StrainRate, AxisMode::Stress, AxisMode::Stress};
+  st.rate = Vec3(-tx.axial_strain_rate, 0, 0);
+  st.stress = Vec3(0, tx.confining_pressure, tx.confining_pressure);
+  st.pressure = tx.confining_pressure;
+  st.end.strain = tx.axial_strain;
+  st.local_damping = tx.shear_damping;
+  st.reset_strain = true;
+  st.fabric = StageFabric::AtRows;
+  st.track_peak = true;
+  st.servo = tx.servo_settings();
+  st.max_steps = tx.max_stage_steps;
+  return st;
+}
+
+}  // namespace fabrica

@@ -1,0 +1,76 @@
+// The whole triaxial test of a scene with [triaxial] (docs/triaxial.md): one consolidation,
+// then for each case of the sweep (or the single [contact] rolling_friction) a branch of the
+// consolidated state that is re-equilibrated and sheared (apps/triaxial_stages.hpp, run by
+// StageRun). Writes OUT/consolidation.csv, OUT/<case>/series.csv, the fabric files and
+// OUT/summary.csv (rank 0), with 'output' the same series and the snapshots into run.h5 (cases
+// "consolidation" and each case's name), and checkpoints ([run] checkpoint_every /
+// checkpoint_seconds) that a restart continues from in any stage of any case.
+#pragma once
+#include "apps/app_checkpoint.hpp"
+#include "apps/fabric_files.hpp"
+#include "apps/series_file.hpp"
+#include "apps/triaxial.hpp"
+#include "io/setup.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace fabrica {
+
+class TriaxialSweep {
+ public:
+  // 'setup', when given, is make_run_setup(triaxial_setup_scene(scene)) made beforehand (moved
+  // from); without it the set-up is made here.
+  TriaxialSweep(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
+                RunOutput* output, const Checkpoint* restart, Setup* setup);
+  int run();
+
+ private:
+  void read_restart();  // the case, cursor, accounts and results a checkpoint holds
+  void consolidate(TriaxialRun& prep);
+  void run_case(std::size_t i, const TriaxialRun& prep);
+  void write_summary();
+  // The checkpoint's content: the simulations and the application's fields at 'cur'.
+  AppCheckpoint::Sims sims() const;
+  FieldWriter app_fields(const StageCursor& cur) const;
+  void on_step(const StageCursor& cur);
+  void check_rows();   // after every series row (collective)
+  void flush_files();  // before every checkpoint (collective)
+  [[noreturn]] void blowup(const BlowUpError& err);
+
+  const MpiContext& mpi_;
+  const Scene& scene_;
+  std::filesystem::path out_;
+  RunOutput* output_;
+  const Checkpoint* restart_;
+  bool root_;
+  std::ostream* log_;
+  std::vector<TriaxialCase> cases_;
+  real_t d_mean_ = 0, density_ = 0;
+  std::unique_ptr<Domain> domain_;
+  std::chrono::steady_clock::time_point t0_;
+  // Where the protocol is (and, on a restart, was): the case (-1: consolidation), the cursor of
+  // the stage, the consolidated state's account, the results so far, the finished cases' rows.
+  std::int32_t current_case_ = -1, start_case_ = -1;
+  std::int64_t restart_step_ = 0;
+  StageCursor at_, prep_account_;
+  StageResult cons_, equil_;
+  double t_cons_ = 0;
+  std::string summary_rows_;
+  std::optional<SimulationSnapshot> case_snapshot_;
+  std::unique_ptr<Simulation> prepared_;  // the consolidation's simulation; the cases branch off it
+  std::string header_;
+  std::optional<SeriesFile> cons_series_;
+  std::optional<FabricFiles> cons_fabric_;
+  // The current simulation and its files (the consolidation's, then each case's).
+  Simulation* current_ = nullptr;
+  SeriesFile* current_series_ = nullptr;
+  FabricFiles* current_fabric_ = nullptr;
+  std::optional<AppCheckpoint> ckpt_;
+};
+
+}  // namespace fabrica
