@@ -432,7 +432,15 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_INT64_T, MPI_MAX, comm_);
   if (hi < lo) lo = hi = 0;  // no particles at all
   std::vector<ContRec> conts;
-  for (const ContactRecord& c : contact_records(p, sim.cell(), sim.params().law, sim.pairs())) {
+  // The particle contacts, then the wall contacts (id2 = -1 - wall index; their line cell runs
+  // from the sphere's centre to the contact point), in one table (docs/output.md).
+  std::vector<ContactRecord> records = contact_records(p, sim.cell(), sim.params().law, sim.pairs());
+  if (!sim.params().walls.empty()) {
+    const std::vector<ContactRecord> w =
+        wall_contact_records(p, sim.params().law, sim.params().walls, sim.wall_contacts());
+    records.insert(records.end(), w.begin(), w.end());
+  }
+  for (const ContactRecord& c : records) {
     ContRec r{};
     r.id1 = c.id1, r.id2 = c.id2;
     put(r.normal, c.normal), put(r.branch, c.branch), put(r.ft, c.ft), put(r.mr, c.mr);
@@ -462,10 +470,12 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   double strong_threshold = 0;
   {
     ExactSums s(1);
-    for (const ContRec& r : conts) s.add(0, r.fn);
+    std::int64_t particle_contacts = 0;  // walls are not part of the fabric's threshold
+    for (const ContRec& r : conts)
+      if (r.id2 >= 0) s.add(0, r.fn), ++particle_contacts;
     s.normalize();
     std::vector<std::int64_t> buf(s.words().begin(), s.words().end());
-    buf.push_back(std::int64_t(conts.size()));
+    buf.push_back(particle_contacts);
     MPI_Allreduce(MPI_IN_PLACE, buf.data(), int(buf.size()), MPI_INT64_T, MPI_SUM, comm_);
     std::copy(buf.begin(), buf.end() - 1, s.words().begin());
     s.normalize();
@@ -497,6 +507,12 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   g.set_attr("strain", std::span<const double>(ed, 3));
   g.set_attr("particles", std::int64_t(np));
   g.set_attr("contacts", std::int64_t(nc));
+  if (!sim.params().walls.empty()) {  // of the contacts' rows, those with a wall (id2 < 0)
+    std::int64_t nw = 0;
+    for (const ContRec& r : conts) nw += r.id2 < 0;
+    MPI_Allreduce(MPI_IN_PLACE, &nw, 1, MPI_INT64_T, MPI_SUM, comm_);
+    g.set_attr("wall_contacts", nw);
+  }
 
   h5::Group pg = g.create_group("particles");
   double bytes = 0;
@@ -526,7 +542,7 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   bytes += write_column<std::uint8_t>(cg, "rolling", "bool", 0, conts, c0, nc, [](const ContRec& r, std::uint8_t* d) { *d = r.rolling; });
   // For the contacts' XDMF sidecar (line cells): the strong flag, |f_t|, |m_r| and both ends.
   bytes += write_column<std::uint8_t>(cg, "strong", "bool", 0, conts, c0, nc,
-                        [&](const ContRec& r, std::uint8_t* d) { *d = r.fn > strong_threshold; });
+                        [&](const ContRec& r, std::uint8_t* d) { *d = r.id2 >= 0 && r.fn > strong_threshold; });
   bytes += write_column<double>(cg, "ft_norm", "N", 0, conts, c0, nc,
                         [](const ContRec& r, double* d) { *d = std::sqrt(r.ft[0] * r.ft[0] + r.ft[1] * r.ft[1] + r.ft[2] * r.ft[2]); });
   bytes += write_column<double>(cg, "mr_norm", "N m", 0, conts, c0, nc,

@@ -61,6 +61,9 @@ void write_macro(FieldWriter& w, const MacroState& m) {
   w.i64("macro.first_nonfinite", m.first_nonfinite).i64("macro.fastest", m.fastest);
   w.vec3("macro.fastest_v", m.fastest_v).vec3("macro.fastest_w", m.fastest_w);
   w.f64("macro.energy_input", m.energy_input).f64("macro.gravity_work", m.gravity_work);
+  w.i64("macro.wall_contacts", m.wall_contacts).u64("macro.walls", m.wall_force.size());
+  for (const Vec3& f : m.wall_force) w.vec3("macro.wall_force", f);
+  w.f64("macro.wall_work", m.wall_work).f64("macro.drive_work", m.drive_work);
 }
 
 MacroState read_macro(FieldReader& r) {
@@ -92,6 +95,11 @@ MacroState read_macro(FieldReader& r) {
   m.fastest_w = r.vec3("macro.fastest_w");
   m.energy_input = r.f64("macro.energy_input");
   m.gravity_work = r.f64("macro.gravity_work");
+  m.wall_contacts = r.i64("macro.wall_contacts");
+  const std::uint64_t nw = r.u64("macro.walls");
+  for (std::uint64_t k = 0; k < nw && k < 1000000; ++k) m.wall_force.push_back(r.vec3("macro.wall_force"));
+  m.wall_work = r.f64("macro.wall_work");
+  m.drive_work = r.f64("macro.drive_work");
   return m;
 }
 
