@@ -15,7 +15,12 @@ std::string num(double v) {
   s << v;
   return s.str();
 }
-std::string vec(const Vec3& v) { return "[" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + "]"; }
+std::string vec(const Vec3& v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << '[' << v[0] << ", " << v[1] << ", " << v[2] << ']';
+  return s.str();
+}
 std::string where(const Scene& sc, std::size_t k) {
   return sc.path + ": [wall #" + std::to_string(k + 1) + "] ";
 }
