@@ -76,9 +76,10 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
     for (const SnapshotInfo& info : list) {
       ContactSnapshot snap;
       agree(mpi.comm(), [&] { snap = read_contact_snapshot(a.file, name, info.step); });
+      // Wall contacts (id2 < 0, docs/output.md) are counted apart: the fabric is the particles'.
       std::vector<ContactRecord> mine;
       for (std::size_t c = std::size_t(mpi.rank()); c < snap.contacts.size(); c += std::size_t(mpi.size()))
-        mine.push_back(snap.contacts[c]);
+        if (snap.contacts[c].id2 >= 0) mine.push_back(snap.contacts[c]);
       const Vec3& L = snap.info.cell_lengths;
       const FabricResult res = analyse_fabric(mine, L[0] * L[1] * L[2], opt, *domain);
       agree(mpi.comm(), [&] {
@@ -87,9 +88,12 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
         for (int k = 0; k < 3; ++k) check_stream(*files[k], paths[k] + ".tmp");
       });
       if (!root) continue;
-      fmt::print("{} step {}: eps1 {:.4f}, {} contacts, q/p {:.4f}, (q/p)* all {:.4f}, "
+      std::size_t walls_all = 0;  // over the whole snapshot (every rank read it)
+      for (const ContactRecord& c : snap.contacts) walls_all += c.id2 < 0;
+      fmt::print("{} step {}: eps1 {:.4f}, {} contacts{}, q/p {:.4f}, (q/p)* all {:.4f}, "
                  "ns-sf/ns-wf/s-sf/s-wf {:.4f}\n", name, info.step, snap.info.strain[0],
-                 res.contacts, res.q_p, res.q_p_star[kPartAll], res.q_p_star[kPartSlideForce]);
+                 res.contacts, walls_all ? fmt::format(" (and {} with walls, not in the fabric)", walls_all) : std::string(),
+                 res.q_p, res.q_p_star[kPartAll], res.q_p_star[kPartSlideForce]);
       ++analysed;
     }
     agree(mpi.comm(), [&] {

@@ -25,6 +25,8 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <memory>
+#include <string>
+#include <vector>
 #include <optional>
 
 #include <cerrno>
@@ -47,14 +49,37 @@ constexpr const char* kSeriesHeader =
     "step,time,s11,s22,s33,s12,s23,s13,p,q,Z,contacts,sliding,rolling,kinetic,e_normal,"
     "e_shear,e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,void_ratio\n";
 
+// With walls ([[wall]]) or driven particles ([[driven]]), the series has more columns: the wall
+// contacts (counted apart from the particle contacts), the energy input, the walls' and the
+// drive's work, and each wall's force.
+std::string series_header(std::size_t walls, bool driven) {
+  if (walls == 0 && !driven) return kSeriesHeader;
+  std::string h(kSeriesHeader);
+  h.pop_back();
+  h += ",wall_contacts,energy_input,wall_work,drive_work";
+  for (std::size_t w = 1; w <= walls; ++w)
+    h += fmt::format(",wall{0}_fx,wall{0}_fy,wall{0}_fz", w);
+  return h + "\n";
+}
+std::vector<double> wall_columns(const Simulation& sim, const MacroState& m) {
+  std::vector<double> v;
+  if (sim.params().walls.empty() && sim.params().driven.empty()) return v;
+  v = {double(m.wall_contacts), m.energy_input, m.wall_work, m.drive_work};
+  for (const Vec3& f : m.wall_force) v.insert(v.end(), {f[0], f[1], f[2]});
+  return v;
+}
+
 void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, RunOutput* out) {
+  const std::vector<double> walls = wall_columns(sim, m);
   if (out) {
-    const double v[] = {sim.time(), m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
+    std::vector<double> v = {sim.time(), m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
                         m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.coordination, double(m.contacts),
                         double(m.sliding), double(m.rolling), m.kinetic, m.e_normal, m.e_shear,
                         m.e_rolling, m.dissipated.friction, m.dissipated.rolling,
                         m.dissipated.viscous, m.dissipated.local, m.void_ratio};
-    out->series_row("run", kSeriesHeader, "", sim.step_count(), v);
+    v.insert(v.end(), walls.begin(), walls.end());
+    out->series_row("run", series_header(sim.params().walls.size(), !sim.params().driven.empty()), "",
+                    sim.step_count(), v);
   }
   fmt::print("{:>9} {:>11.5e} {:>11.5e} {:>11.5e} {:>7.3f} {:>7.3f} {:>9} {:>11.4e} {:>11.4e}\n",
              sim.step_count(), sim.time(), m.p, m.q, m.coordination, m.mech_coordination,
@@ -62,12 +87,15 @@ void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, Ru
   if (csv) {
     *csv << fmt::format("{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},"
                         "{:.10e},{},{},{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},"
-                        "{:.10e},{:.10e}\n",
+                        "{:.10e},{:.10e}",
                         sim.step_count(), sim.time(), m.stress(0, 0), m.stress(1, 1), m.stress(2, 2),
                         m.stress(0, 1), m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.coordination,
                         m.contacts, m.sliding, m.rolling, m.kinetic, m.e_normal, m.e_shear,
                         m.e_rolling, m.dissipated.friction, m.dissipated.rolling,
                         m.dissipated.viscous, m.dissipated.local, m.void_ratio);
+    for (std::size_t k = 0; k < walls.size(); ++k)
+      *csv << (k == 0 ? fmt::format(",{}", std::int64_t(walls[k])) : fmt::format(",{:.10e}", walls[k]));
+    *csv << "\n";
   }
 }
 
@@ -186,7 +214,8 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   agree(mpi.comm(), [&] {  // the output directory exists before any rank writes to it
     if (root) make_output_directory(outdir);
   });
-  SeriesFile csv(mpi.comm(), series_path.string(), kSeriesHeader, 0, ckpt ? ckpt->header().step : -1);
+  SeriesFile csv(mpi.comm(), series_path.string(), series_header(scene.walls.size(), !scene.driven.empty()),
+                 0, ckpt ? ckpt->header().step : -1);
 
   const ContactLawParams law = scene.law;
   const auto t0 = std::chrono::steady_clock::now();

@@ -80,7 +80,7 @@ class Contacts:
     periodic image of body 2 next to it (x1 + branch): the line of the contact.
     """
     info: SnapshotInfo
-    id1: np.ndarray      #: (M,) int64, id1 < id2
+    id1: np.ndarray      #: (M,) int64, id1 < id2 (a wall contact: id2 = -1 - wall index)
     id2: np.ndarray      #: (M,) int64
     normal: np.ndarray   #: (M, 3) unit normal from 1 to 2
     branch: np.ndarray   #: (M, 3) m, x2 (periodic image) - x1

@@ -31,9 +31,17 @@ struct PairList {
   }
 };
 
+// A plane, moving at a constant velocity (zero: fixed). Its contacts use the scene's contact
+// law, or its own when own_law is set (Rbar = R of the sphere, k_n = pi R E for the
+// deformability form, m_eff = m of the sphere).
 struct Wall {
-  Vec3 point = Vec3::Zero();        // a point of the plane (m)
+  Vec3 point = Vec3::Zero();        // a point of the plane (m), advanced by velocity * dt each step
   Vec3 normal = Vec3::UnitZ();      // unit normal pointing into the granular domain
+  Vec3 velocity = Vec3::Zero();     // m/s
+  bool own_law = false;
+  ContactLawParams law;             // used when own_law
+
+  bool moving() const { return !velocity.isZero(); }
 };
 
 struct WallContactList {

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 
 namespace fabrica {
 
@@ -45,6 +46,39 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
                                            const ContactLawParams& law, const PairList& pairs) {
   std::vector<ContactRecord> out;
   for_each_contact_record(p, cell, law, pairs, [&](const ContactRecord& c) { out.push_back(c); });
+  return out;
+}
+
+std::vector<ContactRecord> wall_contact_records(const Particles& p, const ContactLawParams& law,
+                                                const std::vector<Wall>& walls,
+                                                const WallContactList& wl) {
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  std::vector<ContactRecord> out;
+  for (std::size_t q = 0; q < wl.size(); ++q) {
+    if (!wl.touching[q]) continue;
+    const Index i = wl.i[q];
+    const Wall& W = walls[std::size_t(wl.wall[q])];
+    const ContactLawParams& l = W.own_law ? W.law : law;
+    const real_t R = p.radius[i], dist = (p.x[i] - W.point).dot(W.normal);
+    if (dist >= R) continue;
+    ContactRecord c;
+    c.id1 = p.id[i];
+    c.id2 = -1 - GlobalId(wl.wall[q]);
+    c.normal = -W.normal;
+    c.overlap = R - dist;
+    c.branch = (R - 0.5 * c.overlap) * c.normal;
+    const PairConstants k = pair_constants<true, false>(l, R, inf, p.mass[i], inf);
+    c.fn = k.kn * c.overlap;
+    c.ft = wl.fs[q];
+    c.sliding = at_limit(c.ft.squaredNorm(), l.friction * c.fn);
+    if (l.rolling() && wl.mr.size() == wl.size()) {
+      c.mr = wl.mr[q];
+      c.rolling = at_limit(c.mr.squaredNorm(), l.rolling_friction * k.rbar * c.fn);
+    } else {
+      c.rolling = true;
+    }
+    out.push_back(c);
+  }
   return out;
 }
 

@@ -5,7 +5,7 @@
 //
 // The forces are those of the contact springs at the current positions: f_n = k_n u_n (the
 // elastic normal force) and f_t = the shear spring; with viscous dashpots their velocity terms
-// are not included. Wall contacts are not listed (the periodic cell has none).
+// are not included. Wall contacts are listed apart (wall_contact_records).
 #pragma once
 #include "core/cell.hpp"
 #include "core/contact_law.hpp"
@@ -42,5 +42,13 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
 void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
                              const ContactLawParams& law, const PairList& pairs,
                              const std::function<void(const ContactRecord&)>& fn);
+
+// This rank's touching sphere-wall contacts (the rank owning the sphere), in list order: id1 the
+// sphere, id2 = -1 - wall index (the convention of the contact history), normal from the
+// sphere's centre towards the wall, branch = (R - u_n/2) normal the arm from the centre to the
+// contact point; fn, ft and mr with the wall's law (its own, or 'law'), on the wall (body 2).
+std::vector<ContactRecord> wall_contact_records(const Particles& p, const ContactLawParams& law,
+                                                const std::vector<Wall>& walls,
+                                                const WallContactList& contacts);
 
 }  // namespace fabrica

@@ -146,24 +146,27 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
   diss.viscous += e_visc;
 }
 
-// Sphere (body 1) against a static plane (body 2).
+// Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
+// law or the scene's.
 template <bool Rolling, bool Viscous, bool Measure>
 void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss,
-                 ContactSums* sums) {
+                 ContactSums* sums, real_t* wall_power) {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  real_t power = 0;
   for (std::size_t q = 0; q < wl.size(); ++q) {
     const Index i = wl.i[q];
     const Wall& W = ctx.walls[wl.wall[q]];
+    const ContactLawParams& law = W.own_law ? W.law : ctx.law;
     const real_t dist = (P.x[i] - W.point).dot(W.normal);
     const real_t R = P.radius[i];
     if (dist >= R) {
       if (wl.touching[q]) {  // the contact opens: the energy left in its springs is lost
         wl.touching[q] = 0;
-        const PairConstants c = pair_constants<Rolling, false>(ctx.law, R, inf, P.mass[i], inf);
+        const PairConstants c = pair_constants<Rolling, false>(law, R, inf, P.mass[i], inf);
         diss.friction += 0.5 * wl.fs[q].squaredNorm() / c.ks;
         wl.fs[q].setZero();
         if constexpr (Rolling) {
-          diss.rolling += 0.5 * wl.mr[q].squaredNorm() / c.kr;
+          if (c.kr > 0) diss.rolling += 0.5 * wl.mr[q].squaredNorm() / c.kr;
           wl.mr[q].setZero();
         }
       }
@@ -178,22 +181,25 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     const real_t a1 = R - 0.5 * k.un;
     k.w1 = P.w[i];
     k.w2 = Vec3::Zero();
-    k.vrel = -P.v[i] - a1 * P.w[i].cross(k.n);
-    const PairConstants c = pair_constants<Rolling, Viscous>(ctx.law, R, inf, P.mass[i], inf);
+    k.vrel = W.velocity - P.v[i] - a1 * P.w[i].cross(k.n);
+    const PairConstants c = pair_constants<Rolling, Viscous>(law, R, inf, P.mass[i], inf);
     ContactHistory h;
     h.fs = wl.fs[q];
     if constexpr (Rolling) h.mr = wl.mr[q];
-    const ContactResult r = contact_law<Rolling, Viscous>(ctx.law, c, k, h, ctx.dt);
+    const ContactResult r = contact_law<Rolling, Viscous>(law, c, k, h, ctx.dt);
     wl.fs[q] = h.fs;
     if constexpr (Rolling) wl.mr[q] = h.mr;
     const Vec3 F = r.fn * k.n + r.fs;  // on the wall
     P.f[i] -= F;
     P.t[i] -= r.mr + a1 * k.n.cross(r.fs);
+    power -= F.dot(W.velocity);
     diss.friction += r.e_friction;
     diss.rolling += r.e_rolling;
     diss.viscous += r.e_viscous;
     if constexpr (Measure) {
       ++sums->wall_contacts;
+      sums->fb_walls.noalias() += F * (a1 * k.n).transpose();
+      sums->wall_force[wl.wall[q]] += F;
       sums->sum_contact_force += F.norm();  // walls count in the mean contact force too
       if (k.un / R > sums->max_overlap_ratio) {
         sums->max_overlap_ratio = k.un / R;
@@ -206,17 +212,19 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
       ++sums->contacts_per_particle[i];
     }
   }
+  if (wall_power) *wall_power = power;
 }
 
 template <bool Rolling, bool Viscous, bool Measure>
 void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
-                WallContactList& wl, Dissipation& diss, ContactSums* sums) {
+                WallContactList& wl, Dissipation& diss, ContactSums* sums, real_t* wall_power) {
   pair_forces<Rolling, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
-  if (wl.size() != 0) wall_forces<Rolling, Viscous, Measure>(p, ctx, wl, diss, sums);
+  if (wl.size() != 0) wall_forces<Rolling, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
+  else if (wall_power) *wall_power = 0;
 }
 
 using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&,
-                        WallContactList&, Dissipation&, ContactSums*);
+                        WallContactList&, Dissipation&, ContactSums*, real_t*);
 
 // Table indexed by rolling * 4 + viscous * 2 + measure.
 constexpr std::array<Kernel, 8> kKernels = {
@@ -230,7 +238,7 @@ constexpr std::array<Kernel, 8> kKernels = {
 
 void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,
                     PairList& pairs, WallContactList& wall_contacts, Dissipation& diss,
-                    ContactSums* sums) {
+                    ContactSums* sums, real_t* wall_power) {
   const std::size_t n = p.size();
   if (ctx.gravity.isZero()) {
     for (std::size_t a = 0; a < n; ++a) p.f[a].setZero();
@@ -241,9 +249,15 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
   if (sums) {
     *sums = ContactSums{};
     sums->contacts_per_particle.assign(n, 0);
+    sums->wall_force.assign(ctx.walls.size(), Vec3::Zero());
   }
-  const int k = 4 * ctx.law.rolling() + 2 * ctx.law.viscous() + (sums != nullptr);
-  kKernels[k](p, cell, ctx, pairs, wall_contacts, diss, sums);
+  // A wall's own law may need rolling resistance or dashpots that the scene's does not: the
+  // pair loop then runs with them at the scene's zero values (mu_r = 0: no rolling moment).
+  bool rolling = ctx.law.rolling(), viscous = ctx.law.viscous();
+  for (const Wall& w : ctx.walls)
+    if (w.own_law) rolling = rolling || w.law.rolling(), viscous = viscous || w.law.viscous();
+  const int k = 4 * rolling + 2 * viscous + (sums != nullptr);
+  kKernels[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);
   if (sums)
     for (std::size_t a = 0; a < p.n_owned(); ++a) sums->sum_particle_force += p.f[a].norm();
 }

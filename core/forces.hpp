@@ -28,6 +28,9 @@ struct ContactSums {
   GlobalId max_overlap_a = -1, max_overlap_b = -1;  // its bodies (b = -1 - wall for walls)
   real_t work_gravity = 0;       // J, cumulative work of gravity on this rank's particles (set
                                  // by Simulation before the reduction)
+  Mat3 fb_walls = Mat3::Zero();  // sum of F (x) (a1 n) over wall contacts: F the force on the
+                                 // wall, a1 n the arm from the sphere's centre to the contact [N m]
+  std::vector<Vec3> wall_force;  // force of this rank's spheres on each wall [N]
 };
 
 // Energy dissipated since the start of the run [J] (local to this rank).
@@ -61,8 +64,10 @@ struct ForceContext {
 };
 
 // Sets f = m g and t = 0, then adds every contact. 'sums' may be null (no measurement).
+// 'wall_power', if given, receives the power of the moving walls on this rank's spheres [W]
+// (sum over wall contacts of -F . v_wall, F the force on the wall).
 void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,
                     PairList& pairs, WallContactList& wall_contacts, Dissipation& diss,
-                    ContactSums* sums);
+                    ContactSums* sums, real_t* wall_power = nullptr);
 
 }  // namespace fabrica

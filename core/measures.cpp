@@ -32,7 +32,7 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
                kNonRattlers, kC2, kN, kKin, kVs, kDf, kDr, kDv, kDl, kOv, kGw, kCount };
   double v[kCount];
   for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) v[kFb + 3 * a + b] = sums.fb(a, b);
+    for (int b = 0; b < 3; ++b) v[kFb + 3 * a + b] = sums.fb(a, b) + sums.fb_walls(a, b);
   v[kContacts] = double(sums.contacts);
   v[kSliding] = double(sums.sliding);
   v[kRolling] = double(sums.rolling);
@@ -54,6 +54,11 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   v[kOv] = sums.sum_overlap;
   v[kGw] = sums.work_gravity;
   domain.sum_all(std::span<double>(v, kCount));
+  // The walls' forces (the same wall count on every rank: a collective only with walls).
+  std::vector<double> wf(3 * sums.wall_force.size());
+  for (std::size_t w = 0; w < sums.wall_force.size(); ++w)
+    for (int k = 0; k < 3; ++k) wf[3 * w + k] = sums.wall_force[w][k];
+  if (!wf.empty()) domain.sum_all(std::span<double>(wf));
 
   // Sanity figures: the global maxima and their owners' ids (ties: the largest ids win).
   GlobalId nonfinite = std::numeric_limits<GlobalId>::max();
@@ -92,6 +97,10 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   m.contacts = std::int64_t(v[kContacts]);
   m.sliding = std::int64_t(v[kSliding]);
   m.rolling = std::int64_t(v[kRolling]);
+  m.wall_contacts = std::int64_t(v[kWall]);
+  m.wall_force.resize(sums.wall_force.size());
+  for (std::size_t w = 0; w < m.wall_force.size(); ++w)
+    m.wall_force[w] = Vec3(wf[3 * w], wf[3 * w + 1], wf[3 * w + 2]);
   m.coordination = N > 0 ? 2.0 * v[kContacts] / N : 0.0;
   m.mech_coordination = v[kNonRattlers] > 0 ? v[kC2] / v[kNonRattlers] : 0.0;
   m.kinetic = v[kKin];

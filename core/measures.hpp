@@ -7,6 +7,7 @@
 #include "core/forces.hpp"
 
 #include <string>
+#include <vector>
 
 namespace fabrica {
 
@@ -38,6 +39,13 @@ struct MacroState {
   // (filled by Simulation; see Simulation::energy_input).
   real_t energy_input = 0;
   real_t gravity_work = 0;  // J, cumulative work of gravity (reduced)
+  // Walls (core/contact_list.hpp): contacts with walls are counted apart (not in 'contacts',
+  // Z or the fabric); their forces are in 'stress' (the arm from the sphere's centre to the
+  // contact point, over the cell volume).
+  std::int64_t wall_contacts = 0;
+  std::vector<Vec3> wall_force;  // N, the spheres' force on each wall
+  real_t wall_work = 0;          // J, cumulative work of the moving walls (filled by Simulation)
+  real_t drive_work = 0;         // J, cumulative work of the drive of driven particles (idem)
 };
 
 // A message naming the step, the particle ids and the values if the state is not physical;

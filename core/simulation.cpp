@@ -22,6 +22,10 @@ Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams 
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
   domain_->adopt(p_, cell_, cutoff_max_, nullptr, holding);
   rebuild();
+  if (!par_.driven.empty()) {  // their prescribed motion from the start (in the initial energy)
+    impose_driven(0.0);
+    domain_->update_ghosts(p_);  // the ghosts' copies too (collective: every rank has the sets)
+  }
   compute(true, 0.0);  // initial forces: no time passes, so the springs must not advance
   measure_and_reduce(Vec3::Zero());
   e0_ = macro_.kinetic + macro_.e_normal + macro_.e_shear + macro_.e_rolling;
@@ -35,6 +39,8 @@ EnergyAccount Simulation::energy_account() const {
   a.vol_strain = Vec3(volume_prev_, stress_known_ ? 1.0 : 0.0, 0.0);
   a.stress_prev.diagonal() = stress_prev_;
   a.gravity_work_local = gravity_work_local_;
+  a.wall_work = wall_work_;
+  a.drive_work = drive_work_;
   return a;
 }
 
@@ -80,6 +86,8 @@ Simulation::Simulation(SimulationSnapshot s, Domain* domain)
   stress_known_ = s.energy.vol_strain[1] != 0;
   stress_prev_ = s.energy.stress_prev.diagonal();
   gravity_work_local_ = s.energy.gravity_work_local;
+  wall_work_ = s.energy.wall_work;
+  drive_work_ = s.energy.drive_work;
   rebuild_lists();  // the saved run rebuilt at the saved positions: the same lists
   rebuilds_ = s.rebuilds;
 }
@@ -88,6 +96,7 @@ void Simulation::step(bool measure) {
   const real_t dt = par_.dt;
   PhaseClock clk(timing_ ? &times_ : nullptr);
   half_kick(p_, dt);
+  double drive = driven_.empty() ? 0.0 : impose_driven(0.5 * dt);
   if (!par_.gravity.isZero()) {  // work of gravity over the drift, with the drift's velocity
     real_t gv = 0;
     for (std::size_t a = 0; a < p_.n_owned(); ++a) gv += p_.mass[a] * par_.gravity.dot(p_.v[a]);
@@ -95,6 +104,7 @@ void Simulation::step(bool measure) {
   }
   const Vec3 rate = cell_.strain_rate();
   drift_and_deform(p_, cell_, dt);
+  for (Wall& w : par_.walls) w.point += w.velocity * dt;
   clk.lap(&PhaseTimes::integrate);
   domain_->update_ghosts(p_);
   clk.lap(&PhaseTimes::ghost);
@@ -111,6 +121,11 @@ void Simulation::step(bool measure) {
   compute(measure || strains, dt);  // a straining step needs the contact virial (boundary work)
   clk.lap(&PhaseTimes::force);
   half_kick(p_, dt);
+  if (!par_.driven.empty()) {  // the same on every rank (the sets, not this rank's members)
+    drive += impose_driven(0.5 * dt);
+    domain_->sum_all(std::span<double>(&drive, 1));
+    drive_work_ += drive;
+  }
   clk.lap(&PhaseTimes::integrate);
   if (measure) {
     measure_and_reduce(rate * dt);
@@ -131,7 +146,15 @@ void Simulation::step(bool measure) {
 void Simulation::compute(bool measure, real_t dt) {
   overlap_ = OverlapAlarm{};
   const ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_};
-  compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr);
+  const bool moving = dt > 0 && par_.moving_walls();
+  real_t power = 0;
+  compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,
+                 moving ? &power : nullptr);
+  if (moving) {  // the walls' work over this step, with the forces at its end (every rank)
+    double pw = power;
+    domain_->sum_all(std::span<double>(&pw, 1));
+    wall_work_ += pw * dt;
+  }
   if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, dt);
 }
 
@@ -139,7 +162,9 @@ void Simulation::measure_and_reduce(const Vec3& strain_increment) {
   sums_.work_gravity = gravity_work_local_;
   macro_ = reduce_macro_state(p_, cell_, sums_, diss_, *domain_);
   account_step(strain_increment, macro_.stress.diagonal());
-  macro_.energy_input = e0_ + work_ + macro_.gravity_work;
+  macro_.wall_work = wall_work_;
+  macro_.drive_work = drive_work_;
+  macro_.energy_input = e0_ + work_ + macro_.gravity_work + wall_work_ + drive_work_;
 }
 
 void Simulation::account_step(const Vec3& strain_increment, const Vec3& stress_end) {
@@ -152,6 +177,17 @@ void Simulation::account_step(const Vec3& strain_increment, const Vec3& stress_e
   stress_prev_ = stress_end;
   volume_prev_ = V;
   stress_known_ = true;
+}
+
+real_t Simulation::impose_driven(real_t dt_half) {
+  real_t work = 0;
+  for (const auto& [a, k] : driven_) {
+    const DrivenSet& d = par_.driven[std::size_t(k)];
+    work -= (p_.f[a].dot(d.velocity) + p_.t[a].dot(d.spin)) * dt_half;
+    p_.v[a] = d.velocity;
+    p_.w[a] = d.spin;
+  }
+  return work;
 }
 
 void Simulation::set_skin(real_t skin) {
@@ -167,12 +203,12 @@ void Simulation::set_skin(real_t skin) {
 }
 
 void Simulation::set_law(const ContactLawParams& law) {
-  const bool had_rolling = par_.law.rolling();
+  const bool had_rolling = par_.rolling();
   par_.law = law;
-  if (law.rolling() && !had_rolling) {
+  if (par_.rolling() && !had_rolling) {
     pairs_.mr.assign(pairs_.size(), Vec3::Zero());
     walls_.mr.assign(walls_.size(), Vec3::Zero());
-  } else if (!law.rolling()) {
+  } else if (!par_.rolling()) {
     pairs_.mr.clear();
     walls_.mr.clear();
   }
@@ -201,7 +237,12 @@ bool Simulation::needs_rebuild() {
   if (m[2] > 0) set_overlap_guard(m[2]);  // the earlier event (the previous force computation)
   else if (m[0] == inf || !(m[1] <= bound * bound)) set_step_guard(m[1], bound);
   const real_t strain = (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
-  return 2.0 * std::sqrt(m[0]) + strain * cutoff_max_ > par_.skin;
+  // A moving wall and a sphere approach by at most the wall's travel plus the sphere's.
+  real_t wall_travel = 0;
+  for (std::size_t w = 0; w < par_.walls.size() && w < wall_ref_.size(); ++w)
+    wall_travel = std::max(wall_travel, (par_.walls[w].point - wall_ref_[w]).norm());
+  return 2.0 * std::sqrt(m[0]) + strain * cutoff_max_ > par_.skin ||
+         std::sqrt(m[0]) + wall_travel > par_.skin;
 }
 
 void Simulation::set_step_guard(real_t max_v2, real_t bound) {
@@ -247,7 +288,7 @@ void Simulation::set_overlap_guard(real_t max_ratio) {
 }
 
 void Simulation::rebuild() {
-  const bool rolling = par_.law.rolling();
+  const bool rolling = par_.rolling();
   // 1. Keep the springs of touching contacts, keyed by global ids (local indices change).
   std::size_t touching = 0;
   for (std::uint8_t t : pairs_.touching) touching += t;
@@ -268,7 +309,7 @@ void Simulation::rebuild() {
 }
 
 void Simulation::rebuild_lists() {
-  const bool rolling = par_.law.rolling();
+  const bool rolling = par_.rolling();
   // 2. Wrap into the cell, move particles that left this subdomain (with their springs), sort
   //    the owned ones in space, and bring in the ghosts.
   p_.clear_ghosts();
@@ -317,6 +358,16 @@ void Simulation::rebuild_lists() {
   s_ref_.resize(p_.n_owned());
   for (std::size_t a = 0; a < p_.n_owned(); ++a) s_ref_[a] = p_.x[a].cwiseQuotient(L);
   L_ref_ = L;
+  driven_.clear();
+  if (!par_.driven.empty())
+    for (std::size_t a = 0; a < p_.n_owned(); ++a)
+      for (std::size_t k = 0; k < par_.driven.size(); ++k)
+        if (par_.driven[k].contains(p_.id[a])) {
+          driven_.emplace_back(Index(a), std::int32_t(k));
+          break;
+        }
+  wall_ref_.resize(par_.walls.size());
+  for (std::size_t w = 0; w < par_.walls.size(); ++w) wall_ref_[w] = par_.walls[w].point;
   ++rebuilds_;
   rebuilt_last_ = true;
 }

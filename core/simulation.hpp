@@ -4,6 +4,7 @@
 #include "core/cell.hpp"
 #include "core/contact_list.hpp"
 #include "core/domain.hpp"
+#include "core/driven.hpp"
 #include "core/forces.hpp"
 #include "core/history_map.hpp"
 #include "core/measures.hpp"
@@ -23,8 +24,26 @@ struct SimulationParams {
   real_t skin = 0;                  // m, Verlet skin
   Vec3 gravity = Vec3::Zero();      // m/s^2
   real_t local_damping = 0;         // alpha [-], 0 <= alpha < 1
-  std::vector<Wall> walls;          // static planes (verification scenes)
+  std::vector<Wall> walls;          // planes (core/contact_list.hpp)
+  std::vector<DrivenSet> driven;    // particles of prescribed motion (core/driven.hpp)
   bool spatial_sort = true;         // reorder particles in space at rebuilds (cache locality)
+
+  // The kernel's switches: the scene's law or a wall's own law needs them.
+  bool rolling() const {
+    bool r = law.rolling();
+    for (const Wall& w : walls) r = r || (w.own_law && w.law.rolling());
+    return r;
+  }
+  bool viscous() const {
+    bool v = law.viscous();
+    for (const Wall& w : walls) v = v || (w.own_law && w.law.viscous());
+    return v;
+  }
+  bool moving_walls() const {
+    for (const Wall& w : walls)
+      if (w.moving()) return true;
+    return false;
+  }
 };
 
 // Wall-clock seconds spent in each phase of step(), accumulated while enabled (benchmarks).
@@ -54,6 +73,8 @@ struct EnergyAccount {
   Vec3 vol_strain = Vec3::Zero();
   Mat3 stress_prev = Mat3::Zero();  // that stress [Pa] (its diagonal is used)
   real_t gravity_work_local = 0;    // work of gravity on this rank's particles [J]
+  real_t wall_work = 0;             // work of the moving walls on all particles [J] (global)
+  real_t drive_work = 0;            // work of the drive of the driven particles [J] (global)
 };
 
 struct SimulationSnapshot {
@@ -127,6 +148,12 @@ class Simulation {
   // the cell at rest costs nothing more. When the stress at the start of a straining step is
   // unknown (the step before neither strained nor measured), the end stress stands for it.
   // macro().energy_input is e0 + W + gravity work at measuring steps.
+  // Driven particles (core/driven.hpp): the drive's work, that of the force holding them to
+  // their prescribed motion against the contacts and gravity (one reduction of one number per
+  // step, only with driven particles), is part of macro().energy_input as macro().drive_work.
+  // Moving walls: their work on the spheres, sum over steps of -F . v_wall dt (F the force on
+  // the wall at the end of the step), reduced over the ranks at every step (one number), is
+  // part of macro().energy_input as macro().wall_work.
   real_t boundary_work() const { return work_; }
   EnergyAccount energy_account() const;
   Domain& domain() { return *domain_; }
@@ -156,7 +183,7 @@ class Simulation {
   // lower-id body is owned by this rank (walls: b = -1 - wall index).
   template <class F>
   void for_each_contact(F&& fn) const {
-    const bool rolling = par_.law.rolling();
+    const bool rolling = par_.rolling();
     for (std::size_t q = 0; q < pairs_.size(); ++q)
       if (pairs_.touching[q] && std::size_t(pairs_.i[q]) < p_.n_owned())
         fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
@@ -192,6 +219,10 @@ class Simulation {
   void account_step(const Vec3& strain_increment, const Vec3& stress_end);
   // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
   void rebuild_lists();
+  // Sets the driven particles' velocity and spin after a half-kick of dt_half; returns the work
+  // of the force that holds them over it (local): -(f . v + t . w) dt_half, f and t the force
+  // and torque of the half-kick (contacts and gravity), v and w the prescribed motion.
+  real_t impose_driven(real_t dt_half);
 
   Domain* domain_;  // never null: the caller's domain, or serial_domain()
   Particles p_;
@@ -216,6 +247,11 @@ class Simulation {
   real_t volume_prev_ = 0;              // cell volume then [m^3]
   bool stress_known_ = false;           // the last step (or the construction) knows it
   real_t gravity_work_local_ = 0;       // work of gravity on the owned particles [J]
+  real_t wall_work_ = 0;                // work of the moving walls [J] (global: reduced each step)
+  real_t drive_work_ = 0;               // work of the drive [J] (global: reduced each step)
+  std::vector<std::pair<Index, std::int32_t>> driven_;  // owned driven particles and their set
+                                                        // (rebuilt with the lists)
+  std::vector<Vec3> wall_ref_;          // wall points at the last rebuild
   bool timing_ = false;
   bool rebuilt_last_ = true;
   std::string guard_;      // step_guard()

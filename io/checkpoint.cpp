@@ -268,7 +268,17 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   write_law(g, par.law);
   g.f64("dt", par.dt).f64("skin", par.skin).vec3("gravity", par.gravity);
   g.f64("local_damping", par.local_damping).u64("walls", par.walls.size());
-  for (const Wall& w : par.walls) g.vec3("wall.point", w.point).vec3("wall.normal", w.normal);
+  for (const Wall& w : par.walls) {  // its plane, velocity and law (format 4)
+    g.vec3("wall.point", w.point).vec3("wall.normal", w.normal).vec3("wall.velocity", w.velocity);
+    g.u8("wall.own_law", w.own_law ? 1 : 0);
+    if (w.own_law) write_law(g, w.law);
+  }
+  g.u64("driven", par.driven.size());  // the sets of driven particles (format 4)
+  for (const DrivenSet& d : par.driven) {
+    g.i64("driven.first", d.first).i64("driven.last", d.last).u64("driven.ids", d.ids.size());
+    for (GlobalId id : d.ids) g.i64("driven.id", id);
+    g.vec3("driven.velocity", d.velocity).vec3("driven.spin", d.spin);
+  }
   g.u8("spatial_sort", par.spatial_sort ? 1 : 0);
   g.i64("step", sim.step_count()).i64("rebuilds", sim.rebuild_count()).f64("time", sim.time());
   write_macro(g, sim.macro());
@@ -277,6 +287,7 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   const EnergyAccount ea = sim.energy_account();
   g.f64("energy.e0", ea.e0).f64("energy.work", ea.work).vec3("energy.vol_strain", ea.vol_strain);
   g.mat3("energy.stress_prev", ea.stress_prev);
+  g.f64("energy.wall_work", ea.wall_work).f64("energy.drive_work", ea.drive_work);
   add_fields(prefix + ".global", g);
 
   Staged parts{prefix + ".particles", SectionKind::Distributed,
@@ -590,7 +601,23 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
     Wall w;
     w.point = g.vec3("wall.point");
     w.normal = g.vec3("wall.normal");
+    w.velocity = g.vec3("wall.velocity");
+    w.own_law = g.u8("wall.own_law") != 0;
+    if (w.own_law) w.law = read_law(g);
     par.walls.push_back(w);
+  }
+  const auto nd = g.u64("driven");
+  if (nd > 1000000) throw InputError(where + ".global: corrupted (driven set count)");
+  for (std::uint64_t k = 0; k < nd; ++k) {
+    DrivenSet d;
+    d.first = g.i64("driven.first");
+    d.last = g.i64("driven.last");
+    const auto ni = g.u64("driven.ids");
+    if (ni > (std::uint64_t(1) << 40)) throw InputError(where + ".global: corrupted (driven id count)");
+    for (std::uint64_t i = 0; i < ni; ++i) d.ids.push_back(g.i64("driven.id"));
+    d.velocity = g.vec3("driven.velocity");
+    d.spin = g.vec3("driven.spin");
+    par.driven.push_back(d);
   }
   par.spatial_sort = g.u8("spatial_sort") != 0;
   snap.step = g.i64("step");
@@ -602,6 +629,8 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   snap.energy.work = g.f64("energy.work");
   snap.energy.vol_strain = g.vec3("energy.vol_strain");
   snap.energy.stress_prev = g.mat3("energy.stress_prev");
+  snap.energy.wall_work = g.f64("energy.wall_work");
+  snap.energy.drive_work = g.f64("energy.drive_work");
   g.done();
 
   int rank = 0, size = 1;

@@ -6,6 +6,7 @@
 #include "core/timestep.hpp"
 #include "io/errors.hpp"
 #include "io/lammps_data.hpp"
+#include "io/wall_setup.hpp"
 #include "io/memory_check.hpp"
 #include "parallel/byte_buffer.hpp"
 #include "parallel/exchange.hpp"
@@ -420,6 +421,19 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
   s.params.gravity = sc.gravity;
   s.params.local_damping = sc.local_damping;
   double dt = s.particles.n_owned() ? critical_time_step(s.particles, sc.law, false, rmin, rmax) : 1e300;
+  if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp); each rank checks its spheres
+    agree(comm, [&] {
+      s.params.walls = scene_walls(sc, s.cell);
+      check_spheres_against_walls(sc, s.params.walls, s.particles);
+    });
+    dt = std::min(dt, walls_critical_time_step(sc, s.particles, rmin, rmax));
+  }
+  if (!sc.driven.empty()) {  // [[driven]]: every id a particle of some rank
+    std::vector<std::int64_t> n = driven_counts(sc, s.particles);
+    MPI_Allreduce(MPI_IN_PLACE, n.data(), int(n.size()), MPI_INT64_T, MPI_SUM, comm);
+    agree(comm, [&] { check_driven_counts(sc, n); });
+    s.params.driven = sc.driven;
+  }
   MPI_Allreduce(MPI_IN_PLACE, &dt, 1, MPI_DOUBLE, MPI_MIN, comm);
   s.critical_dt = dt;
   agree(comm, [&] { s.params.dt = scene_time_step(sc, s.critical_dt); });

@@ -33,6 +33,7 @@ class FieldWriter {
   FieldWriter& field(const char* name, std::uint8_t v) { return u8(name, v); }
   FieldWriter& field(const char* name, std::int32_t v) { return i32(name, v); }
   FieldWriter& field(const char* name, std::int64_t v) { return i64(name, v); }
+  FieldWriter& field(const char* name, std::uint64_t v) { return u64(name, v); }
   FieldWriter& field(const char* name, double v) { return f64(name, v); }
   FieldWriter& field(const char* name, const Vec3& v) { return vec3(name, v); }
   FieldWriter& field(const char* name, const Mat3& v) { return mat3(name, v); }
@@ -67,6 +68,7 @@ class FieldReader {
   void field(const char* name, std::uint8_t& v) { v = u8(name); }
   void field(const char* name, std::int32_t& v) { v = i32(name); }
   void field(const char* name, std::int64_t& v) { v = i64(name); }
+  void field(const char* name, std::uint64_t& v) { v = u64(name); }
   void field(const char* name, double& v) { v = f64(name); }
   void field(const char* name, Vec3& v) { v = vec3(name); }
   void field(const char* name, Mat3& v) { v = mat3(name); }

@@ -357,6 +357,8 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   g.set_attr("strain", std::span<const double>(ed, 3));
   g.set_attr("particles", std::int64_t(np));
   g.set_attr("contacts", std::int64_t(nc));
+  // Of the contacts' rows, those with a wall (id2 < 0).
+  if (!sim.params().walls.empty()) g.set_attr("wall_contacts", writer.wall_contacts());
 
   double bytes = writer.write(g);
   const std::int64_t need = std::max(std::int64_t(np), 2 * std::int64_t(nc));

@@ -3,8 +3,11 @@
 #include "io/fault.hpp"
 #include "io/stage_parse.hpp"
 
+#include "core/restitution.hpp"
+
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -104,6 +107,11 @@ class Section {
 
   static std::string node_text(const toml::node& n) {
     if (n.is_floating_point() || n.is_integer()) return fmt_num(*n.value<double>());
+    if (const toml::array* a = n.as_array()) {  // on one line: [0, 0, 1]
+      std::string t = "[";
+      for (std::size_t k = 0; k < a->size(); ++k) t += (k ? ", " : "") + node_text(*a->get(k));
+      return t + "]";
+    }
     std::ostringstream s;
     n.visit([&](auto&& x) { s << x; });
     return s.str();
@@ -118,6 +126,170 @@ class Section {
 void require(Section& s, const std::string& key, real_t v, bool ok, const std::string& why) {
   if (!ok) s.fail(key, fmt_num(v), why);
 }
+
+// ---- Restitution and walls (issue 13; docs/scene.md "Restitution" and "Walls") -------------
+
+// restitution_normal / restitution_shear of a [contact] (or [[wall]]) table, converted to the
+// damping ratios of the law (core/restitution.hpp); refused together with a damping key.
+void parse_restitution(Section& s, ContactLawParams& law) {
+  struct Key { const char* e; const char* ratio; const char* rate; real_t* beta; real_t* eta; bool normal; };
+  const Key keys[2] = {
+      {"restitution_normal", "damping_ratio_normal", "damping_rate_normal", &law.damping_ratio_n, &law.damping_rate_n, true},
+      {"restitution_shear", "damping_ratio_shear", "damping_rate_shear", &law.damping_ratio_s, &law.damping_rate_s, false}};
+  for (const Key& k : keys) {
+    const auto e = s.number(k.e);
+    if (!e) continue;
+    if (s.has(k.ratio) || s.has(k.rate))
+      s.fail(k.e, fmt_num(*e), std::string("give ") + k.e + " or " + (s.has(k.ratio) ? k.ratio : k.rate) + ", not both");
+    require(s, k.e, *e, *e > 0 && *e <= 1, "must lie in (0, 1] (a coefficient of restitution)");
+    *k.beta = k.normal ? damping_ratio_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
+    *k.eta = 0;
+  }
+}
+
+// The [contact] keys a [[wall]] table may give to replace the scene's for that wall.
+void parse_wall_law(Section& W, WallSpec& w) {
+  ContactLawParams& law = w.law;
+  const auto E = W.number("youngs_modulus"), kn = W.number("normal_stiffness");
+  if (E && kn) W.fail("normal_stiffness", fmt_num(*kn), "give either youngs_modulus or normal_stiffness, not both");
+  if (E) {
+    require(W, "youngs_modulus", *E, *E > 0, "must be positive");
+    law.stiffness_mode = NormalStiffnessMode::Deformability;
+    law.youngs_modulus = *E;
+  }
+  if (kn) {
+    require(W, "normal_stiffness", *kn, *kn > 0, "must be positive");
+    law.stiffness_mode = NormalStiffnessMode::Direct;
+    law.normal_stiffness = *kn;
+  }
+  law.stiffness_ratio = W.number("stiffness_ratio", law.stiffness_ratio);
+  require(W, "stiffness_ratio", law.stiffness_ratio, law.stiffness_ratio > 0, "must be positive");
+  law.friction = W.number("friction", law.friction);
+  require(W, "friction", law.friction, law.friction >= 0, "must be >= 0");
+  law.rolling_friction = W.number("rolling_friction", law.rolling_friction);
+  require(W, "rolling_friction", law.rolling_friction, law.rolling_friction >= 0, "must be >= 0");
+  for (const char* key : {"damping_ratio_normal", "damping_ratio_shear"}) {
+    if (const auto b = W.number(key)) {
+      require(W, key, *b, *b >= 0 && *b < 1, "must lie in [0, 1)");
+      const bool normal = key[14] == 'n';
+      (normal ? law.damping_ratio_n : law.damping_ratio_s) = *b;
+      (normal ? law.damping_rate_n : law.damping_rate_s) = 0;
+    }
+  }
+  parse_restitution(W, law);
+  for (const char* key : {"youngs_modulus", "normal_stiffness", "stiffness_ratio", "friction",
+                          "rolling_friction", "damping_ratio_normal", "damping_ratio_shear",
+                          "restitution_normal", "restitution_shear"})
+    w.own_law = w.own_law || W.has(key);
+}
+
+// [[wall]] tables: planes of the periodic cell, perpendicular to a cell axis (the cell stays
+// periodic along every axis: a plane not perpendicular to one would not be invariant under its
+// periods). Checked against the cell and the particles in io/wall_setup.cpp.
+void parse_walls(const toml::node* node, const std::string& path, Scene& sc) {
+  if (!node) return;
+  const toml::array* a = node->as_array();
+  if (!a || !a->is_array_of_tables() || a->empty())
+    throw InputError(path + ": wall = " + Section::node_text(*node) +
+                     ": walls are tables [[wall]] (docs/scene.md, \"Walls\")");
+  if (sc.triaxial.enabled || sc.compress.enabled)
+    throw InputError(path + ": [[wall]] with " + (sc.triaxial.enabled ? "[triaxial]" : "[compress]") +
+                     ": the cell deforms in these stages and the walls do not follow it; walls are "
+                     "used with a cell at rest ([run] steps)");
+  for (std::size_t k = 0; k < a->size(); ++k) {
+    const toml::table* t = a->get(k)->as_table();
+    Section W(t, path, "wall #" + std::to_string(k + 1));
+    WallSpec w;
+    w.law = sc.law;
+    const auto point = W.vec3("point"), normal = W.vec3("normal");
+    if (!point) W.fail("point", "(missing)", "a wall needs a point of its plane [x, y, z] (m)");
+    if (!normal) W.fail("normal", "(missing)", "a wall needs its normal [nx, ny, nz], pointing into the granular domain");
+    const std::string ntext = Section::node_text(*t->get("normal"));
+    int axes = 0;
+    for (int c = 0; c < 3; ++c) axes += (*normal)[c] != 0;
+    if (axes == 0) W.fail("normal", ntext, "must be a non-zero vector");
+    if (axes != 1)
+      W.fail("normal", ntext, "must be parallel to a cell axis (the cell is periodic along every axis; "
+             "for an incline, tilt [run] gravity instead)");
+    w.point = *point;
+    w.normal = normal->normalized();
+    w.velocity = W.vec3("velocity").value_or(Vec3::Zero());
+    parse_wall_law(W, w);
+    W.reject_unknown();
+    sc.walls.push_back(w);
+  }
+}
+
+// [[driven]] tables: particles held fixed or moved at a constant velocity and spin, named by an
+// id list or an id range (checked against the specimen in io/wall_setup.cpp).
+void parse_driven(const toml::node* node, const std::string& path, Scene& sc) {
+  if (!node) return;
+  const toml::array* a = node->as_array();
+  if (!a || !a->is_array_of_tables() || a->empty())
+    throw InputError(path + ": driven = " + Section::node_text(*node) +
+                     ": driven particles are tables [[driven]] (docs/scene.md, \"Driven particles\")");
+  if (sc.triaxial.enabled || sc.compress.enabled)
+    throw InputError(path + ": [[driven]] with " + (sc.triaxial.enabled ? "[triaxial]" : "[compress]") +
+                     ": a driven particle's velocity is relative to the deforming cell's affine field "
+                     "there; driven particles are used with a cell at rest ([run] steps)");
+  for (std::size_t k = 0; k < a->size(); ++k) {
+    const toml::table* t = a->get(k)->as_table();
+    Section D(t, path, "driven #" + std::to_string(k + 1));
+    DrivenSet d;
+    const bool has_ids = D.has("ids"), has_range = D.has("id_range");
+    D.mark_used("ids");
+    D.mark_used("id_range");
+    if (has_ids == has_range)
+      D.fail(has_ids ? "id_range" : "ids", has_ids ? Section::node_text(*t->get("id_range")) : "(missing)",
+             "give the particles as ids = [..] or as id_range = [first, last], one of the two");
+    const char* key = has_ids ? "ids" : "id_range";
+    const toml::node* n = t->get(key);
+    const toml::array* ids = n->as_array();
+    if (!ids || ids->empty() || (!has_ids && ids->size() != 2))
+      D.fail(key, Section::node_text(*n), has_ids ? "must be a non-empty array of particle ids"
+                                                  : "must be [first, last], two particle ids");
+    std::vector<GlobalId> v;
+    for (const toml::node& e : *ids) {
+      if (!e.is_integer() || *e.value<std::int64_t>() < 0)
+        D.fail(key, Section::node_text(*n), "must hold particle ids (integers >= 0)");
+      v.push_back(*e.value<std::int64_t>());
+    }
+    if (has_ids) {
+      std::sort(v.begin(), v.end());
+      if (std::adjacent_find(v.begin(), v.end()) != v.end())
+        D.fail(key, Section::node_text(*n), "names a particle twice");
+      d.ids = v;
+    } else {
+      if (v[0] > v[1]) D.fail(key, Section::node_text(*n), "first must not exceed last");
+      d.first = v[0], d.last = v[1];
+    }
+    d.velocity = D.vec3("velocity").value_or(Vec3::Zero());
+    d.spin = D.vec3("spin").value_or(Vec3::Zero());
+    if (!(d.velocity.isZero() && d.spin.isZero()) && sc.local_damping > 0)
+      D.fail(D.has("velocity") ? "velocity" : "spin", Section::node_text(*t->get(D.has("velocity") ? "velocity" : "spin")),
+             "a moving driven particle is not damped, but [run] local_damping = " + fmt_num(sc.local_damping) +
+             " would book its damping as dissipated; use local_damping = 0 or hold them fixed");
+    D.reject_unknown();
+    for (std::size_t j = 0; j < sc.driven.size(); ++j) {  // each particle in one set at most
+      const DrivenSet& o = sc.driven[j];
+      GlobalId shared = -1;
+      if (d.ids.empty() && o.ids.empty()) {
+        if (std::max(d.first, o.first) <= std::min(d.last, o.last)) shared = std::max(d.first, o.first);
+      } else {
+        const DrivenSet& list = d.ids.empty() ? o : d;
+        const DrivenSet& other = d.ids.empty() ? d : o;
+        for (GlobalId id : list.ids)
+          if (other.contains(id)) { shared = id; break; }
+      }
+      if (shared >= 0)
+        D.fail(key, Section::node_text(*n), "names particle " + std::to_string(shared) +
+               " of [driven #" + std::to_string(j + 1) + "] too");
+    }
+    sc.driven.push_back(d);
+  }
+}
+
+// ---- end of restitution and walls ----------------------------------------------------------
 
 }  // namespace
 
@@ -136,10 +308,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
     if (key == "stage") continue;  // [[stage]]: io/stage_parse.cpp, below
+    if (key == "wall" || key == "driven") continue;  // [[wall]], [[driven]]: parse_walls, parse_driven
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
                        ": unknown top-level entry (expected one of the tables [particles], "
-                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], or [[stage]])");
+                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], "
+                       "[[stage]], [[wall]], [[driven]])");
   }
   auto table = [&](const char* name) { return root[name].as_table(); };
 
@@ -241,6 +415,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(K, "damping_rate_normal", law.damping_rate_n, law.damping_rate_n >= 0, "must be >= 0");
   law.damping_rate_s = es.value_or(0);
   require(K, "damping_rate_shear", law.damping_rate_s, law.damping_rate_s >= 0, "must be >= 0");
+  parse_restitution(K, law);
   K.reject_unknown();
 
   Section Q(table("compress"), path, "compress");
@@ -403,6 +578,15 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (fs.rose_bins < 1 || fs.rose_bins > 3600)
     F.fail("rose_bins", std::to_string(fs.rose_bins), "must lie in [1, 3600]");
   F.reject_unknown();
+  parse_walls(root.get("wall"), path, sc);
+  parse_driven(root.get("driven"), path, sc);
+  // The stages strain the cell, which walls and driven particles do not follow (as [triaxial]).
+  if (!sc.stages.empty() && !sc.walls.empty())
+    throw InputError(path + ": [[stage]] and [[wall]] both given: the stages deform the periodic "
+                     "cell and the walls would not follow it; remove one of them");
+  if (!sc.stages.empty() && !sc.driven.empty())
+    throw InputError(path + ": [[stage]] and [[driven]] both given: the stages deform the periodic "
+                     "cell and the driven particles would not follow it; remove one of them");
   return sc;
 }
 

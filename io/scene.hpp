@@ -3,6 +3,7 @@
 // non-finite number or a non-physical value is refused with the file, the field and the value.
 #pragma once
 #include "core/contact_law.hpp"
+#include "core/driven.hpp"
 #include "core/types.hpp"
 #include "io/errors.hpp"
 #include "io/stage_spec.hpp"
@@ -102,6 +103,16 @@ struct FabricSpec {
   std::int64_t rose_bins = 36;  // rose diagram bins over [0, pi) (1 .. 3600)
 };
 
+// [[wall]]: a plane inside the periodic cell (docs/scene.md, "Walls"). The contact law is the
+// scene's [contact] with the keys given in the wall's table replaced.
+struct WallSpec {
+  Vec3 point = Vec3::Zero();     // m
+  Vec3 normal = Vec3::UnitZ();   // unit (normalised from the input), into the granular domain
+  Vec3 velocity = Vec3::Zero();  // m/s
+  bool own_law = false;          // some [contact] key given in the wall's table
+  ContactLawParams law;          // the scene's law with the wall's keys
+};
+
 struct Scene {
   std::string path;               // the scene file ("<built-in demo>" for the default)
   std::string text;               // the scene file's text, kept for the output
@@ -134,6 +145,8 @@ struct Scene {
   // The [[stage]] tables, in order (io/stage_spec.hpp; empty: none). A scene gives them, or
   // [triaxial], or neither (a plain run).
   std::vector<StageSpec> stages;
+  std::vector<WallSpec> walls;    // [[wall]]
+  std::vector<DrivenSet> driven;  // [[driven]] (docs/scene.md "Driven particles")
 };
 
 Scene load_scene(const std::string& path);

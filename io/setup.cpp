@@ -8,6 +8,7 @@
 #include "core/timestep.hpp"
 #include "io/errors.hpp"
 #include "io/lammps_data.hpp"
+#include "io/wall_setup.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -173,6 +174,16 @@ Setup make_setup(const Scene& sc) {
   s.params.gravity = sc.gravity;
   s.params.local_damping = sc.local_damping;
   s.critical_dt = critical_time_step(s.particles, sc.law, false);
+  if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp)
+    s.params.walls = scene_walls(sc, s.cell);
+    check_spheres_against_walls(sc, s.params.walls, s.particles);
+    s.critical_dt = std::min(s.critical_dt, walls_critical_time_step(sc, s.particles, s.particles.min_radius(),
+                                                                     s.particles.max_radius()));
+  }
+  if (!sc.driven.empty()) {  // [[driven]] (io/wall_setup.hpp)
+    check_driven_counts(sc, driven_counts(sc, s.particles));
+    s.params.driven = sc.driven;
+  }
   s.params.dt = scene_time_step(sc, s.critical_dt);
   return s;
 }

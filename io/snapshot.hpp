@@ -26,7 +26,8 @@ struct SnapshotInfo {
 
 struct ContactSnapshot {
   SnapshotInfo info;
-  std::vector<ContactRecord> contacts;  // every contact once, in (id1, id2) order
+  std::vector<ContactRecord> contacts;  // every contact once, in (id1, id2) order; a wall
+                                        // contact has id2 = -1 - wall index (docs/output.md)
 };
 
 struct ParticleSnapshot {

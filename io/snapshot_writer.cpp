@@ -131,7 +131,7 @@ std::vector<Column<ContRec>> contact_columns(double strong_threshold) {
           flag<R>("sliding", [](const R& r) { return r.sliding != 0; }),
           flag<R>("rolling", [](const R& r) { return r.rolling != 0; }),
           // For the contacts' XDMF sidecar (line cells): the strong flag, |f_t|, |m_r| and both ends.
-          flag<R>("strong", [strong_threshold](const R& r) { return r.fn > strong_threshold; }),
+          flag<R>("strong", [strong_threshold](const R& r) { return r.id2 >= 0 && r.fn > strong_threshold; }),
           f64<R>("ft_norm", "N", 0, [=](const R& r, double* d) { *d = norm3(r.ft); }),
           f64<R>("mr_norm", "N m", 0, [=](const R& r, double* d) { *d = norm3(r.mr); }),
           f64<R>("ends", "m", 6, [](const R& r, double* d) {
@@ -166,6 +166,16 @@ void write_round(const std::vector<h5::Dataset>& ds, const std::vector<Column<Re
   }
 }
 
+// Every contact row of this rank: the particle contacts, then the wall contacts.
+void for_each_row(const Simulation& sim, const std::function<void(const ContactRecord&)>& fn) {
+  const Particles& p = sim.particles();
+  for_each_contact_record(p, sim.cell(), sim.params().law, sim.pairs(), fn);
+  if (!sim.params().walls.empty())
+    for (const ContactRecord& c :
+         wall_contact_records(p, sim.params().law, sim.params().walls, sim.wall_contacts()))
+      fn(c);
+}
+
 }  // namespace
 
 SnapshotWriter::SnapshotWriter(MPI_Comm comm, const Simulation& sim, double strong_ratio,
@@ -182,21 +192,28 @@ SnapshotWriter::SnapshotWriter(MPI_Comm comm, const Simulation& sim, double stro
   lo_ = lo, hi_ = hi;
 
   ExactSums fn(1);
-  std::int64_t contacts = 0;
-  for_each_contact_record(p, sim.cell(), sim.params().law, sim.pairs(), [&](const ContactRecord& c) {
+  std::int64_t particle_contacts = 0, wall_contacts = 0;  // walls: not in the threshold
+  for_each_row(sim, [&](const ContactRecord& c) {
+    if (c.id2 < 0) {
+      ++wall_contacts;
+      return;
+    }
     fn.add(0, c.fn);
-    ++contacts;
+    ++particle_contacts;
   });
   fn.normalize();
   std::vector<std::int64_t> buf(fn.words().begin(), fn.words().end());
-  buf.push_back(contacts);
+  const std::size_t words = buf.size();
+  buf.push_back(particle_contacts);
+  buf.push_back(wall_contacts);
   buf.push_back(std::int64_t(p.n_owned()));
   MPI_Allreduce(MPI_IN_PLACE, buf.data(), int(buf.size()), MPI_INT64_T, MPI_SUM, comm_);
-  np_ = buf.back();
-  nc_ = buf[buf.size() - 2];
-  std::copy(buf.begin(), buf.end() - 2, fn.words().begin());
+  np_ = buf[words + 2];
+  nw_ = buf[words + 1];
+  nc_ = buf[words] + nw_;
+  std::copy(buf.begin(), buf.begin() + std::ptrdiff_t(words), fn.words().begin());
   fn.normalize();
-  if (nc_ > 0) strong_threshold_ = strong_ratio * (fn.value(0) / double(nc_));
+  if (buf[words] > 0) strong_threshold_ = strong_ratio * (fn.value(0) / double(buf[words]));
 
   const std::int64_t per_round = std::max<std::int64_t>(1, round_records) * size_;
   const std::int64_t most = std::max(np_, nc_);
@@ -225,7 +242,7 @@ double SnapshotWriter::write(const h5::Group& g) const {
       parts.push_back(r);
     }
     std::vector<ContRec> conts;
-    for_each_contact_record(p, sim_.cell(), sim_.params().law, sim_.pairs(), [&](const ContactRecord& c) {
+    for_each_row(sim_, [&](const ContactRecord& c) {
       if (!in_round(c.id1)) return;
       ContRec r{};
       r.id1 = c.id1, r.id2 = c.id2;

@@ -27,13 +27,16 @@ class SnapshotWriter {
   static constexpr std::int64_t kRoundRecords = std::int64_t(1) << 15;
 
   // Collective: counts the particles and contacts over every rank, their id range, and the
-  // strong-contact threshold (f_n above strong_ratio x the mean f_n of all contacts, with the
-  // exact sum of core/exact_sum.hpp, so the same on any number of ranks).
+  // strong-contact threshold (f_n above strong_ratio x the mean f_n of all particle contacts,
+  // with the exact sum of core/exact_sum.hpp, so the same on any number of ranks). The contact
+  // rows are the particle contacts and then the wall contacts (id2 = -1 - wall index; their
+  // line cell runs from the sphere's centre to the contact point), never strong.
   SnapshotWriter(MPI_Comm comm, const Simulation& sim, double strong_ratio,
                  std::int64_t round_records = kRoundRecords);
 
   std::int64_t particles() const { return np_; }
-  std::int64_t contacts() const { return nc_; }
+  std::int64_t contacts() const { return nc_; }  // rows: particle contacts and wall contacts
+  std::int64_t wall_contacts() const { return nw_; }
   int rounds() const { return rounds_; }
 
   // Collective: creates g/particles and g/contacts with every dataset and writes them. Returns
@@ -44,7 +47,7 @@ class SnapshotWriter {
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   const Simulation& sim_;
-  std::int64_t np_ = 0, nc_ = 0;
+  std::int64_t np_ = 0, nc_ = 0, nw_ = 0;
   std::int64_t lo_ = 0, hi_ = 0;  // ids of the particles (0, 0 if there are none)
   double strong_threshold_ = 0;
   int rounds_ = 1;

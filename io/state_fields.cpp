@@ -67,6 +67,19 @@ void macro_fields(Io& io, M& m) {
   io.field("macro.fastest_w", m.fastest_w);
   io.field("macro.energy_input", m.energy_input);
   io.field("macro.gravity_work", m.gravity_work);
+  io.field("macro.wall_contacts", m.wall_contacts);
+  // The walls' forces: their count, then one Vec3 per wall.
+  std::uint64_t walls = m.wall_force.size();
+  io.field("macro.walls", walls);
+  if constexpr (!std::is_const_v<M>) {
+    if (walls > 1000000)
+      throw InputError("checkpoint field macro.walls = " + std::to_string(walls) +
+                       ": more than a million walls (a corrupt or foreign file)");
+    m.wall_force.assign(std::size_t(walls), Vec3::Zero());
+  }
+  for (auto& f : m.wall_force) io.field("macro.wall_force", f);
+  io.field("macro.wall_work", m.wall_work);
+  io.field("macro.drive_work", m.drive_work);
 }
 
 }  // namespace

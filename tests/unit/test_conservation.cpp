@@ -233,7 +233,7 @@ TEST(Conservation, ConstructionDoesNotAdvanceContactHistory) {
        {1, R, test::kRho, Vec3(0.5, 0.5, 0.5 + 2 * R - 1e-4), Vec3(-0.2, 0.1, 0), Vec3(1, 0, 0)}});
   ContactLawParams law = full_law();
   Simulation sim = test::make_sim(std::move(p), law, 1e-7, 0.1 * R,
-                                  {Wall{Vec3(0, 0, 0.5 - R + 1e-4), Vec3::UnitZ()}});
+                                  {Wall{Vec3(0, 0, 0.5 - R + 1e-4), Vec3::UnitZ(), Vec3::Zero(), false, {}}});
   ASSERT_EQ(sim.pairs().size(), 1u);
   ASSERT_EQ(sim.wall_contacts().size(), 1u);
   EXPECT_TRUE(sim.pairs().fs[0].isZero(0));

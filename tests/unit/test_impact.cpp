@@ -127,7 +127,7 @@ TEST(Impact, ObliqueWallGrossSliding) {
   const real_t z0 = wall_pt.z() + R + 10 * vn * dt;
   Particles p = make_particles({{7, R, kRho, Vec3(0.3, 0.5, z0), Vec3(vt, 0, -vn)}});
   Simulation sim = make_sim(std::move(p), test::direct_law(kn, mu), dt, 0.2 * R,
-                            {Wall{wall_pt, Vec3::UnitZ()}});
+                            {Wall{wall_pt, Vec3::UnitZ(), Vec3::Zero(), false, {}}});
   const real_t ke_in = kinetic_energy(sim.particles());
   bool touched = false, slid_always = true;
   for (int s = 0; s < 100000; ++s) {

@@ -36,7 +36,7 @@ Simulation sphere_on_wall(const ContactLawParams& law, real_t R, const Vec3& v, 
   const real_t un = m * -gravity.z() / kn;
   Particles p = make_particles({{0, R, kRho, Vec3(0.2, 0.5, kWallPoint.z() + R - un), v, w}});
   const real_t dt = 0.2 * critical_time_step(p, law, true);
-  return make_sim(std::move(p), law, dt, 0.2 * R, {Wall{kWallPoint, Vec3::UnitZ()}}, gravity);
+  return make_sim(std::move(p), law, dt, 0.2 * R, {Wall{kWallPoint, Vec3::UnitZ(), Vec3::Zero(), false, {}}}, gravity);
 }
 
 // Least-squares slope of y(t).

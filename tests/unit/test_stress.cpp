@@ -153,7 +153,7 @@ TEST(Stress, UnbalancedRatioCountsWallContacts) {
   const real_t un = 2 * m * g / kn;
   Particles p = test::make_particles({{0, R, test::kRho, Vec3(0.5, 0.5, 0.5 + R - un)}});
   Simulation sim = test::make_sim(std::move(p), test::direct_law(kn, 0.3), 1e-6, 0.1 * R,
-                                  {Wall{Vec3(0, 0, 0.5), Vec3::UnitZ()}}, Vec3(0, 0, -g));
+                                  {Wall{Vec3(0, 0, 0.5), Vec3::UnitZ(), Vec3::Zero(), false, {}}}, Vec3(0, 0, -g));
   const MacroState ms = sim.macro();
   std::printf("[measures] unbalanced ratio with one wall contact: %.6f (exact 0.5)\n", ms.unbalanced);
   EXPECT_NEAR(ms.unbalanced / 0.5, 1.0, 1e-9);

@@ -102,7 +102,7 @@ real_t pressed_pair_run(const ContactLawParams& law, real_t R, real_t delta, rea
                                 {1, R, kRho, c2, u * Vec3(-0.6, 0.4, 0.5), om * Vec3(-0.2, 0.8, 0.3)}});
   const real_t ke0 = kinetic_energy(p);
   Simulation sim = test::make_sim(std::move(p), law, dt, 0.2 * R,
-                                  {Wall{Vec3(0, 0, z0), Vec3::UnitZ()}, Wall{Vec3(0, 0, top), -Vec3::UnitZ()}});
+                                  {Wall{Vec3(0, 0, z0), Vec3::UnitZ(), Vec3::Zero(), false, {}}, Wall{Vec3(0, 0, top), -Vec3::UnitZ(), Vec3::Zero(), false, {}}});
   real_t ke_max = 0;
   for (int s = 0; s < steps; ++s) {
     sim.step();

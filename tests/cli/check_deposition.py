@@ -1,0 +1,69 @@
+#!/usr/bin/env python3
+"""check_deposition.py DATA OUTDIR [TOL]: a deposition on a floor (examples/deposition.toml) at
+rest carries its weight. The last row of OUTDIR/series.csv: the floor's force wall1_fz equals
+-sum m g of the spheres in the LAMMPS data file DATA (relative TOL, default 1e-3), so that the
+pressure on the floor is the weight over the cell's cross-section; the energy account closes
+(|books - input| / input < 2e-2, books = kinetic + elastic + dissipated: the account of the
+dashpots' impacts is first order in dt, 0.9 % at time_step_fraction 0.25 here, 2.8 / 1.0 / 0.5 %
+at 0.25 / 0.1 / 0.05 with local damping 0.3); the wall contacts are counted apart
+(wall_contacts, at least one sphere on the floor); with h5py, the wall contacts of the last
+snapshot of run.h5 and of its contacts' XDMF sidecar (below)."""
+import csv, math, sys
+
+data, out = sys.argv[1], sys.argv[2]
+tol = float(sys.argv[3]) if len(sys.argv) > 3 else 1e-3
+g = 9.81
+weight, section, box = 0.0, None, {}
+for line in open(data):
+    w = line.split('#')[0].split()
+    if not w:
+        continue
+    if len(w) == 4 and w[2].endswith('lo'):
+        box[w[2][0]] = float(w[1]) - float(w[0])
+    if w[0] in ('Atoms', 'Velocities'):
+        section = w[0]
+        continue
+    if section == 'Atoms' and len(w) >= 7:
+        d, rho = float(w[2]), float(w[3])
+        weight += rho * math.pi / 6 * d ** 3 * g
+rows = list(csv.DictReader(open(out + '/series.csv')))
+last = rows[-1]
+fz = float(last['wall1_fz'])
+area = box['x'] * box['y']
+books = sum(float(last[k]) for k in ('kinetic', 'e_normal', 'e_shear', 'e_rolling', 'diss_friction',
+                                      'diss_rolling', 'diss_viscous', 'diss_local'))
+inp = float(last['energy_input'])
+print(f"floor force {fz:.6e} N, weight {weight:.6e} N, rel err {-fz / weight - 1:.2e}; pressure "
+      f"{-fz / area:.4f} Pa = weight / area {weight / area:.4f} Pa; kinetic {float(last['kinetic']):.3e} J; "
+      f"wall contacts {last['wall_contacts']}, particle contacts {last['contacts']}; energy books "
+      f"{books:.6e} J, input {inp:.6e} J")
+ok = abs(-fz / weight - 1) < tol and abs(books / inp - 1) < 2e-2 and int(last['wall_contacts']) >= 1
+
+# The last snapshot of OUT/run.h5 (with h5py): its contact rows hold the wall contacts (id2 =
+# -1 - wall index, docs/output.md), as many as the series' wall_contacts and the group's
+# attribute say, their elastic normal forces summing to the floor's force (at rest: 1e-9), none
+# strong; the contacts' XDMF sidecar describes every row (particle and wall contacts).
+try:
+    import h5py
+except ImportError:
+    print("run.h5 not checked: /usr/bin/python3 has no h5py")
+    sys.exit(0 if ok else 1)
+import re
+with h5py.File(out + '/run.h5', 'r') as f:
+    g = f['snapshots/run']
+    snap = g[sorted(g.keys())[-1]]
+    c = snap['contacts']
+    wall = c['id2'][:] < 0
+    fn_walls = c['fn'][:][wall].sum()
+    rows = int(snap.attrs['contacts'])
+    print(f"run.h5 {snap.name}: {rows} contact rows, {wall.sum()} with the wall (attribute "
+          f"{int(snap.attrs['wall_contacts'])}), their f_n sum {fn_walls:.9e} N; strong wall rows "
+          f"{int(c['strong'][:][wall].sum())}; wall ids {sorted(set((-1 - c['id2'][:][wall]).tolist()))}")
+    ok = ok and wall.sum() == int(snap.attrs['wall_contacts']) == int(last['wall_contacts'])
+    ok = ok and abs(fn_walls / -fz - 1) < 1e-9 and c['strong'][:][wall].sum() == 0
+    ok = ok and sorted(set((-1 - c['id2'][:][wall]).tolist())) == [0] and rows == len(c['id2'])
+xmf = open(out + '/run_contacts.xmf').read()
+m = re.findall(r'NumberOfElements="(\d+)"', xmf)
+print(f"run_contacts.xmf: line cells per snapshot {m[-1:]}")
+ok = ok and m and int(m[-1]) == rows
+sys.exit(0 if ok else 1)
