@@ -343,3 +343,13 @@ TEST(Scene, ExampleScenesAreValid) {
   EXPECT_EQ(large.triaxial.rolling_friction_cases, std::vector<real_t>{0.1});
   EXPECT_EQ(large.checkpoint_seconds, 600.0);
 }
+
+// Walls and driven particles do not follow a deforming cell: refused with [[stage]].
+TEST(Scene, StagesWithWallsOrDrivenParticlesAreRefused) {
+  const std::string stage = "[[stage]]\ntype = \"isotropic\"\npressure = 1e5\nend.steps = 10\n";
+  expect_error("[particles]\ncount = 100\n" + stage +
+                   "[[wall]]\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n",
+               {"[[stage]] and [[wall]] both given"});
+  expect_error("[particles]\ncount = 100\n" + stage + "[[driven]]\nids = [1]\n",
+               {"[[stage]] and [[driven]] both given"});
+}
