@@ -16,7 +16,8 @@ void half_kick(Particles& p, real_t dt);
 // x += dt v (owned particles), then the cell deforms by dt and positions follow affinely.
 void drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt);
 
-// Applies local damping to f and t of owned particles; returns the power removed times dt [J].
+// Applies local damping to f and t of owned particles; returns the work the damping forces do
+// against the motion over the two half-kicks they act in [J] (exact for velocity Verlet).
 real_t apply_local_damping(Particles& p, real_t alpha, real_t dt);
 
 }  // namespace fabrica
