@@ -329,8 +329,7 @@ namespace {
 // kick's share, booked one half-kick early (bounded, not accumulating, first order in dt).
 // Measured 4.1e-4 at 0.05 and 1.9e-4 at 0.025 of the critical step (tolerance 1e-3, and
 // halving dt must divide it by more than 1.67). Booked with the half-step velocity, as before
-// 2026-12-02, the work is over-counted wherever a velocity reverses within those kicks: the
-// servo tests' consolidations with alpha = 0.7 then ran their books 50 % above the input.
+// 2026-12-02, the work is over-counted wherever a velocity reverses within those kicks.
 TEST(Conservation, EnergyBalanceLocalDamping) {
   ContactLawParams law;
   law.friction = 0.3;
