@@ -288,6 +288,7 @@ void Simulation::set_overlap_guard(real_t max_ratio) {
 }
 
 void Simulation::rebuild() {
+  if (guard_.empty()) check_cell_still_fits();
   const bool rolling = par_.rolling();
   // 1. Keep the springs of touching contacts, keyed by global ids (local indices change).
   std::size_t touching = 0;
@@ -306,6 +307,30 @@ void Simulation::rebuild() {
   pairs_ = PairList();
   walls_ = WallContactList();
   rebuild_lists();
+}
+
+void Simulation::check_cell_still_fits() {
+  // The list holds one periodic image per pair; that is every image within the cutoff while
+  // each cell length exceeds twice the cutoff (check_cell_size at the start). A cell that
+  // shrinks (consolidation) can pass that limit: two spheres could then touch through two
+  // images, and the second contact would be missed (spheres run into each other unseen and
+  // the energy account fills with energy never put in). Checked at every rebuild, which is
+  // enough: a pair outside the list cannot come into contact before the next one.
+  const Vec3& L = cell_.lengths();
+  const real_t need = 2.0 * cutoff_max_;
+  for (int k = 0; k < 3; ++k) {
+    if (L[k] > need) continue;
+    char b[600];
+    std::snprintf(b, sizeof b,
+                  "the run cannot go on at step %lld: the periodic cell has shrunk to L%d = %.6g m, "
+                  "no longer above 2 (2 Rmax + skin) = %.6g m (Rmax %.6g m, skin %.6g m); two "
+                  "spheres could now touch through two periodic images, which the contact search "
+                  "does not follow. Use a larger specimen (more spheres, or a narrower gradation), "
+                  "so that every cell length stays above that limit at the densest state",
+                  (long long)(step_ + 1), k + 1, L[k], need, 0.5 * (cutoff_max_ - par_.skin), par_.skin);
+    guard_ = b;
+    return;
+  }
 }
 
 void Simulation::rebuild_lists() {

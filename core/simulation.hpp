@@ -175,7 +175,9 @@ class Simulation {
   // initial forces), the ratio, the overlap and the radius; or - when a particle's position or
   // velocity is not finite, or a particle moves more than half the smallest radius in one step
   // (an overlap could then jump past any bound between two steps) - "numerical blow-up at step
-  // N: particle ID ..." with its speed and velocity. The same on every rank; the executables
+  // N: particle ID ..." with its speed and velocity; or - when a rebuild finds a cell length
+  // no longer above 2 (2 Rmax + skin), a shrinking cell - "the run cannot go on at step N: the
+  // periodic cell has shrunk to ...". The same on every rank; the executables
   // stop the run with it (and save the state, OUT/blowup.ckpt).
   const std::string& step_guard() const { return guard_; }
 
@@ -199,6 +201,7 @@ class Simulation {
   bool needs_rebuild();
   void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
   void set_overlap_guard(real_t max_ratio);          // the same for the overlap (collective)
+  void check_cell_still_fits();  // guard_ = the message once a cell length is <= 2 cutoffs
   void rebuild();
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable

@@ -272,3 +272,64 @@ TEST(Neighbor, RebuildCarriesContactHistory) {
 
 }  // namespace
 }  // namespace fabrica
+
+namespace fabrica {
+namespace {
+
+// A cell that shrinks past 2 (2 Rmax + skin) (a consolidation): the list holds one image per
+// pair, so once a cell length is below twice the cutoff two spheres could touch through two
+// images and the second contact would be missed. Two spheres of R = 10 mm, 20.5 mm apart along
+// an axis of 50 mm, are compressed along it until L1 = 36 mm < 4 R, where they must touch
+// through both images. The guard must fire at the first rebuild with L1 <= 2 (2 R + skin) =
+// 0.042 m; before it, every touching image (all 27, brute force) is in the list at every step;
+// stepping on past it (the guard ignored) a touching image goes unlisted, later.
+TEST(Neighbor, ShrinkingCellStopsBeforeAPairTouchesThroughTwoImages) {
+  const real_t R = 0.01, skin = 0.001, need = 2 * (2 * R + skin);
+  const Vec3 L0(0.05, 0.1, 0.1);
+  Particles p = test::make_particles({{1, R, test::kRho, Vec3(0.0125, 0.05, 0.05)},
+                                      {2, R, test::kRho, Vec3(0.033, 0.05, 0.05)}});
+  SimulationParams sp;
+  sp.law = test::direct_law(1e5, 0.5);
+  sp.skin = skin;
+  sp.dt = 0.1 * critical_time_step(p, sp.law, false);
+  Simulation sim(std::move(p), PeriodicCell(L0), sp);
+  sim.cell().set_strain_rate(Vec3(-0.5, 0, 0));
+  real_t L_at_last_rebuild = L0[0], L_at_guard = 0;
+  std::int64_t steps = 0, guard_step = -1, first_miss = -1, touching_seen = 0;
+  std::string message;
+  while (sim.cell().lengths()[0] > 0.036) {
+    sim.step();
+    ++steps;
+    if (guard_step < 0 && !sim.step_guard().empty()) {
+      guard_step = steps, L_at_guard = sim.cell().lengths()[0], message = sim.step_guard();
+    }
+    if (guard_step < 0 && sim.rebuilt_last_step()) L_at_last_rebuild = sim.cell().lengths()[0];
+    const Particles& q = sim.particles();
+    const Vec3& L = sim.cell().lengths();
+    for (int c = 0; c < 27 && first_miss < 0; ++c) {
+      const Vec3 d = q.x[1] + image_offset(c, L) - q.x[0];
+      if (d.norm() >= q.radius[0] + q.radius[1]) continue;
+      touching_seen += guard_step < 0;
+      bool listed = false;
+      for (std::size_t k = 0; k < sim.pairs().size(); ++k)
+        listed = listed || (sim.pairs().i[k] == 0 ? sim.pairs().image[k] : 26 - sim.pairs().image[k]) == c;
+      if (!listed) first_miss = steps;
+    }
+  }
+  std::printf("[neighbor] shrinking cell: guard at step %lld with L1 = %.6f m (limit %.6f m, "
+              "last rebuild before it at L1 = %.6f m); first unlisted touching image at step "
+              "%lld; %lld touching images checked before the guard\n",
+              (long long)guard_step, L_at_guard, need, L_at_last_rebuild, (long long)first_miss,
+              (long long)touching_seen);
+  ASSERT_GT(guard_step, 0) << "the guard never fired";
+  EXPECT_LE(L_at_guard, need);
+  EXPECT_GT(L_at_last_rebuild, need);  // the rebuild before was still above the limit
+  EXPECT_GT(touching_seen, 10);        // the pair touched (through one image) before it
+  EXPECT_GT(first_miss, guard_step);   // no miss before the guard; and one does come after it
+  for (const char* part : {"cannot go on at step", "L1 = ", "2 (2 Rmax + skin) = 0.042 m",
+                           "two periodic images", "larger specimen"})
+    EXPECT_NE(message.find(part), std::string::npos) << part << " missing in: " << message;
+}
+
+}  // namespace
+}  // namespace fabrica
