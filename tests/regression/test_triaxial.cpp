@@ -497,22 +497,33 @@ TEST(Triaxial, RollingResistanceRaisesPeak) {
   EXPECT_LT(c2.inertial, 1e-3);
 }
 
-// 4b. The study's observation that dilatancy grows with mu_r. Strains are compression positive:
+// 4b. A dense specimen dilates after its densest state. Strains are compression positive:
 // eps_v > 0 is a net contraction; a specimen that dilates after its densest state has
-// eps_v,end < eps_v,max. The measure of dilatancy here is that dilation of the dilative phase,
-// eps_v,max - eps_v,end (the volume regained after the phase transformation point), and it must
-// be larger with mu_r = 0.2 (measured: 0.0132 against 0.0045, docs/triaxial.md).
-// The final eps_v alone does not order the cases on this specimen: re-equilibrated with mu_s =
-// 0.3 from the loose mu_s = 1.0 packing (e = 0.63), the mu_r = 0 specimen collapses to e = 0.52
-// while rolling resistance holds the mu_r = 0.2 one at e = 0.58, and the looser specimen
-// contracts more before it dilates (eps_v,end 0.037 against 0.034, the same order in 7 of the 8
-// realisations listed in docs/triaxial.md). That comparison is kept below, disabled (run it
-// with --gtest_also_run_disabled_tests).
-TEST(Triaxial, RollingResistanceRaisesDilation) {
+// eps_v,end < eps_v,max. The mu_r = 0 specimen (e = 0.52 after re-equilibration) must regain
+// volume after its densest state: measured 0.0078 (docs/triaxial.md).
+TEST(Triaxial, DenseSpecimenDilatesAfterItsDensestState) {
+  Study& st = study();
+  const Curve c0 = curve(*st.serial.branches[0]);
+  EXPECT_GT(c0.epsv_max - c0.epsv_end, 0.0) << "mu_r = 0 does not dilate after its densest state";
+}
+
+// 4c, 4d: the study's observation that dilatancy grows with mu_r does not hold on this specimen
+// in every realisation, and both comparisons are kept disabled (run them with
+// --gtest_also_run_disabled_tests). Re-equilibrated with mu_s = 0.3 from the loose mu_s = 1.0
+// packing (e = 0.63), the mu_r = 0 specimen collapses to e = 0.52 while rolling resistance holds
+// the mu_r = 0.2 one at e = 0.58-0.60: the looser specimen contracts more and dilates later.
+// - 4c, the dilation after the densest state (eps_v,max - eps_v,end) larger with mu_r = 0.2:
+//   0.0132 > 0.0045 in the -march=native build; in the portable build (x86-64-v3,
+//   -ffp-contract=off) 0.0012 < 0.0078, the mu_r = 0.2 specimen still contracting at
+//   eps_1 = 0.25 (its q/p peaks at the last row).
+// - 4d, the final eps_v smaller with mu_r = 0.2: fails in 8 of the 9 realisations listed in
+//   docs/triaxial.md.
+// Comparing the cases at the same initial density, or on a larger specimen, is issue 13's open
+// question.
+TEST(Triaxial, DISABLED_RollingResistanceRaisesDilation) {
   Study& st = study();
   const Curve c0 = curve(*st.serial.branches[0]), c2 = curve(*st.serial.branches[1]);
   const double d0 = c0.epsv_max - c0.epsv_end, d2 = c2.epsv_max - c2.epsv_end;
-  EXPECT_GT(d0, 0.0) << "mu_r = 0 does not dilate after its densest state";
   EXPECT_GT(d2, d0) << "dilation after the densest state: mu_r = 0.2 " << d2 << ", mu_r = 0 " << d0;
 }
 
