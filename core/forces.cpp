@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <limits>
+#include <numbers>
 
 namespace fabrica {
 namespace {
@@ -17,133 +18,239 @@ namespace {
   if (ratio > alarm->ratio) *alarm = OverlapAlarm{ratio, un, radius, a, b};
 }
 
+// The pair loop, in two passes over the Verlet list:
+//  1. the distance test of every pair, in list order: the pairs that touch are collected (with
+//     their branch vectors) into pl.work, the contacts that open are closed (springs zeroed, the
+//     energy left in them booked);
+//  2. the contact law for the touching pairs, simd::Lanes<T>::n at a time (T = simd::d4: four
+//     contacts per instruction; the rest and lanes = 1 with T = double), then the forces and
+//     torques added to both bodies contact by contact, in list order.
+// Every sum into a particle's force or torque and into the energy books is therefore done in
+// the order of the one-pass loop (contact-opening energies merged back at their place), and
+// the law gives the same bits on every lane (core/simd.hpp): lanes = 1 and lanes = 4 give the
+// same results bit for bit (tests/unit/test_forces_simd.cpp), and so does the rank count.
+template <bool Rolling, bool Viscous, bool Measure>
+struct PairKernel {
+  Particles& P;
+  const ForceContext& ctx;
+  PairList& pl;
+  ContactSums* sums;
+  std::array<Vec3, 27> shift;
+  Vec3 edot;
+  std::size_t n_owned;
+  real_t e_fric = 0, e_roll = 0, e_visc = 0;
+  std::size_t next_opening = 0;  // the first opening not yet booked
+
+  std::size_t collect_touching() {
+    const ContactLawParams& law = ctx.law;
+    const Vec3* x = P.x.data();
+    const real_t* R = P.radius.data();
+    const real_t* m = P.mass.data();
+    const Index* pi = pl.i.data();
+    const Index* pj = pl.j.data();
+    const std::uint8_t* img = pl.image.data();
+    std::uint8_t* touching = pl.touching.data();
+    Vec3* fs = pl.fs.data();
+    Vec3* mr = Rolling ? pl.mr.data() : nullptr;
+    PairList::Work& W = pl.work;
+    const std::size_t np = pl.size();
+    W.resize(np);
+    W.openings.clear();
+    std::size_t nc = 0;
+    // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in
+    // memory, but the curve's jumps and the second body of each pair are not: fetch the
+    // positions and radii of the pair kAhead places on. Changes no result (it paid 7 % of the
+    // whole step on dense-13584 when the list was in id order, benchmarks/README.md).
+    constexpr std::size_t kAhead = 8;
+    Index* wq = W.q.data();
+    Index* wi = W.i.data();
+    Index* wj = W.j.data();
+    real_t* wdx = W.dx.data();
+    real_t* wdy = W.dy.data();
+    real_t* wdz = W.dz.data();
+    real_t* wr2 = W.r2.data();
+    for (std::size_t q = 0; q < np; ++q) {
+      if (q + kAhead < np) {
+        const Index ia = pi[q + kAhead], ja = pj[q + kAhead];
+        __builtin_prefetch(&x[ia]);
+        __builtin_prefetch(&x[ja]);
+        __builtin_prefetch(&R[ia]);
+        __builtin_prefetch(&R[ja]);
+      }
+      const Index i = pi[q], j = pj[q];
+      const Vec3 d = x[j] + shift[img[q]] - x[i];
+      const real_t sum_r = R[i] + R[j];
+      const real_t r2 = d.squaredNorm();
+      // Without a branch on the test (about half the pairs touch, so it would be mispredicted
+      // half the time): every pair is written to the next slot, which only a touching one
+      // keeps.
+      const bool touch = !(r2 >= sum_r * sum_r);
+      wq[nc] = Index(q);
+      wi[nc] = i;
+      wj[nc] = j;
+      wdx[nc] = d[0];
+      wdy[nc] = d[1];
+      wdz[nc] = d[2];
+      wr2[nc] = r2;
+      if (touching[q] > touch) [[unlikely]] {
+        // The contact opens: the energy left in its springs is lost.
+        const PairConstants c = pair_constants<Rolling, false>(law, R[i], R[j], m[i], m[j]);
+        const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+        PairList::Work::Opening o{nc, own_i * 0.5 * fs[q].squaredNorm() / c.ks, 0.0};
+        fs[q].setZero();
+        if constexpr (Rolling) {
+          o.e_rolling = own_i * 0.5 * mr[q].squaredNorm() / c.kr;
+          mr[q].setZero();
+        }
+        W.openings.push_back(o);
+      }
+      touching[q] = touch;
+      nc += touch;
+    }
+    return nc;
+  }
+
+  // Books the contact-opening energies that came before touching contact number c.
+  void book_openings(std::size_t c) {
+    const auto& o = pl.work.openings;
+    for (; next_opening < o.size() && o[next_opening].before <= c; ++next_opening) {
+      e_fric += o[next_opening].e_friction;
+      if constexpr (Rolling) e_roll += o[next_opening].e_rolling;
+    }
+  }
+
+  // Touching contacts c, ..., c + n - 1 (n the lanes of T).
+  template <class T>
+  void contacts(std::size_t c) {
+    using namespace simd;
+    constexpr int kLanes = Lanes<T>::n;
+    const ContactLawParams& law = ctx.law;
+    const real_t dt = ctx.dt;
+    const PairList::Work& W = pl.work;
+    const Index* ci = W.i.data() + c;
+    const Index* cj = W.j.data() + c;
+    const Index* cq = W.q.data() + c;
+    const real_t* R = P.radius.data();
+    const V3<T> d{load<T>(W.dx.data() + c), load<T>(W.dy.data() + c), load<T>(W.dz.data() + c)};
+    const T r2 = load<T>(W.r2.data() + c);
+    const T Ri = gather<T>(R, ci), Rj = gather<T>(R, cj);
+    const T sum_r = Ri + Rj;
+    const T dist = simd::sqrt(r2);
+    ContactKinematicsL<T> k;
+    k.n = d / dist;
+    k.un = sum_r - dist;
+    const T rmin = select(Rj < Ri, Rj, Ri);  // std::min(R_i, R_j)
+    const mask_t<T> over = k.un > kMaxOverlapRatio * rmin;
+    if (any(over)) [[unlikely]]
+      for (int l = 0; l < kLanes; ++l)
+        if (lane(over, l) && std::size_t(ci[l]) < n_owned)
+          note_overlap(ctx.alarm, lane(k.un, l), lane(rmin, l), P.id[ci[l]], P.id[cj[l]]);
+    const T a1 = Ri - 0.5 * k.un, a2 = Rj - 0.5 * k.un;
+    k.w1 = gather3<T>(P.w.data(), ci);
+    k.w2 = gather3<T>(P.w.data(), cj);
+    const V3<T> e_d{edot[0] * d.x, edot[1] * d.y, edot[2] * d.z};
+    k.vrel = gather3<T>(P.v.data(), cj) - gather3<T>(P.v.data(), ci) + e_d -
+             cross(a2 * k.w2 + a1 * k.w1, k.n);
+    // pair_constants<Rolling, Viscous> of two spheres, lane by lane.
+    PairConstantsL<T> pc;
+    if (law.stiffness_mode == NormalStiffnessMode::Direct) {
+      pc.kn = T{} + law.normal_stiffness;
+    } else {
+      pc.kn = std::numbers::pi * rmin * rmin * law.youngs_modulus / sum_r;
+    }
+    pc.ks = pc.kn / law.stiffness_ratio;
+    pc.kr = pc.cn = pc.cs = pc.rbar = T{};
+    if constexpr (Rolling) {
+      pc.rbar = Ri * Rj / sum_r;
+      pc.kr = pc.ks * pc.rbar * pc.rbar;
+    }
+    if constexpr (Viscous) {
+      const T mi = gather<T>(P.mass.data(), ci), mj = gather<T>(P.mass.data(), cj);
+      const T meff = mi * mj / (mi + mj);
+      pc.cn = law.damping_rate_n * meff + 2.0 * law.damping_ratio_n * simd::sqrt(meff * pc.kn);
+      pc.cs = law.damping_rate_s * meff + 2.0 * law.damping_ratio_s * simd::sqrt(meff * pc.ks);
+    }
+    ContactHistoryL<T> h;
+    h.fs = gather3<T>(pl.fs.data(), cq);
+    if constexpr (Rolling) h.mr = gather3<T>(pl.mr.data(), cq);
+    const ContactResultL<T> r = contact_law_l<Rolling, Viscous>(law, pc, k, h, dt);
+    scatter3(pl.fs.data(), cq, h.fs);
+    if constexpr (Rolling) scatter3(pl.mr.data(), cq, h.mr);
+
+    const V3<T> F = r.fn * k.n + r.fs;  // on j
+    const V3<T> nxfs = cross(k.n, r.fs);
+    // Added to t_j and subtracted from t_i (without rolling: subtracted from both).
+    V3<T> tj, ti;
+    if constexpr (Rolling) {
+      tj = r.mr - a2 * nxfs;
+      ti = r.mr + a1 * nxfs;
+    } else {
+      tj = a2 * nxfs;
+      ti = a1 * nxfs;
+    }
+    Vec3* f = P.f.data();
+    Vec3* t = P.t.data();
+    for (int l = 0; l < kLanes; ++l) {
+      const Index i = ci[l], j = cj[l];
+      book_openings(c + l);
+      const Vec3 Fl = lane(F, l);
+      f[j] += Fl;
+      f[i] -= Fl;
+      if constexpr (Rolling) t[j] += lane(tj, l);
+      else t[j] -= lane(tj, l);
+      t[i] -= lane(ti, l);
+      // A pair between an owned particle and a ghost is computed on both ranks; its energy
+      // and its share of the measures belong to the rank that owns body i (the lower id).
+      const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+      e_fric += own_i * lane(r.e_friction, l);
+      if constexpr (Rolling) e_roll += own_i * lane(r.e_rolling, l);
+      if constexpr (Viscous) e_visc += own_i * lane(r.e_viscous, l);
+      if constexpr (Measure) {
+        if (own_i != 0.0) {
+          const PairConstants cl{lane(pc.kn, l), lane(pc.ks, l), lane(pc.kr, l), 0, 0, 0};
+          const ContactHistory hl{lane(h.fs, l), Rolling ? lane(h.mr, l) : Vec3(Vec3::Zero())};
+          const real_t un = lane(k.un, l);
+          sums->fb.noalias() += Fl * lane(d, l).transpose();
+          ++sums->contacts;
+          sums->sliding += lane(r.sliding, l);
+          sums->rolling += lane(r.rolling, l);
+          sums->e_normal += spring_energy_normal(cl, un);
+          sums->e_shear += spring_energy_shear(cl, hl);
+          if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(cl, hl);
+          sums->sum_contact_force += Fl.norm();
+          ++sums->contacts_per_particle[i];
+          sums->sum_overlap += un;
+          const real_t ratio = un / lane(rmin, l);
+          if (ratio > sums->max_overlap_ratio) {
+            sums->max_overlap_ratio = ratio;
+            sums->max_overlap_a = P.id[i];
+            sums->max_overlap_b = P.id[j];
+          }
+        }
+        if (std::size_t(j) < n_owned) ++sums->contacts_per_particle[j];
+      }
+    }
+  }
+
+  void run() {
+    const std::size_t nc = collect_touching();
+    std::size_t c = 0;
+    if (ctx.lanes == 4)
+      for (; c + 4 <= nc; c += 4) contacts<simd::d4>(c);
+    for (; c < nc; ++c) contacts<real_t>(c);
+    book_openings(std::numeric_limits<std::size_t>::max());
+  }
+};
+
 template <bool Rolling, bool Viscous, bool Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                  Dissipation& diss, ContactSums* sums) {
-  const Vec3& L = cell.lengths();
-  const Vec3& edot = cell.strain_rate();
-  std::array<Vec3, 27> shift;
-  for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, L);
-  const ContactLawParams& law = ctx.law;
-  const real_t dt = ctx.dt;
-
-  const Vec3* x = P.x.data();
-  const Vec3* v = P.v.data();
-  const Vec3* w = P.w.data();
-  const real_t* R = P.radius.data();
-  const real_t* m = P.mass.data();
-  Vec3* f = P.f.data();
-  Vec3* t = P.t.data();
-  const Index* pi = pl.i.data();
-  const Index* pj = pl.j.data();
-  const std::uint8_t* img = pl.image.data();
-  std::uint8_t* touching = pl.touching.data();
-  Vec3* fs = pl.fs.data();
-  Vec3* mr = Rolling ? pl.mr.data() : nullptr;
-
-  real_t e_fric = 0, e_roll = 0, e_visc = 0;
-  const std::size_t np = pl.size();
-  const std::size_t n_owned = P.n_owned();
-  // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in memory,
-  // but the curve's jumps and the second body of each pair are not: fetch the positions and
-  // radii of the pair kAhead places on. Changes no result (it paid 7 % of the whole step on
-  // dense-13584 when the list was in id order, benchmarks/README.md).
-  constexpr std::size_t kAhead = 8;
-  for (std::size_t q = 0; q < np; ++q) {
-    if (q + kAhead < np) {
-      const Index ia = pi[q + kAhead], ja = pj[q + kAhead];
-      __builtin_prefetch(&x[ia]);
-      __builtin_prefetch(&x[ja]);
-      __builtin_prefetch(&R[ia]);
-      __builtin_prefetch(&R[ja]);
-    }
-    const Index i = pi[q], j = pj[q];
-    const Vec3 d = x[j] + shift[img[q]] - x[i];
-    const real_t sum_r = R[i] + R[j];
-    const real_t r2 = d.squaredNorm();
-    if (r2 >= sum_r * sum_r) {
-      if (touching[q]) {  // the contact opens: the energy left in its springs is lost
-        touching[q] = 0;
-        const PairConstants c = pair_constants<Rolling, false>(law, R[i], R[j], m[i], m[j]);
-        const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-        e_fric += own_i * 0.5 * fs[q].squaredNorm() / c.ks;
-        fs[q].setZero();
-        if constexpr (Rolling) {
-          e_roll += own_i * 0.5 * mr[q].squaredNorm() / c.kr;
-          mr[q].setZero();
-        }
-      }
-      continue;
-    }
-    touching[q] = 1;
-    const real_t dist = std::sqrt(r2);
-    ContactKinematics k;
-    k.n = d / dist;
-    k.un = sum_r - dist;
-    if (k.un > kMaxOverlapRatio * std::min(R[i], R[j]) && std::size_t(i) < n_owned) [[unlikely]]
-      note_overlap(ctx.alarm, k.un, std::min(R[i], R[j]), P.id[i], P.id[j]);
-    const real_t a1 = R[i] - 0.5 * k.un, a2 = R[j] - 0.5 * k.un;
-    k.w1 = w[i];
-    k.w2 = w[j];
-    k.vrel = v[j] - v[i] + edot.cwiseProduct(d) - (a2 * w[j] + a1 * w[i]).cross(k.n);
-    const PairConstants c = pair_constants<Rolling, Viscous>(law, R[i], R[j], m[i], m[j]);
-    ContactHistory h;
-    h.fs = fs[q];
-    if constexpr (Rolling) h.mr = mr[q];
-    // Assigned, not initialised, on purpose. The law is out of line here and returns its
-    // 96-byte result through memory, writing fn with an 8-byte store, fs.xy with a 16-byte one
-    // and fs.z with an 8-byte one. Initialised in place, GCC 12 reads fs back for the cross
-    // product with 16-byte loads that straddle two of those stores ({fn, fs.x}, {fs.y, fs.z}),
-    // so store-to-load forwarding fails twice per contact: 6 to 7 % of this loop with the
-    // features off (benchmarks/README.md, "Zero cost of unused features"). Assigned, the
-    // result is copied with loads that match the law's stores. Same arithmetic, same bits.
-    ContactResult r;
-    r = contact_law<Rolling, Viscous>(law, c, k, h, dt);
-    fs[q] = h.fs;
-    if constexpr (Rolling) mr[q] = h.mr;
-
-    const Vec3 F = r.fn * k.n + r.fs;  // on j
-    const Vec3 nxfs = k.n.cross(r.fs);
-    f[j] += F;
-    f[i] -= F;
-    if constexpr (Rolling) {
-      t[j] += r.mr - a2 * nxfs;
-      t[i] -= r.mr + a1 * nxfs;
-    } else {
-      t[j] -= a2 * nxfs;
-      t[i] -= a1 * nxfs;
-    }
-    // A pair between an owned particle and a ghost is computed on both ranks; its energy and
-    // its share of the measures belong to the rank that owns body i (the lower id).
-    const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-    e_fric += own_i * r.e_friction;
-    if constexpr (Rolling) e_roll += own_i * r.e_rolling;
-    if constexpr (Viscous) e_visc += own_i * r.e_viscous;
-    if constexpr (Measure) {
-      if (own_i != 0.0) {
-        sums->fb.noalias() += F * d.transpose();
-        ++sums->contacts;
-        sums->sliding += r.sliding;
-        sums->rolling += r.rolling;
-        sums->e_normal += spring_energy_normal(c, k.un);
-        sums->e_shear += spring_energy_shear(c, h);
-        if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
-        sums->sum_contact_force += F.norm();
-        ++sums->contacts_per_particle[i];
-        sums->sum_overlap += k.un;
-        const real_t ratio = k.un / std::min(R[i], R[j]);
-        if (ratio > sums->max_overlap_ratio) {
-          sums->max_overlap_ratio = ratio;
-          sums->max_overlap_a = P.id[i];
-          sums->max_overlap_b = P.id[j];
-        }
-      }
-      if (std::size_t(j) < n_owned) ++sums->contacts_per_particle[j];
-    }
-  }
-  diss.friction += e_fric;
-  diss.rolling += e_roll;
-  diss.viscous += e_visc;
+  PairKernel<Rolling, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
+  for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
+  K.run();
+  diss.friction += K.e_fric;
+  diss.rolling += K.e_roll;
+  diss.viscous += K.e_visc;
 }
 
 // Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
