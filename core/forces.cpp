@@ -10,6 +10,38 @@
 namespace fabrica {
 namespace {
 
+#if defined(__AVX2__)
+// Left-pack tables of the pass-1 loop: for a 4-bit mask of touching lanes, the permutation
+// (of 32-bit elements) that moves the set lanes of 4 doubles (kPack64) or of 4 ints (kPack32)
+// to the front, in order; and the 4 touching bytes of the mask.
+struct PackTables {
+  alignas(32) std::int32_t p64[16][8];
+  alignas(32) std::int32_t p32[16][8];
+  std::uint32_t bytes[16];
+};
+constexpr PackTables make_pack_tables() {
+  PackTables t{};
+  for (int m = 0; m < 16; ++m) {
+    int k = 0;
+    t.bytes[m] = 0;
+    for (int l = 0; l < 4; ++l) {
+      if (!(m >> l & 1)) continue;
+      t.p64[m][2 * k] = 2 * l, t.p64[m][2 * k + 1] = 2 * l + 1;
+      t.p32[m][k] = l;
+      t.bytes[m] |= 1u << (8 * l);
+      ++k;
+    }
+    for (int r = k; r < 4; ++r) t.p64[m][2 * r] = t.p64[m][2 * r + 1] = 0;
+    for (int r = k; r < 8; ++r) t.p32[m][r] = 0;
+  }
+  return t;
+}
+constexpr PackTables kPackTables = make_pack_tables();
+constexpr const auto& kPack64 = kPackTables.p64;
+constexpr const auto& kPack32 = kPackTables.p32;
+constexpr const auto& kTouchBytes = kPackTables.bytes;
+#endif
+
 // Out of the loop's way: reached only by an overlap beyond the geometric limit.
 [[gnu::cold, gnu::noinline]] void note_overlap(OverlapAlarm* alarm, real_t un, real_t radius,
                                                GlobalId a, GlobalId b) {
@@ -40,23 +72,36 @@ struct PairKernel {
   std::size_t n_owned;
   real_t e_fric = 0, e_roll = 0, e_visc = 0;
   std::size_t next_opening = 0;  // the first opening not yet booked
+  static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+  std::size_t next_before = kNone;  // its place (kNone: none left)
 
-  std::size_t collect_touching() {
-    const ContactLawParams& law = ctx.law;
-    const Vec3* x = P.x.data();
+  // The contact of pair q (bodies i, j) opens after nc touching pairs of this block: the
+  // energy left in its springs is lost.
+  [[gnu::noinline]] void open_contact(std::size_t q, Index i, Index j, std::size_t nc) {
     const real_t* R = P.radius.data();
     const real_t* m = P.mass.data();
+    const PairConstants c = pair_constants<Rolling, false>(ctx.law, R[i], R[j], m[i], m[j]);
+    const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+    PairList::Work::Opening o{nc, own_i * 0.5 * pl.fs[q].squaredNorm() / c.ks, 0.0};
+    pl.fs[q].setZero();
+    if constexpr (Rolling) {
+      o.e_rolling = own_i * 0.5 * pl.mr[q].squaredNorm() / c.kr;
+      pl.mr[q].setZero();
+    }
+    pl.work.openings.push_back(o);
+  }
+
+  // Pass 1 over pairs [q0, q1), appending the touching ones to pl.work from slot nc; returns
+  // the new count.
+  std::size_t collect_touching(std::size_t q0, std::size_t q1, std::size_t nc) {
+    const Vec3* x = P.x.data();
+    const real_t* R = P.radius.data();
     const Index* pi = pl.i.data();
     const Index* pj = pl.j.data();
     const std::uint8_t* img = pl.image.data();
     std::uint8_t* touching = pl.touching.data();
-    Vec3* fs = pl.fs.data();
-    Vec3* mr = Rolling ? pl.mr.data() : nullptr;
     PairList::Work& W = pl.work;
     const std::size_t np = pl.size();
-    W.resize(np);
-    W.openings.clear();
-    std::size_t nc = 0;
     // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in
     // memory, but the curve's jumps and the second body of each pair are not: fetch the
     // positions and radii of the pair kAhead places on. Changes no result (it paid 7 % of the
@@ -69,7 +114,57 @@ struct PairKernel {
     real_t* wdy = W.dy.data();
     real_t* wdz = W.dz.data();
     real_t* wr2 = W.r2.data();
-    for (std::size_t q = 0; q < np; ++q) {
+    std::size_t q = q0;
+#if defined(__AVX2__)
+    if (ctx.lanes == 4) {
+      // Four pairs at a time: the same operations on each lane as the loop below, the
+      // touching pairs packed to the front of the lanes with a permutation (left-pack table).
+      const std::array<Vec3, 27>& sh = shift;
+      for (; q + 4 <= q1; q += 4) {
+        using simd::d4;
+        if (q + kAhead + 4 <= np)
+          for (int l = 0; l < 4; ++l) __builtin_prefetch(&x[pj[q + kAhead + l]]);
+        const Index im[4] = {img[q], img[q + 1], img[q + 2], img[q + 3]};
+        const simd::V3<d4> xi = simd::gather3<d4>(x, pi + q), xj = simd::gather3<d4>(x, pj + q);
+        const simd::V3<d4> s4 = simd::gather3<d4>(sh.data(), im);
+        const simd::V3<d4> d = xj + s4 - xi;
+        const d4 sum_r = simd::gather<d4>(R, pi + q) + simd::gather<d4>(R, pj + q);
+        const d4 r2 = simd::squared_norm(d);
+        const unsigned apart = unsigned(_mm256_movemask_pd(reinterpret_cast<__m256d>(r2 >= sum_r * sum_r)));
+        const unsigned touch = ~apart & 0xFu;
+        std::uint32_t was;
+        __builtin_memcpy(&was, touching + q, 4);
+        const unsigned was_bits = (was & 1u) | ((was >> 7) & 2u) | ((was >> 14) & 4u) | ((was >> 21) & 8u);
+        if (was_bits & ~touch) [[unlikely]] {
+          std::size_t before = nc;
+          for (int l = 0; l < 4; ++l) {
+            if (touch >> l & 1u) ++before;
+            else if (was_bits >> l & 1u) open_contact(q + l, pi[q + l], pj[q + l], before);
+          }
+        }
+        const std::uint32_t now = kTouchBytes[touch];
+        __builtin_memcpy(touching + q, &now, 4);
+        const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack64[touch]));
+        const __m256i perm32 = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack32[touch]));
+        auto pack_d = [&](real_t* dst, d4 v) {
+          _mm256_storeu_pd(dst + nc, _mm256_castsi256_pd(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(v), perm)));
+        };
+        auto pack_i = [&](Index* dst, __m128i v) {
+          _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + nc),
+                           _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(v), perm32)));
+        };
+        pack_i(wq, _mm_add_epi32(_mm_set1_epi32(int(q)), _mm_setr_epi32(0, 1, 2, 3)));
+        pack_i(wi, _mm_loadu_si128(reinterpret_cast<const __m128i*>(pi + q)));
+        pack_i(wj, _mm_loadu_si128(reinterpret_cast<const __m128i*>(pj + q)));
+        pack_d(wdx, d.x);
+        pack_d(wdy, d.y);
+        pack_d(wdz, d.z);
+        pack_d(wr2, r2);
+        nc += unsigned(__builtin_popcount(touch));
+      }
+    }
+#endif
+    for (; q < q1; ++q) {
       if (q + kAhead < np) {
         const Index ia = pi[q + kAhead], ja = pj[q + kAhead];
         __builtin_prefetch(&x[ia]);
@@ -92,18 +187,7 @@ struct PairKernel {
       wdy[nc] = d[1];
       wdz[nc] = d[2];
       wr2[nc] = r2;
-      if (touching[q] > touch) [[unlikely]] {
-        // The contact opens: the energy left in its springs is lost.
-        const PairConstants c = pair_constants<Rolling, false>(law, R[i], R[j], m[i], m[j]);
-        const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-        PairList::Work::Opening o{nc, own_i * 0.5 * fs[q].squaredNorm() / c.ks, 0.0};
-        fs[q].setZero();
-        if constexpr (Rolling) {
-          o.e_rolling = own_i * 0.5 * mr[q].squaredNorm() / c.kr;
-          mr[q].setZero();
-        }
-        W.openings.push_back(o);
-      }
+      if (touching[q] > touch) [[unlikely]] open_contact(q, i, j, nc);
       touching[q] = touch;
       nc += touch;
     }
@@ -117,6 +201,7 @@ struct PairKernel {
       e_fric += o[next_opening].e_friction;
       if constexpr (Rolling) e_roll += o[next_opening].e_rolling;
     }
+    next_before = next_opening < o.size() ? o[next_opening].before : kNone;
   }
 
   // Touching contacts c, ..., c + n - 1 (n the lanes of T).
@@ -188,24 +273,36 @@ struct PairKernel {
       tj = a2 * nxfs;
       ti = a1 * nxfs;
     }
+    // Rows of 4 doubles per lane (simd::to_rows), read back as Vec3 for the scatter.
+    alignas(32) real_t rows_f[16], rows_tj[16], rows_ti[16];
+    to_rows(F, rows_f);
+    to_rows(tj, rows_tj);
+    to_rows(ti, rows_ti);
+    // A pair between an owned particle and a ghost is computed on both ranks; its energy and
+    // its share of the measures belong to the rank that owns body i (the lower id). The
+    // products own_i e are taken lane by lane, the sums in contact order below.
+    T own{};
+    for (int l = 0; l < kLanes; ++l) set_lane(own, l, std::size_t(ci[l]) < n_owned ? 1.0 : 0.0);
+    alignas(32) real_t ef[kLanes], er[kLanes], ev[kLanes];
+    store(ef, own * r.e_friction);
+    if constexpr (Rolling) store(er, own * r.e_rolling);
+    if constexpr (Viscous) store(ev, own * r.e_viscous);
     Vec3* f = P.f.data();
     Vec3* t = P.t.data();
     for (int l = 0; l < kLanes; ++l) {
       const Index i = ci[l], j = cj[l];
-      book_openings(c + l);
-      const Vec3 Fl = lane(F, l);
+      if (c + l >= next_before) [[unlikely]] book_openings(c + l);
+      const Eigen::Map<const Vec3> Fl(rows_f + 4 * l), Tj(rows_tj + 4 * l), Ti(rows_ti + 4 * l);
       f[j] += Fl;
       f[i] -= Fl;
-      if constexpr (Rolling) t[j] += lane(tj, l);
-      else t[j] -= lane(tj, l);
-      t[i] -= lane(ti, l);
-      // A pair between an owned particle and a ghost is computed on both ranks; its energy
-      // and its share of the measures belong to the rank that owns body i (the lower id).
-      const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-      e_fric += own_i * lane(r.e_friction, l);
-      if constexpr (Rolling) e_roll += own_i * lane(r.e_rolling, l);
-      if constexpr (Viscous) e_visc += own_i * lane(r.e_viscous, l);
+      if constexpr (Rolling) t[j] += Tj;
+      else t[j] -= Tj;
+      t[i] -= Ti;
+      e_fric += ef[l];
+      if constexpr (Rolling) e_roll += er[l];
+      if constexpr (Viscous) e_visc += ev[l];
       if constexpr (Measure) {
+        const real_t own_i = lane(own, l);
         if (own_i != 0.0) {
           const PairConstants cl{lane(pc.kn, l), lane(pc.ks, l), lane(pc.kr, l), 0, 0, 0};
           const ContactHistory hl{lane(h.fs, l), Rolling ? lane(h.mr, l) : Vec3(Vec3::Zero())};
@@ -232,12 +329,36 @@ struct PairKernel {
     }
   }
 
+  // The passes alternate over blocks of kBlock pairs, so that the work arrays stay in the
+  // first-level cache and the particles of a block are still near when the law runs; the
+  // contacts left over from a block (fewer than the lanes) go first into the next one.
+  static constexpr std::size_t kBlock = 512;
   void run() {
-    const std::size_t nc = collect_touching();
-    std::size_t c = 0;
-    if (ctx.lanes == 4)
-      for (; c + 4 <= nc; c += 4) contacts<simd::d4>(c);
-    for (; c < nc; ++c) contacts<real_t>(c);
+    using simd::d4;
+    PairList::Work& W = pl.work;
+    const std::size_t np = pl.size();
+    W.resize(std::min(np, kBlock) + 8);  // + the lanes the packed stores may write past the end
+    W.openings.clear();
+    std::size_t nc = 0;  // contacts in the work arrays
+    for (std::size_t q0 = 0; q0 < np; q0 += kBlock) {
+      const std::size_t q1 = std::min(np, q0 + kBlock);
+      nc = collect_touching(q0, q1, nc);
+      next_before = next_opening < W.openings.size() ? W.openings[next_opening].before : kNone;
+      std::size_t c = 0;
+      if (ctx.lanes == 4)
+        for (; c + 4 <= nc; c += 4) contacts<d4>(c);
+      if (ctx.lanes != 4 || q1 == np)
+        for (; c < nc; ++c) contacts<real_t>(c);
+      // Carry contacts [c, nc) and the openings not booked yet to the front.
+      for (std::size_t k = c; k < nc; ++k) {
+        W.q[k - c] = W.q[k], W.i[k - c] = W.i[k], W.j[k - c] = W.j[k];
+        W.dx[k - c] = W.dx[k], W.dy[k - c] = W.dy[k], W.dz[k - c] = W.dz[k], W.r2[k - c] = W.r2[k];
+      }
+      W.openings.erase(W.openings.begin(), W.openings.begin() + std::ptrdiff_t(next_opening));
+      for (auto& o : W.openings) o.before -= c;
+      next_opening = 0;
+      nc -= c;
+    }
     book_openings(std::numeric_limits<std::size_t>::max());
   }
 };

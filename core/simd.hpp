@@ -70,6 +70,9 @@ inline double lane(d4 v, int l) { return v[l]; }
 inline bool lane(bool m, int) { return m; }
 inline bool lane(m4 m, int l) { return m[l] != 0; }
 
+inline void set_lane(double& v, int, double x) { v = x; }
+inline void set_lane(d4& v, int l, double x) { v[l] = x; }
+
 // a[idx[0]], ..., a[idx[n-1]].
 template <class T> T gather(const real_t* a, const Index* idx);
 template <> inline double gather<double>(const real_t* a, const Index* idx) { return a[idx[0]]; }
@@ -129,6 +132,23 @@ template <> inline V3<d4> gather3<d4>(const Vec3* a, const Index* idx) {
 #else
   const Vec3 &p0 = a[idx[0]], &p1 = a[idx[1]], &p2 = a[idx[2]], &p3 = a[idx[3]];
   return {d4{p0[0], p1[0], p2[0], p3[0]}, d4{p0[1], p1[1], p2[1], p3[1]}, d4{p0[2], p1[2], p2[2], p3[2]}};
+#endif
+}
+
+// The lanes of v as rows (x, y, z, -) of 4 doubles, rows[4 l .. 4 l + 2] = lane l: a Vec3 read
+// from a row is one 16-byte and one 8-byte load inside the row's 32-byte store, which the store
+// buffer forwards.
+inline void to_rows(const V3<double>& v, real_t* rows) { rows[0] = v.x, rows[1] = v.y, rows[2] = v.z; }
+inline void to_rows(const V3<d4>& v, real_t* rows) {
+#if defined(__AVX__)
+  const __m256d t0 = _mm256_unpacklo_pd(v.x, v.y), t1 = _mm256_unpackhi_pd(v.x, v.y);  // x0 y0 x2 y2, x1 y1 x3 y3
+  const __m256d t2 = _mm256_unpacklo_pd(v.z, v.z), t3 = _mm256_unpackhi_pd(v.z, v.z);  // z0 z0 z2 z2, z1 z1 z3 z3
+  _mm256_store_pd(rows + 0, _mm256_permute2f128_pd(t0, t2, 0x20));
+  _mm256_store_pd(rows + 4, _mm256_permute2f128_pd(t1, t3, 0x20));
+  _mm256_store_pd(rows + 8, _mm256_permute2f128_pd(t0, t2, 0x31));
+  _mm256_store_pd(rows + 12, _mm256_permute2f128_pd(t1, t3, 0x31));
+#else
+  for (int l = 0; l < 4; ++l) rows[4 * l] = v.x[l], rows[4 * l + 1] = v.y[l], rows[4 * l + 2] = v.z[l];
 #endif
 }
 
