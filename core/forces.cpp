@@ -50,10 +50,10 @@ constexpr const auto& kTouchBytes = kPackTables.bytes;
   if (ratio > alarm->ratio) *alarm = OverlapAlarm{ratio, un, radius, a, b};
 }
 
-// The pair loop, in two passes over the Verlet list:
-//  1. the distance test of every pair, in list order: the pairs that touch are collected (with
-//     their branch vectors) into pl.work, the contacts that open are closed (springs zeroed, the
-//     energy left in them booked);
+// The pair loop, in two passes over each block of the Verlet list (run() below):
+//  1. the distance test of every pair, in list order (four pairs at a time with AVX2): the
+//     pairs that touch are collected (with their branch vectors) into pl.work, the contacts
+//     that open are closed (springs zeroed, the energy left in them noted with its place);
 //  2. the contact law for the touching pairs, simd::Lanes<T>::n at a time (T = simd::d4: four
 //     contacts per instruction; the rest and lanes = 1 with T = double), then the forces and
 //     torques added to both bodies contact by contact, in list order.
