@@ -27,6 +27,8 @@ struct SimulationParams {
   std::vector<Wall> walls;          // planes (core/contact_list.hpp)
   std::vector<DrivenSet> driven;    // particles of prescribed motion (core/driven.hpp)
   bool spatial_sort = true;         // reorder particles in space at rebuilds (cache locality)
+  int kernel_lanes = 4;             // contacts the force loop evaluates at once (4 or 1: the
+                                    // same bits, core/forces.cpp)
 
   // The kernel's switches: the scene's law or a wall's own law needs them.
   bool rolling() const {
