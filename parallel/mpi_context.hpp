@@ -3,6 +3,7 @@
 #pragma once
 #include <mpi.h>
 
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -14,6 +15,12 @@ class MpiContext {
     int initialized = 0;
     MPI_Initialized(&initialized);
     if (!initialized) {
+      // Open MPI's shared-file-pointer component "sm" keeps a named semaphore per file basename
+      // (/dev/shm/sem.OMPIO_<name>), machine-wide and never released by a killed process: after
+      // one job is killed inside MPI_File_open, every later job on that node that opens a file
+      // of the same name (checkpoint.ckpt.tmp) waits on it for ever. Fabrica never uses shared
+      // file pointers, so the component is excluded unless the user chose a sharedfp setting.
+      setenv("OMPI_MCA_sharedfp", "^sm", /*overwrite=*/0);
       MPI_Init(&argc, &argv);
       owner_ = true;
     }
