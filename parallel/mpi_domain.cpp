@@ -66,15 +66,56 @@ std::vector<double> MpiDomain::global_bin_work(const Particles& p, const Periodi
   return work;
 }
 
-void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell) {
+std::vector<std::int64_t> MpiDomain::global_bin_cost(const Particles& p, const PeriodicCell& cell,
+                                                     const Decomposition& d,
+                                                     std::span<const std::int32_t> work) {
+  std::vector<std::int64_t> w(d.bins(), 0);
+  for (std::size_t a = 0; a < p.n_owned(); ++a)
+    w[d.bin_of(p.x[a], cell.lengths())] += work.empty() ? 1 : work[a];
+  MPI_Allreduce(MPI_IN_PLACE, w.data(), int(w.size()), MPI_INT64_T, MPI_SUM, comm_);
+  return w;
+}
+
+void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell,
+                          std::span<const std::int32_t> work) {
   if (opt_.kind == DecompositionKind::Cartesian) {
-    set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_));
     decomposed_for_ = cell.lengths();
+    if (opt_.balance_work && !work.empty()) {
+      const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);  // the bins
+      set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_,
+                                                 global_bin_cost(p, cell, shape, work)));
+    } else {
+      set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_));
+    }
   } else {
     // Bin work from the current owners (the bins of the new decomposition).
     const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
     set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_,
                                            global_bin_work(p, cell, shape), comm_));
+  }
+}
+
+void MpiDomain::balance_cuts(const Particles& p, const PeriodicCell& cell,
+                             std::span<const std::int32_t> work) {
+  std::int64_t mine = 0;
+  for (std::int32_t w : work) mine += w;
+  std::int64_t most = mine, total = mine;  // exact: the same decision on every rank
+  MPI_Allreduce(MPI_IN_PLACE, &most, 1, MPI_INT64_T, MPI_MAX, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT64_T, MPI_SUM, comm_);
+  stats_.work_imbalance = total > 0 ? double(most) * size_ / double(total) : 1.0;
+  if (100 * most * size_ <= 102 * total) return;  // within 2 % of the mean
+  // The bins of the current decomposition (made for decomposed_for_), their work, and the runs
+  // that work gives; taken if they lighten the busiest rank by at least 1 % (by the same bins).
+  const std::vector<std::int64_t> bw = global_bin_cost(p, cell, *dec_, work);
+  Decomposition next = Decomposition::cartesian(size_, decomposed_for_, cutoff_, bw);
+  auto busiest = [&](const Decomposition& d) {
+    std::vector<std::int64_t> r(size_, 0);
+    for (int b = 0; b < d.bins(); ++b) r[d.owner(b)] += bw[b];
+    return *std::max_element(r.begin(), r.end());
+  };
+  if (100 * busiest(next) <= 99 * busiest(*dec_)) {
+    set_decomposition(std::move(next));
+    ++stats_.cuts_moved;
   }
 }
 
@@ -86,19 +127,37 @@ void MpiDomain::set_decomposition(Decomposition d) {
   redecomposed_ = true;
 }
 
-Vec3 MpiDomain::decomposition_lengths() const {
-  return opt_.kind == DecompositionKind::Cartesian ? decomposed_for_ : Vec3::Zero();
+DecompositionRecord MpiDomain::decomposition_record() const {
+  DecompositionRecord r;
+  if (opt_.kind != DecompositionKind::Cartesian) return r;
+  r.lengths = decomposed_for_;
+  for (const std::vector<int>& axis : dec_->cuts())
+    for (int c : axis) r.cuts.push_back(std::int32_t(c));
+  return r;
 }
 
 void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-                      const Vec3* decomposed_for, Holding holding, HistoryMap* history) {
+                      const DecompositionRecord* decomposed_as, Holding holding, HistoryMap* history) {
   cutoff_ = cutoff;
   rmax_ = 0;
   for (std::size_t a = 0; a < p.n_owned(); ++a) rmax_ = std::max(rmax_, p.radius[a]);
   MPI_Allreduce(MPI_IN_PLACE, &rmax_, 1, MPI_DOUBLE, MPI_MAX, comm_);
   if (opt_.kind == DecompositionKind::Cartesian) {
-    decomposed_for_ = decomposed_for ? *decomposed_for : cell.lengths();
-    set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_));
+    decomposed_for_ = decomposed_as ? decomposed_as->lengths : cell.lengths();
+    if (decomposed_as && !decomposed_as->cuts.empty()) {  // the saved runs
+      const Decomposition shape = Decomposition::cartesian(size_, decomposed_for_, cutoff_);
+      CartesianCuts cuts;
+      std::size_t next = 0;
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < shape.rank_grid()[k] && next < decomposed_as->cuts.size(); ++j)
+          cuts[k].push_back(decomposed_as->cuts[next++]);
+      if (next != decomposed_as->cuts.size())
+        throw std::runtime_error("the saved decomposition has " + std::to_string(decomposed_as->cuts.size()) +
+                                 " cuts, not one per run of the rank grid");
+      set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_, cuts));
+    } else {
+      set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_));
+    }
   } else {
     const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
     std::vector<double> work;
@@ -210,17 +269,24 @@ void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap*
     }
 }
 
-void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) {
+void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
+                        std::span<const std::int32_t> work) {
   p.clear_ghosts();
-  // The bins must stay at least one cutoff wide as the cell deforms; and METIS partitions are
-  // refreshed when the load has drifted.
-  if (!dec_->fits(cell.lengths(), cutoff_)) decompose(p, cell);
+  // The bins must stay at least one cutoff wide as the cell deforms; METIS partitions are
+  // refreshed when the load has drifted, and Cartesian runs follow the work.
+  if (!dec_->fits(cell.lengths(), cutoff_)) {
+    decompose(p, cell, work);
+  } else if (opt_.kind == DecompositionKind::Cartesian && opt_.balance_work && !work.empty() &&
+             (rebuilds_since_cut_check_ < 0 || ++rebuilds_since_cut_check_ >= opt_.rebalance_interval)) {
+    rebuilds_since_cut_check_ = 0;
+    balance_cuts(p, cell, work);
+  }
   if (opt_.kind == DecompositionKind::Metis && ++rebuilds_since_check_ >= opt_.rebalance_interval) {
     rebuilds_since_check_ = 0;
     stats_.imbalance = load_imbalance(p);
     if (stats_.imbalance > opt_.rebalance_threshold) {
       stats_.imbalance_before = stats_.imbalance;
-      decompose(p, cell);
+      decompose(p, cell, work);
       ++stats_.rebalances;
       stats_.imbalance_after = -1;  // measured after the particles have moved, below
     }
