@@ -25,10 +25,13 @@ enum class Holding {
 // What a restart on the same rank count needs to remake a decomposition (a checkpoint field):
 // the cell lengths it was made for and, for a Cartesian one whose runs follow the work, the
 // first bin of each run along each axis (Decomposition::cuts, flattened: P1, then P2, then P3
-// values). Zero lengths: nothing to remake (one rank, METIS, or another rank count).
+// values), and the rebuilds since the runs were last checked against the work (so that a
+// restart checks them at the same rebuilds as the run it continues; -1: not checked yet).
+// Zero lengths: nothing to remake (one rank, METIS, or another rank count).
 struct DecompositionRecord {
   Vec3 lengths = Vec3::Zero();
   std::vector<std::int32_t> cuts;  // empty: runs of equal length
+  std::int64_t since_check = -1;
   bool empty() const { return lengths.isZero(); }
 };
 
@@ -75,10 +78,11 @@ class Domain {
   // particle lies in this rank's subdomain; particles that left were sent to their new owners
   // with the springs of their contacts, and those received were added to 'history'. Ghosts are
   // dropped (they are rebuilt by build_ghosts after any reordering of the owned particles).
-  // 'work': the cost of each owned particle since the last rebuild (1 + the list pairs it is
-  // in), which a decomposition may be balanced by; empty when not known.
+  // 'work': the cost of each owned particle over the last list (1 + the list pairs it is in,
+  // n_owned values), which a decomposition may be balanced by; null when not known (then null
+  // on every rank: the decision to balance is collective).
   virtual void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
-                       std::span<const std::int32_t> work) = 0;
+                       const std::vector<std::int32_t>* work) = 0;
 
   // Before: no ghosts, owned particles in their subdomain. After: every particle of another
   // rank within 'cutoff' (2 Rmax + skin, a lower bound on the decomposition bin edge) of this

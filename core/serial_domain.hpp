@@ -21,7 +21,7 @@ class SerialDomain final : public Domain {
              HistoryMap* history = nullptr) override;
   DecompositionRecord decomposition_record() const override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
-               std::span<const std::int32_t> work) override;
+               const std::vector<std::int32_t>* work) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
   std::unique_ptr<Domain> clone() const override;
   int rank() const override;

@@ -304,11 +304,11 @@ void Simulation::rebuild() {
                     {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
   // The work of each owned particle over the last list (1 + its pairs), by which the MPI
   // domain may balance its decomposition.
-  if (domain_->size() > 1) {
-    particle_work_.assign(p_.n_owned(), 1);
+  if (domain_->size() > 1) {  // on every rank, so that the balancing decision is collective
+    std::vector<std::int32_t>& w = particle_work_.emplace(p_.n_owned(), 1);
     for (std::size_t q = 0; q < pairs_.size(); ++q) {
-      if (std::size_t(pairs_.i[q]) < p_.n_owned()) ++particle_work_[pairs_.i[q]];
-      if (std::size_t(pairs_.j[q]) < p_.n_owned()) ++particle_work_[pairs_.j[q]];
+      if (std::size_t(pairs_.i[q]) < p_.n_owned()) ++w[pairs_.i[q]];
+      if (std::size_t(pairs_.j[q]) < p_.n_owned()) ++w[pairs_.j[q]];
     }
   }
   // The old lists are now in carry_: free them before the new ones are built (memory at large N).
@@ -349,8 +349,8 @@ void Simulation::rebuild_lists() {
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
   using clock = std::chrono::steady_clock;
   const auto t0 = timing_ ? clock::now() : clock::time_point{};
-  domain_->migrate(p_, cell_, carry_, particle_work_);
-  particle_work_ = {};
+  domain_->migrate(p_, cell_, carry_, particle_work_ ? &*particle_work_ : nullptr);
+  particle_work_.reset();
   const auto t1 = timing_ ? clock::now() : clock::time_point{};
   if (par_.spatial_sort) p_.permute_owned(search_.spatial_order(p_, cell_));
   const auto t2 = timing_ ? clock::now() : clock::time_point{};

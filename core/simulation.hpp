@@ -13,6 +13,7 @@
 #include "core/serial_domain.hpp"
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -236,7 +237,8 @@ class Simulation {
   PairList pairs_;
   WallContactList walls_;
   HistoryMap carry_;
-  std::vector<std::int32_t> particle_work_;  // per owned particle, from rebuild() to migrate()
+  // Per owned particle, from rebuild() to migrate(); none at the first list (and on one rank).
+  std::optional<std::vector<std::int32_t>> particle_work_;
   Dissipation diss_;
   ContactSums sums_;
   MacroState macro_;

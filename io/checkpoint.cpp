@@ -285,7 +285,8 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   Simulation& mut = const_cast<Simulation&>(sim);  // Domain accessors are not const
   const DecompositionRecord dec = mut.domain().decomposition_record();
   g.vec3("decomposition_lengths", dec.lengths).i64("decomposition_cuts", std::int64_t(dec.cuts.size()));
-  for (std::int32_t c : dec.cuts) g.i32("decomposition_cut", c);
+  for (std::int32_t c : dec.cuts) g.i32("decomposition_cut", c);  // format 5
+  g.i64("decomposition_since_check", dec.since_check);
   const EnergyAccount ea = sim.energy_account();
   g.f64("energy.e0", ea.e0).f64("energy.work", ea.work).vec3("energy.vol_strain", ea.vol_strain);
   g.mat3("energy.stress_prev", ea.stress_prev);
@@ -633,6 +634,7 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
                      std::to_string(3 * head_.ranks) + " (three axes of at most " +
                      std::to_string(head_.ranks) + " runs)");
   for (std::int64_t c = 0; c < cuts; ++c) snap.decomposition.cuts.push_back(g.i32("decomposition_cut"));
+  snap.decomposition.since_check = g.i64("decomposition_since_check");
   snap.energy.e0 = g.f64("energy.e0");
   snap.energy.work = g.f64("energy.work");
   snap.energy.vol_strain = g.vec3("energy.vol_strain");

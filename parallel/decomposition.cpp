@@ -88,17 +88,12 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff)
   return d;
 }
 
-Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff,
-                                       std::span<const std::int64_t> bin_work) {
+Decomposition Decomposition::by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work) {
   Decomposition d = grid(nranks, L, cutoff);
-  if (int(bin_work.size()) != d.bins()) throw std::logic_error("cartesian: one work value per bin expected");
   for (int k = 0; k < 3; ++k) {
-    std::vector<std::int64_t> plane(d.dims_[k], 0);
-    for (int b = 0; b < d.bins(); ++b) {
-      const int c[3] = {b % d.dims_[0], b / d.dims_[0] % d.dims_[1], b / (d.dims_[0] * d.dims_[1])};
-      plane[c[k]] += bin_work[b];
-    }
-    d.cuts_[k] = balanced_runs(plane, d.grid_[k]);
+    if (int(plane_work[k].size()) != d.dims_[k])
+      throw std::logic_error("Decomposition::by_work: one work value per bin plane expected");
+    d.cuts_[k] = balanced_runs(plane_work[k], d.grid_[k]);
   }
   d.own_by_cuts();
   d.finish(nranks);
@@ -111,7 +106,7 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff,
     const std::vector<int>& c = cuts[k];
     bool ok = int(c.size()) == d.grid_[k] && !c.empty() && c[0] >= 0 && c[0] < d.dims_[k];
     for (std::size_t j = 1; ok && j < c.size(); ++j) ok = c[j] > c[j - 1];
-    ok = ok && c.back() < c[0] + d.dims_[k];
+    ok = ok && c.back() < d.dims_[k];
     if (!ok)
       throw std::runtime_error("the saved decomposition's cuts along axis " + std::to_string(k + 1) +
                                " do not fit " + std::to_string(d.grid_[k]) + " runs of " +

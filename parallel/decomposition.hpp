@@ -35,6 +35,11 @@ inline constexpr int kReach = 2;  // bins per cutoff
 // ends where run j + 1 starts, and the last one wraps round to cuts[k][0] (periodic).
 using CartesianCuts = std::array<std::vector<int>, 3>;
 
+// Along each axis k, the work summed over each of the dims[k] bin planes normal to k: all that
+// the runs of a tensor-product grid depend on (dims[0] + dims[1] + dims[2] values, not one per
+// bin, so that the sums over the ranks stay small at 10^6 spheres).
+using PlaneWork = std::array<std::vector<std::int64_t>, 3>;
+
 // 'parts' runs of consecutive planes (periodic, each at least one plane) of weights w, whose
 // heaviest run is as light as possible; among the best, the one starting at the lowest plane.
 // Returns the first plane of each run, ascending. Exact (integer weights): the same on every
@@ -46,10 +51,10 @@ class Decomposition {
   // Cartesian decomposition; throws std::runtime_error if the cell is too small for nranks
   // subdomains of at least one bin each.
   static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff);
-  // The same grid of ranks, its runs placed by the work of each bin (bins() values, in bin
-  // order; balanced_runs of each axis' plane sums).
-  static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff,
-                                 std::span<const std::int64_t> bin_work);
+  // The same grid of ranks, its runs along each axis placed by the work of the bin planes
+  // (balanced_runs of plane_work[k], which holds dims()[k] values); throws std::logic_error if
+  // the sizes do not match this cell's bins.
+  static Decomposition by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work);
   // The same grid of ranks with the given runs (a decomposition saved in a checkpoint); throws
   // std::runtime_error if they do not fit this cell's bins and rank grid.
   static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff, const CartesianCuts& cuts);

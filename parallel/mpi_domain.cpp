@@ -66,24 +66,31 @@ std::vector<double> MpiDomain::global_bin_work(const Particles& p, const Periodi
   return work;
 }
 
-std::vector<std::int64_t> MpiDomain::global_bin_cost(const Particles& p, const PeriodicCell& cell,
-                                                     const Decomposition& d,
-                                                     std::span<const std::int32_t> work) {
-  std::vector<std::int64_t> w(d.bins(), 0);
-  for (std::size_t a = 0; a < p.n_owned(); ++a)
-    w[d.bin_of(p.x[a], cell.lengths())] += work.empty() ? 1 : work[a];
-  MPI_Allreduce(MPI_IN_PLACE, w.data(), int(w.size()), MPI_INT64_T, MPI_SUM, comm_);
+PlaneWork MpiDomain::global_plane_work(const Particles& p, const PeriodicCell& cell,
+                                       const Decomposition& d, const std::vector<std::int32_t>& work) {
+  const std::array<int, 3>& n = d.dims();
+  std::vector<std::int64_t> flat(std::size_t(n[0] + n[1] + n[2]), 0);  // axis 0, then 1, then 2
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const int bin = d.bin_of(p.x[a], cell.lengths());
+    const int c[3] = {bin % n[0], (bin / n[0]) % n[1], bin / (n[0] * n[1])};
+    flat[c[0]] += work[a];
+    flat[n[0] + c[1]] += work[a];
+    flat[n[0] + n[1] + c[2]] += work[a];
+  }
+  MPI_Allreduce(MPI_IN_PLACE, flat.data(), int(flat.size()), MPI_INT64_T, MPI_SUM, comm_);
+  PlaneWork w;
+  for (int k = 0, at = 0; k < 3; at += n[k++]) w[k].assign(flat.begin() + at, flat.begin() + at + n[k]);
   return w;
 }
 
 void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell,
-                          std::span<const std::int32_t> work) {
+                          const std::vector<std::int32_t>* work) {
   if (opt_.kind == DecompositionKind::Cartesian) {
     decomposed_for_ = cell.lengths();
-    if (opt_.balance_work && !work.empty()) {
+    if (opt_.balance_work && work) {  // work is null on every rank or on none
       const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);  // the bins
-      set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_,
-                                                 global_bin_cost(p, cell, shape, work)));
+      set_decomposition(Decomposition::by_work(size_, cell.lengths(), cutoff_,
+                                               global_plane_work(p, cell, shape, *work)));
     } else {
       set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_));
     }
@@ -96,25 +103,34 @@ void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell,
 }
 
 void MpiDomain::balance_cuts(const Particles& p, const PeriodicCell& cell,
-                             std::span<const std::int32_t> work) {
-  std::int64_t mine = 0;
-  for (std::int32_t w : work) mine += w;
-  std::int64_t most = mine, total = mine;  // exact: the same decision on every rank
-  MPI_Allreduce(MPI_IN_PLACE, &most, 1, MPI_INT64_T, MPI_MAX, comm_);
-  MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT64_T, MPI_SUM, comm_);
-  stats_.work_imbalance = total > 0 ? double(most) * size_ / double(total) : 1.0;
-  if (100 * most * size_ <= 102 * total) return;  // within 2 % of the mean
-  // The bins of the current decomposition (made for decomposed_for_), their work, and the runs
-  // that work gives; taken if they lighten the busiest rank by at least 1 % (by the same bins).
-  const std::vector<std::int64_t> bw = global_bin_cost(p, cell, *dec_, work);
-  Decomposition next = Decomposition::cartesian(size_, decomposed_for_, cutoff_, bw);
-  auto busiest = [&](const Decomposition& d) {
-    std::vector<std::int64_t> r(size_, 0);
-    for (int b = 0; b < d.bins(); ++b) r[d.owner(b)] += bw[b];
-    return *std::max_element(r.begin(), r.end());
-  };
-  if (100 * busiest(next) <= 99 * busiest(*dec_)) {
+                             const std::vector<std::int32_t>& work) {
+  // The runs the current work gives, on the bins of the current decomposition (made for
+  // decomposed_for_, so the same bins).
+  Decomposition next = Decomposition::by_work(size_, decomposed_for_, cutoff_,
+                                              global_plane_work(p, cell, *dec_, work));
+  // Each rank's work with the current runs and with the new ones, summed exactly (integers):
+  // every rank takes the same decision.
+  std::vector<std::int64_t> load(2 * std::size_t(size_), 0);
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const int bin = dec_->bin_of(p.x[a], cell.lengths());
+    load[dec_->owner(bin)] += work[a];
+    load[size_ + next.owner(bin)] += work[a];
+  }
+  MPI_Allreduce(MPI_IN_PLACE, load.data(), int(load.size()), MPI_INT64_T, MPI_SUM, comm_);
+  std::int64_t total = 0, now = 0, then = 0;
+  for (int r = 0; r < size_; ++r) {
+    total += load[r];
+    now = std::max(now, load[r]);
+    then = std::max(then, load[size_ + r]);
+  }
+  ++stats_.cut_checks;
+  auto imbalance = [&](std::int64_t most) { return total > 0 ? double(most) * size_ / double(total) : 1.0; };
+  stats_.work_imbalance_before = stats_.work_imbalance = imbalance(now);
+  // Moved when the busiest rank has more than 2 % above the mean and the new runs lighten it
+  // by at least 1 %.
+  if (100 * now * size_ > 102 * total && 100 * then <= 99 * now) {
     set_decomposition(std::move(next));
+    stats_.work_imbalance = imbalance(then);
     ++stats_.cuts_moved;
   }
 }
@@ -131,6 +147,7 @@ DecompositionRecord MpiDomain::decomposition_record() const {
   DecompositionRecord r;
   if (opt_.kind != DecompositionKind::Cartesian) return r;
   r.lengths = decomposed_for_;
+  r.since_check = rebuilds_since_cut_check_;
   for (const std::vector<int>& axis : dec_->cuts())
     for (int c : axis) r.cuts.push_back(std::int32_t(c));
   return r;
@@ -144,6 +161,7 @@ void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
   MPI_Allreduce(MPI_IN_PLACE, &rmax_, 1, MPI_DOUBLE, MPI_MAX, comm_);
   if (opt_.kind == DecompositionKind::Cartesian) {
     decomposed_for_ = decomposed_as ? decomposed_as->lengths : cell.lengths();
+    rebuilds_since_cut_check_ = decomposed_as ? decomposed_as->since_check : -1;
     if (decomposed_as && !decomposed_as->cuts.empty()) {  // the saved runs
       const Decomposition shape = Decomposition::cartesian(size_, decomposed_for_, cutoff_);
       CartesianCuts cuts;
@@ -270,16 +288,18 @@ void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap*
 }
 
 void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
-                        std::span<const std::int32_t> work) {
+                        const std::vector<std::int32_t>* work) {
   p.clear_ghosts();
   // The bins must stay at least one cutoff wide as the cell deforms; METIS partitions are
-  // refreshed when the load has drifted, and Cartesian runs follow the work.
+  // refreshed when the load has drifted, and Cartesian runs follow the work (checked at the
+  // first rebuild whose work is known, then every rebalance_interval rebuilds). 'work' is null
+  // on every rank or on none, so every rank calls the same collectives.
   if (!dec_->fits(cell.lengths(), cutoff_)) {
     decompose(p, cell, work);
-  } else if (opt_.kind == DecompositionKind::Cartesian && opt_.balance_work && !work.empty() &&
+  } else if (opt_.kind == DecompositionKind::Cartesian && opt_.balance_work && work &&
              (rebuilds_since_cut_check_ < 0 || ++rebuilds_since_cut_check_ >= opt_.rebalance_interval)) {
     rebuilds_since_cut_check_ = 0;
-    balance_cuts(p, cell, work);
+    balance_cuts(p, cell, *work);
   }
   if (opt_.kind == DecompositionKind::Metis && ++rebuilds_since_check_ >= opt_.rebalance_interval) {
     rebuilds_since_check_ = 0;

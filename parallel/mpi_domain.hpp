@@ -39,10 +39,11 @@ struct DomainStats {
   std::int64_t rebalances = 0;
   double imbalance_before = 1, imbalance_after = 1;  // last rebalance (max/mean owned particles)
   double imbalance = 1;                 // at the last check
-  // Cartesian runs by work: max/mean of the ranks' work (1 + list pairs per particle) at the
-  // last check, and the number of times the runs were moved.
-  double work_imbalance = 1;
-  std::int64_t cuts_moved = 0;
+  // Cartesian runs by work, at the last check: max/mean of the ranks' work (1 + list pairs per
+  // owned particle) with the runs in use before it and with those kept after it; the number of
+  // checks and of times the runs were moved.
+  double work_imbalance_before = 1, work_imbalance = 1;
+  std::int64_t cut_checks = 0, cuts_moved = 0;
 };
 
 class MpiDomain final : public Domain {
@@ -59,7 +60,7 @@ class MpiDomain final : public Domain {
              HistoryMap* history = nullptr) override;
   DecompositionRecord decomposition_record() const override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
-               std::span<const std::int32_t> work) override;
+               const std::vector<std::int32_t>* work) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
   std::unique_ptr<Domain> clone() const override { return std::make_unique<MpiDomain>(*this); }
   int rank() const override { return rank_; }
@@ -73,12 +74,14 @@ class MpiDomain final : public Domain {
   double load_imbalance(const Particles& p);
 
  private:
-  void decompose(const Particles& p, const PeriodicCell& cell, std::span<const std::int32_t> work);
-  // The Cartesian runs by work (MpiDomainOptions::balance_work); collective.
-  void balance_cuts(const Particles& p, const PeriodicCell& cell, std::span<const std::int32_t> work);
-  // Per bin of d, the sum over all ranks of the owned particles' work (1 each when empty): exact.
-  std::vector<std::int64_t> global_bin_cost(const Particles& p, const PeriodicCell& cell,
-                                            const Decomposition& d, std::span<const std::int32_t> work);
+  void decompose(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>* work);
+  // The Cartesian runs by work (MpiDomainOptions::balance_work); collective (two allreduces).
+  void balance_cuts(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>& work);
+  // Per axis of d's bins, the owned particles' work summed over each bin plane and over all
+  // ranks (exact integers: the same on every rank); one allreduce of dims[0] + dims[1] + dims[2]
+  // values.
+  PlaneWork global_plane_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d,
+                              const std::vector<std::int32_t>& work);
   void set_decomposition(Decomposition d);  // and its partner ranks
   // adopt() of a share: particles to their owners, springs to the owners of their bodies.
   void gather_share(Particles& p, const PeriodicCell& cell, HistoryMap* history);
