@@ -130,6 +130,10 @@ void MpiDomain::balance_cuts(const Particles& p, const PeriodicCell& cell,
   // by at least 1 %.
   if (100 * now * size_ > 102 * total && 100 * then <= 99 * now) {
     set_decomposition(std::move(next));
+    // Runs moved by a few planes send the particles between them to partners of the new
+    // decomposition (symmetric, so point to point works); a destination that is not one sets the
+    // all-to-all flag in migrate() anyway. No forced all-to-all, unlike a new set of bins.
+    redecomposed_ = false;
     stats_.work_imbalance = imbalance(then);
     ++stats_.cuts_moved;
   }
