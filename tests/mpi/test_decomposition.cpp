@@ -316,7 +316,7 @@ TEST(Decomposition, BalancedRunsAreTheLightestPeriodicSplit) {
 
 // The Cartesian runs placed by the work on the dense packing: over 1000 steps, the ranks' list
 // pairs (the force loop's work, ghost pairs counted on both ranks) are closer to even than with
-// runs of equal length, the trajectory is still the serial one bit for bit, and a domain made
+// runs of equal length (within 3 % of the mean on 2 ranks), the trajectory is still the serial one bit for bit, and a domain made
 // from the decomposition's record (a restart) owns the same bins.
 TEST(Decomposition, CartesianRunsFollowTheWork) {
   if (comm_size() == 1) GTEST_SKIP() << "needs several ranks";
@@ -360,5 +360,49 @@ TEST(Decomposition, CartesianRunsFollowTheWork) {
     std::printf("ranks %d: largest max/mean of list pairs per rank after step 100: even runs "
                 "%.4f, runs by work %.4f\n", comm_size(), imbalance[0], imbalance[1]);
   EXPECT_LT(imbalance[1], imbalance[0]);
-  EXPECT_LT(imbalance[1], 1.03);
+  // On 2 ranks one axis is cut and the runs balance it to a bin plane (measured 1.009, even
+  // runs 1.038). With more ranks the runs of a tensor-product grid balance each axis' slabs,
+  // not every box (measured: 3 ranks 1.091 -> 1.038, 4: 1.071 -> 1.053, 8: 1.293 -> 1.189).
+  if (comm_size() == 2) EXPECT_LT(imbalance[1], 1.03);
+}
+
+// Decomposition::by_work from plane sums: along each axis the runs are balanced_runs of that
+// axis' sums, each bin is owned by the rank of its three runs, and the runs remade from the
+// record (Decomposition::cartesian with cuts) give the same owners; cuts that do not fit the
+// bins or the rank grid are refused.
+TEST(Decomposition, RunsByPlaneWorkAndFromCuts) {
+  const Vec3 L(0.4, 0.5, 0.9);
+  const real_t cutoff = 0.03;
+  for (int ranks : {2, 3, 4, 6, 8}) {
+    const Decomposition even = Decomposition::cartesian(ranks, L, cutoff);
+    const std::array<int, 3>& n = even.dims();
+    const std::array<int, 3>& g = even.rank_grid();
+    Random rng(7 + ranks);
+    PlaneWork w;
+    for (int k = 0; k < 3; ++k)
+      for (int x = 0; x < n[k]; ++x) w[k].push_back(std::int64_t(rng.uniform() * 1000));
+    const Decomposition d = Decomposition::by_work(ranks, L, cutoff, w);
+    ASSERT_EQ(d.dims(), n);
+    ASSERT_EQ(d.rank_grid(), g);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(d.cuts()[k], balanced_runs(w[k], g[k])) << "axis " << k;
+    auto run_of = [&](int k, int x) {  // the run of plane x along axis k, from the cuts
+      const std::vector<int>& c = d.cuts()[k];
+      int j = g[k] - 1;  // planes before cuts[0] belong to the last run (it wraps)
+      for (int r = 0; r < g[k]; ++r)
+        if (x >= c[r]) j = r;
+      return j;
+    };
+    const Decomposition again = Decomposition::cartesian(ranks, L, cutoff, d.cuts());
+    for (int b = 0; b < d.bins(); ++b) {
+      const int c[3] = {b % n[0], b / n[0] % n[1], b / (n[0] * n[1])};
+      ASSERT_EQ(d.owner(b), run_of(0, c[0]) + g[0] * (run_of(1, c[1]) + g[1] * run_of(2, c[2])));
+      ASSERT_EQ(again.owner(b), d.owner(b));
+    }
+    CartesianCuts bad = d.cuts();
+    bad[0].push_back(n[0]);  // one run too many, and past the last plane
+    EXPECT_THROW(Decomposition::cartesian(ranks, L, cutoff, bad), std::runtime_error);
+    PlaneWork short_w = w;
+    short_w[2].pop_back();
+    EXPECT_THROW(Decomposition::by_work(ranks, L, cutoff, short_w), std::logic_error);
+  }
 }
