@@ -20,6 +20,7 @@
 // The law is a stateless function of (parameters, geometry, history&). Rolling resistance and
 // viscous damping are template switches so that a kernel built without them contains none of it.
 #pragma once
+#include "core/simd.hpp"
 #include "core/types.hpp"
 
 #include <cmath>
@@ -119,80 +120,147 @@ struct ContactResult {
   real_t e_viscous;   // energy dissipated by the dashpots this step [J]
 };
 
+// The law below is written once over a lane type T (core/simd.hpp): T = double evaluates one
+// contact, T = simd::d4 four at once, with the same operations in the same order on every lane,
+// so both give the same bits (the branches of the scalar form are masks and select()). The
+// order of every sum and product is also that of the Eigen expressions the law was first
+// written with (a.dot(b) = (a0 b0 + a1 b1) + a2 b2), so the results are those of that form.
+template <class T> struct PairConstantsL {
+  T kn, ks, kr, cn, cs, rbar;
+};
+template <class T> struct ContactKinematicsL {
+  simd::V3<T> n;
+  T un;
+  simd::V3<T> vrel, w1, w2;
+};
+template <class T> struct ContactHistoryL {
+  simd::V3<T> fs, mr;
+};
+template <class T> struct ContactResultL {
+  T fn;
+  simd::V3<T> fs, mr;
+  simd::mask_t<T> sliding, rolling;
+  T e_friction, e_rolling, e_viscous;
+};
+
 // Keeps |a| after projecting onto the plane normal to n and turning it about n by angle phi.
+template <class T>
+inline simd::V3<T> carry_with_plane(const simd::V3<T>& a, const simd::V3<T>& n, const T& phi) {
+  using namespace simd;
+  const T old2 = squared_norm(a);
+  const mask_t<T> zero = old2 == 0.0;
+  if (all(zero)) return a;
+  V3<T> b = a - dot(a, n) * n;
+  b = b + phi * cross(n, b);
+  const T new2 = squared_norm(b);
+  const V3<T> kept = select(new2 > 0.0, b * simd::sqrt(old2 / new2), zero3<T>());
+  return select(zero, a, kept);
+}
 inline Vec3 carry_with_plane(const Vec3& a, const Vec3& n, real_t phi) {
-  const real_t old2 = a.squaredNorm();
-  if (old2 == 0.0) return a;
-  Vec3 b = a - a.dot(n) * n;
-  b += phi * n.cross(b);
-  const real_t new2 = b.squaredNorm();
-  return new2 > 0.0 ? Vec3(b * std::sqrt(old2 / new2)) : Vec3(Vec3::Zero());
+  return simd::to_vec(carry_with_plane<real_t>(simd::from_vec(a), simd::from_vec(n), phi));
 }
 
-template <bool Rolling, bool Viscous>
-inline ContactResult contact_law(const ContactLawParams& p, const PairConstants& c,
-                                 const ContactKinematics& k, ContactHistory& h, real_t dt) {
-  ContactResult r;
-  r.e_friction = r.e_rolling = r.e_viscous = 0.0;
-  const Vec3& n = k.n;
-  const real_t fn_el = c.kn * k.un;
-  const real_t vn = k.vrel.dot(n);  // > 0 when separating
-  const Vec3 vt = k.vrel - vn * n;
-  const real_t twist = 0.5 * (k.w1 + k.w2).dot(n) * dt;
+// at_limit() over lanes.
+template <class T> inline simd::mask_t<T> at_limit_l(const T& norm2, const T& limit) {
+  const T l = (1.0 - kLimitTolerance) * limit;
+  return norm2 >= l * l;
+}
 
-  // Normal force.
-  real_t fn = fn_el;
+// Inlined into the pair loop: returned through memory, the result of four lanes (some 450
+// bytes) and the arguments cost a store and a load each (benchmarks/README.md). Under
+// -ffp-contract=off inlining changes no bit.
+template <bool Rolling, bool Viscous, class T>
+[[gnu::always_inline]] inline ContactResultL<T> contact_law_l(const ContactLawParams& p, const PairConstantsL<T>& c,
+                                       const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
+                                       real_t dt) {
+  using namespace simd;
+  ContactResultL<T> r;
+  r.e_friction = r.e_rolling = r.e_viscous = T{};
+  const V3<T>& n = k.n;
+  const T fn_el = c.kn * k.un;
+  const T vn = dot(k.vrel, n);  // > 0 when separating
+  const V3<T> vt = k.vrel - vn * n;
+  const T twist = 0.5 * dot(k.w1 + k.w2, n) * dt;
+
+  // Normal force: max(0, fn_el - c_n vn) as std::max(0.0, x) takes it, (0 < x) ? x : 0.
+  T fn = fn_el;
   if constexpr (Viscous) {
-    fn = std::max(0.0, fn_el - c.cn * vn);
-    r.e_viscous += (fn - fn_el) * (-vn) * dt;
+    const T trial = fn_el - c.cn * vn;
+    fn = select(T{} < trial, trial, T{});
+    r.e_viscous = r.e_viscous + (fn - fn_el) * (-vn) * dt;
   }
   r.fn = fn;
 
   // Shear spring with Coulomb cap.
-  const Vec3 fs_rot = carry_with_plane(h.fs, n, twist);
-  const Vec3 du = vt * dt;
-  Vec3 fs = fs_rot - c.ks * du;
-  const real_t cap = p.friction * fn_el;
-  const real_t fs2 = fs.squaredNorm();
+  const V3<T> fs_rot = carry_with_plane(h.fs, n, twist);
+  const V3<T> du = vt * dt;
+  V3<T> fs = fs_rot - c.ks * du;
+  const T cap = p.friction * fn_el;
+  const T fs2 = squared_norm(fs);
   // Capped when the trial force exceeds the cap; classified from the trial force, which is the
   // spring itself when not capped and beyond the limit when capped (the same as at_limit of
   // the capped spring, the test contact_records applies).
-  const bool capped = fs2 > cap * cap;
-  r.sliding = at_limit(fs2, cap);
-  if (capped) {
-    fs *= cap / std::sqrt(fs2);
-    const Vec3 slip = du + (fs - fs_rot) / c.ks;
-    r.e_friction = -0.5 * (fs_rot + fs).dot(slip);
+  const mask_t<T> capped = fs2 > cap * cap;
+  r.sliding = at_limit_l(fs2, cap);
+  if (any(capped)) {
+    const V3<T> fs_cap = fs * (cap / simd::sqrt(fs2));
+    const V3<T> slip = du + (fs_cap - fs_rot) / c.ks;
+    r.e_friction = select(capped, -0.5 * dot(fs_rot + fs_cap, slip), r.e_friction);
+    fs = select(capped, fs_cap, fs);
   }
   h.fs = fs;
   r.fs = fs;
   if constexpr (Viscous) {
-    if (!capped) {
-      r.fs -= c.cs * vt;
-      r.e_viscous += c.cs * vt.squaredNorm() * dt;
-    }
+    r.fs = select(capped, r.fs, r.fs - c.cs * vt);
+    r.e_viscous = select(capped, r.e_viscous, r.e_viscous + c.cs * squared_norm(vt) * dt);
   }
 
   // Rolling spring with its cap: the bending part of the relative rotation only.
   if constexpr (Rolling) {
-    const Vec3 mr_rot = carry_with_plane(h.mr, n, twist);
-    Vec3 dth = (k.w2 - k.w1) * dt;
-    dth -= dth.dot(n) * n;
-    Vec3 mr = mr_rot - c.kr * dth;
-    const real_t rcap = p.rolling_friction * c.rbar * fn_el;
-    const real_t mr2 = mr.squaredNorm();
-    r.rolling = at_limit(mr2, rcap);  // as for sliding
-    if (mr2 > rcap * rcap) {
-      mr *= rcap / std::sqrt(mr2);
-      const Vec3 slip = dth + (mr - mr_rot) / c.kr;
-      r.e_rolling = -0.5 * (mr_rot + mr).dot(slip);
+    const V3<T> mr_rot = carry_with_plane(h.mr, n, twist);
+    V3<T> dth = (k.w2 - k.w1) * dt;
+    dth = dth - dot(dth, n) * n;
+    V3<T> mr = mr_rot - c.kr * dth;
+    const T rcap = p.rolling_friction * c.rbar * fn_el;
+    const T mr2 = squared_norm(mr);
+    r.rolling = at_limit_l(mr2, rcap);  // as for sliding
+    const mask_t<T> rcapped = mr2 > rcap * rcap;
+    if (any(rcapped)) {
+      const V3<T> mr_cap = mr * (rcap / simd::sqrt(mr2));
+      const V3<T> slip = dth + (mr_cap - mr_rot) / c.kr;
+      r.e_rolling = select(rcapped, -0.5 * dot(mr_rot + mr_cap, slip), r.e_rolling);
+      mr = select(rcapped, mr_cap, mr);
     }
     h.mr = mr;
     r.mr = mr;
   } else {
-    r.rolling = true;  // no resistance: every contact rolls freely (spec section 5)
-    r.mr = Vec3::Zero();
+    r.rolling = all_true<T>();  // no resistance: every contact rolls freely (spec section 5)
+    r.mr = zero3<T>();
   }
+  return r;
+}
+
+// One contact, in the form the wall loop and the tests use.
+template <bool Rolling, bool Viscous>
+inline ContactResult contact_law(const ContactLawParams& p, const PairConstants& c,
+                                 const ContactKinematics& k, ContactHistory& h, real_t dt) {
+  using simd::from_vec, simd::to_vec;
+  const PairConstantsL<real_t> cl{c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar};
+  const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1),
+                                      from_vec(k.w2)};
+  ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr)};
+  const ContactResultL<real_t> rl = contact_law_l<Rolling, Viscous>(p, cl, kl, hl, dt);
+  h.fs = to_vec(hl.fs);
+  if constexpr (Rolling) h.mr = to_vec(hl.mr);
+  ContactResult r;
+  r.fn = rl.fn;
+  r.fs = to_vec(rl.fs);
+  r.mr = to_vec(rl.mr);
+  r.sliding = rl.sliding;
+  r.rolling = rl.rolling;
+  r.e_friction = rl.e_friction;
+  r.e_rolling = rl.e_rolling;
+  r.e_viscous = rl.e_viscous;
   return r;
 }
 

@@ -25,6 +25,25 @@ struct PairList {
   std::vector<Vec3> fs;                // shear springs (N)
   std::vector<Vec3> mr;                // rolling springs (N m); empty when mu_r = 0
 
+  // Work arrays of the force loop (core/forces.cpp), refilled by every call and meaningless
+  // between calls: the touching pairs of the step in list order (list index, bodies, branch
+  // vector and its squared length), and the contacts that opened, each with the number of
+  // touching pairs before it and the spring energy it lost [J].
+  struct Work {
+    std::vector<Index> q, i, j;
+    std::vector<real_t> dx, dy, dz, r2;
+    struct Opening {
+      std::size_t before;
+      real_t e_friction, e_rolling;
+    };
+    std::vector<Opening> openings;
+    void resize(std::size_t n) {
+      if (q.size() >= n) return;
+      for (auto* v : {&q, &i, &j}) v->resize(n);
+      for (auto* v : {&dx, &dy, &dz, &r2}) v->resize(n);
+    }
+  } work;
+
   std::size_t size() const { return i.size(); }
   void clear() {
     i.clear(); j.clear(); image.clear(); touching.clear(); fs.clear(); mr.clear();

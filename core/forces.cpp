@@ -5,9 +5,42 @@
 #include <algorithm>
 #include <array>
 #include <limits>
+#include <numbers>
 
 namespace fabrica {
 namespace {
+
+#if defined(__AVX2__)
+// Left-pack tables of the pass-1 loop: for a 4-bit mask of touching lanes, the permutation
+// (of 32-bit elements) that moves the set lanes of 4 doubles (kPack64) or of 4 ints (kPack32)
+// to the front, in order; and the 4 touching bytes of the mask.
+struct PackTables {
+  alignas(32) std::int32_t p64[16][8];
+  alignas(32) std::int32_t p32[16][8];
+  std::uint32_t bytes[16];
+};
+constexpr PackTables make_pack_tables() {
+  PackTables t{};
+  for (int m = 0; m < 16; ++m) {
+    int k = 0;
+    t.bytes[m] = 0;
+    for (int l = 0; l < 4; ++l) {
+      if (!(m >> l & 1)) continue;
+      t.p64[m][2 * k] = 2 * l, t.p64[m][2 * k + 1] = 2 * l + 1;
+      t.p32[m][k] = l;
+      t.bytes[m] |= 1u << (8 * l);
+      ++k;
+    }
+    for (int r = k; r < 4; ++r) t.p64[m][2 * r] = t.p64[m][2 * r + 1] = 0;
+    for (int r = k; r < 8; ++r) t.p32[m][r] = 0;
+  }
+  return t;
+}
+constexpr PackTables kPackTables = make_pack_tables();
+constexpr const auto& kPack64 = kPackTables.p64;
+constexpr const auto& kPack32 = kPackTables.p32;
+constexpr const auto& kTouchBytes = kPackTables.bytes;
+#endif
 
 // Out of the loop's way: reached only by an overlap beyond the geometric limit.
 [[gnu::cold, gnu::noinline]] void note_overlap(OverlapAlarm* alarm, real_t un, real_t radius,
@@ -17,133 +50,328 @@ namespace {
   if (ratio > alarm->ratio) *alarm = OverlapAlarm{ratio, un, radius, a, b};
 }
 
+// The pair loop, in two passes over each block of the Verlet list (run() below):
+//  1. the distance test of every pair, in list order (four pairs at a time with AVX2): the
+//     pairs that touch are collected (with their branch vectors) into pl.work, the contacts
+//     that open are closed (springs zeroed, the energy left in them noted with its place);
+//  2. the contact law for the touching pairs, simd::Lanes<T>::n at a time (T = simd::d4: four
+//     contacts per instruction; the rest and lanes = 1 with T = double), then the forces and
+//     torques added to both bodies contact by contact, in list order.
+// Every sum into a particle's force or torque and into the energy books is therefore done in
+// the order of the one-pass loop (contact-opening energies merged back at their place), and
+// the law gives the same bits on every lane (core/simd.hpp): lanes = 1 and lanes = 4 give the
+// same results bit for bit (tests/unit/test_forces_simd.cpp), and so does the rank count.
+template <bool Rolling, bool Viscous, bool Measure>
+struct PairKernel {
+  Particles& P;
+  const ForceContext& ctx;
+  PairList& pl;
+  ContactSums* sums;
+  std::array<Vec3, 27> shift;
+  Vec3 edot;
+  std::size_t n_owned;
+  real_t e_fric = 0, e_roll = 0, e_visc = 0;
+  std::size_t next_opening = 0;  // the first opening not yet booked
+  static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+  std::size_t next_before = kNone;  // its place (kNone: none left)
+
+  // The contact of pair q (bodies i, j) opens after nc touching pairs of this block: the
+  // energy left in its springs is lost.
+  [[gnu::noinline]] void open_contact(std::size_t q, Index i, Index j, std::size_t nc) {
+    const real_t* R = P.radius.data();
+    const real_t* m = P.mass.data();
+    const PairConstants c = pair_constants<Rolling, false>(ctx.law, R[i], R[j], m[i], m[j]);
+    const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
+    PairList::Work::Opening o{nc, own_i * 0.5 * pl.fs[q].squaredNorm() / c.ks, 0.0};
+    pl.fs[q].setZero();
+    if constexpr (Rolling) {
+      o.e_rolling = own_i * 0.5 * pl.mr[q].squaredNorm() / c.kr;
+      pl.mr[q].setZero();
+    }
+    pl.work.openings.push_back(o);
+  }
+
+  // Pass 1 over pairs [q0, q1), appending the touching ones to pl.work from slot nc; returns
+  // the new count.
+  std::size_t collect_touching(std::size_t q0, std::size_t q1, std::size_t nc) {
+    const Vec3* x = P.x.data();
+    const real_t* R = P.radius.data();
+    const Index* pi = pl.i.data();
+    const Index* pj = pl.j.data();
+    const std::uint8_t* img = pl.image.data();
+    std::uint8_t* touching = pl.touching.data();
+    PairList::Work& W = pl.work;
+    const std::size_t np = pl.size();
+    // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in
+    // memory, but the curve's jumps and the second body of each pair are not: fetch the
+    // positions and radii of the pair kAhead places on. Changes no result (it paid 7 % of the
+    // whole step on dense-13584 when the list was in id order, benchmarks/README.md).
+    constexpr std::size_t kAhead = 8;
+    Index* wq = W.q.data();
+    Index* wi = W.i.data();
+    Index* wj = W.j.data();
+    real_t* wdx = W.dx.data();
+    real_t* wdy = W.dy.data();
+    real_t* wdz = W.dz.data();
+    real_t* wr2 = W.r2.data();
+    std::size_t q = q0;
+#if defined(__AVX2__)
+    if (ctx.lanes == 4) {
+      // Four pairs at a time: the same operations on each lane as the loop below, the
+      // touching pairs packed to the front of the lanes with a permutation (left-pack table).
+      const std::array<Vec3, 27>& sh = shift;
+      for (; q + 4 <= q1; q += 4) {
+        using simd::d4;
+        if (q + kAhead + 4 <= np)
+          for (int l = 0; l < 4; ++l) __builtin_prefetch(&x[pj[q + kAhead + l]]);
+        const Index im[4] = {img[q], img[q + 1], img[q + 2], img[q + 3]};
+        const simd::V3<d4> xi = simd::gather3<d4>(x, pi + q), xj = simd::gather3<d4>(x, pj + q);
+        const simd::V3<d4> s4 = simd::gather3<d4>(sh.data(), im);
+        const simd::V3<d4> d = xj + s4 - xi;
+        const d4 sum_r = simd::gather<d4>(R, pi + q) + simd::gather<d4>(R, pj + q);
+        const d4 r2 = simd::squared_norm(d);
+        const unsigned apart = unsigned(_mm256_movemask_pd(reinterpret_cast<__m256d>(r2 >= sum_r * sum_r)));
+        const unsigned touch = ~apart & 0xFu;
+        std::uint32_t was;
+        __builtin_memcpy(&was, touching + q, 4);
+        const unsigned was_bits = (was & 1u) | ((was >> 7) & 2u) | ((was >> 14) & 4u) | ((was >> 21) & 8u);
+        if (was_bits & ~touch) [[unlikely]] {
+          std::size_t before = nc;
+          for (int l = 0; l < 4; ++l) {
+            if (touch >> l & 1u) ++before;
+            else if (was_bits >> l & 1u) open_contact(q + l, pi[q + l], pj[q + l], before);
+          }
+        }
+        const std::uint32_t now = kTouchBytes[touch];
+        __builtin_memcpy(touching + q, &now, 4);
+        const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack64[touch]));
+        const __m256i perm32 = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack32[touch]));
+        auto pack_d = [&](real_t* dst, d4 v) {
+          _mm256_storeu_pd(dst + nc, _mm256_castsi256_pd(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(v), perm)));
+        };
+        auto pack_i = [&](Index* dst, __m128i v) {
+          _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + nc),
+                           _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(v), perm32)));
+        };
+        pack_i(wq, _mm_add_epi32(_mm_set1_epi32(int(q)), _mm_setr_epi32(0, 1, 2, 3)));
+        pack_i(wi, _mm_loadu_si128(reinterpret_cast<const __m128i*>(pi + q)));
+        pack_i(wj, _mm_loadu_si128(reinterpret_cast<const __m128i*>(pj + q)));
+        pack_d(wdx, d.x);
+        pack_d(wdy, d.y);
+        pack_d(wdz, d.z);
+        pack_d(wr2, r2);
+        nc += unsigned(__builtin_popcount(touch));
+      }
+    }
+#endif
+    for (; q < q1; ++q) {
+      if (q + kAhead < np) {
+        const Index ia = pi[q + kAhead], ja = pj[q + kAhead];
+        __builtin_prefetch(&x[ia]);
+        __builtin_prefetch(&x[ja]);
+        __builtin_prefetch(&R[ia]);
+        __builtin_prefetch(&R[ja]);
+      }
+      const Index i = pi[q], j = pj[q];
+      const Vec3 d = x[j] + shift[img[q]] - x[i];
+      const real_t sum_r = R[i] + R[j];
+      const real_t r2 = d.squaredNorm();
+      // Without a branch on the test (about half the pairs touch, so it would be mispredicted
+      // half the time): every pair is written to the next slot, which only a touching one
+      // keeps.
+      const bool touch = !(r2 >= sum_r * sum_r);
+      wq[nc] = Index(q);
+      wi[nc] = i;
+      wj[nc] = j;
+      wdx[nc] = d[0];
+      wdy[nc] = d[1];
+      wdz[nc] = d[2];
+      wr2[nc] = r2;
+      if (touching[q] > touch) [[unlikely]] open_contact(q, i, j, nc);
+      touching[q] = touch;
+      nc += touch;
+    }
+    return nc;
+  }
+
+  // Books the contact-opening energies that came before touching contact number c.
+  void book_openings(std::size_t c) {
+    const auto& o = pl.work.openings;
+    for (; next_opening < o.size() && o[next_opening].before <= c; ++next_opening) {
+      e_fric += o[next_opening].e_friction;
+      if constexpr (Rolling) e_roll += o[next_opening].e_rolling;
+    }
+    next_before = next_opening < o.size() ? o[next_opening].before : kNone;
+  }
+
+  // Touching contacts c, ..., c + n - 1 (n the lanes of T).
+  template <class T>
+  void contacts(std::size_t c) {
+    using namespace simd;
+    constexpr int kLanes = Lanes<T>::n;
+    const ContactLawParams& law = ctx.law;
+    const real_t dt = ctx.dt;
+    const PairList::Work& W = pl.work;
+    const Index* ci = W.i.data() + c;
+    const Index* cj = W.j.data() + c;
+    const Index* cq = W.q.data() + c;
+    const real_t* R = P.radius.data();
+    const V3<T> d{load<T>(W.dx.data() + c), load<T>(W.dy.data() + c), load<T>(W.dz.data() + c)};
+    const T r2 = load<T>(W.r2.data() + c);
+    const T Ri = gather<T>(R, ci), Rj = gather<T>(R, cj);
+    const T sum_r = Ri + Rj;
+    const T dist = simd::sqrt(r2);
+    ContactKinematicsL<T> k;
+    k.n = d / dist;
+    k.un = sum_r - dist;
+    const T rmin = select(Rj < Ri, Rj, Ri);  // std::min(R_i, R_j)
+    const mask_t<T> over = k.un > kMaxOverlapRatio * rmin;
+    if (any(over)) [[unlikely]]
+      for (int l = 0; l < kLanes; ++l)
+        if (lane(over, l) && std::size_t(ci[l]) < n_owned)
+          note_overlap(ctx.alarm, lane(k.un, l), lane(rmin, l), P.id[ci[l]], P.id[cj[l]]);
+    const T a1 = Ri - 0.5 * k.un, a2 = Rj - 0.5 * k.un;
+    k.w1 = gather3<T>(P.w.data(), ci);
+    k.w2 = gather3<T>(P.w.data(), cj);
+    const V3<T> e_d{edot[0] * d.x, edot[1] * d.y, edot[2] * d.z};
+    k.vrel = gather3<T>(P.v.data(), cj) - gather3<T>(P.v.data(), ci) + e_d -
+             cross(a2 * k.w2 + a1 * k.w1, k.n);
+    // pair_constants<Rolling, Viscous> of two spheres, lane by lane.
+    PairConstantsL<T> pc;
+    if (law.stiffness_mode == NormalStiffnessMode::Direct) {
+      pc.kn = T{} + law.normal_stiffness;
+    } else {
+      pc.kn = std::numbers::pi * rmin * rmin * law.youngs_modulus / sum_r;
+    }
+    pc.ks = pc.kn / law.stiffness_ratio;
+    pc.kr = pc.cn = pc.cs = pc.rbar = T{};
+    if constexpr (Rolling) {
+      pc.rbar = Ri * Rj / sum_r;
+      pc.kr = pc.ks * pc.rbar * pc.rbar;
+    }
+    if constexpr (Viscous) {
+      const T mi = gather<T>(P.mass.data(), ci), mj = gather<T>(P.mass.data(), cj);
+      const T meff = mi * mj / (mi + mj);
+      pc.cn = law.damping_rate_n * meff + 2.0 * law.damping_ratio_n * simd::sqrt(meff * pc.kn);
+      pc.cs = law.damping_rate_s * meff + 2.0 * law.damping_ratio_s * simd::sqrt(meff * pc.ks);
+    }
+    ContactHistoryL<T> h;
+    h.fs = gather3<T>(pl.fs.data(), cq);
+    if constexpr (Rolling) h.mr = gather3<T>(pl.mr.data(), cq);
+    const ContactResultL<T> r = contact_law_l<Rolling, Viscous>(law, pc, k, h, dt);
+    scatter3(pl.fs.data(), cq, h.fs);
+    if constexpr (Rolling) scatter3(pl.mr.data(), cq, h.mr);
+
+    const V3<T> F = r.fn * k.n + r.fs;  // on j
+    const V3<T> nxfs = cross(k.n, r.fs);
+    // Added to t_j and subtracted from t_i (without rolling: subtracted from both).
+    V3<T> tj, ti;
+    if constexpr (Rolling) {
+      tj = r.mr - a2 * nxfs;
+      ti = r.mr + a1 * nxfs;
+    } else {
+      tj = a2 * nxfs;
+      ti = a1 * nxfs;
+    }
+    // Rows of 4 doubles per lane (simd::to_rows), read back as Vec3 for the scatter.
+    alignas(32) real_t rows_f[16], rows_tj[16], rows_ti[16];
+    to_rows(F, rows_f);
+    to_rows(tj, rows_tj);
+    to_rows(ti, rows_ti);
+    // A pair between an owned particle and a ghost is computed on both ranks; its energy and
+    // its share of the measures belong to the rank that owns body i (the lower id). The
+    // products own_i e are taken lane by lane, the sums in contact order below.
+    T own{};
+    for (int l = 0; l < kLanes; ++l) set_lane(own, l, std::size_t(ci[l]) < n_owned ? 1.0 : 0.0);
+    alignas(32) real_t ef[kLanes], er[kLanes], ev[kLanes];
+    store(ef, own * r.e_friction);
+    if constexpr (Rolling) store(er, own * r.e_rolling);
+    if constexpr (Viscous) store(ev, own * r.e_viscous);
+    Vec3* f = P.f.data();
+    Vec3* t = P.t.data();
+    for (int l = 0; l < kLanes; ++l) {
+      const Index i = ci[l], j = cj[l];
+      if (c + l >= next_before) [[unlikely]] book_openings(c + l);
+      const Eigen::Map<const Vec3> Fl(rows_f + 4 * l), Tj(rows_tj + 4 * l), Ti(rows_ti + 4 * l);
+      f[j] += Fl;
+      f[i] -= Fl;
+      if constexpr (Rolling) t[j] += Tj;
+      else t[j] -= Tj;
+      t[i] -= Ti;
+      e_fric += ef[l];
+      if constexpr (Rolling) e_roll += er[l];
+      if constexpr (Viscous) e_visc += ev[l];
+      if constexpr (Measure) {
+        const real_t own_i = lane(own, l);
+        if (own_i != 0.0) {
+          const PairConstants cl{lane(pc.kn, l), lane(pc.ks, l), lane(pc.kr, l), 0, 0, 0};
+          const ContactHistory hl{lane(h.fs, l), Rolling ? lane(h.mr, l) : Vec3(Vec3::Zero())};
+          const real_t un = lane(k.un, l);
+          sums->fb.noalias() += Fl * lane(d, l).transpose();
+          ++sums->contacts;
+          sums->sliding += lane(r.sliding, l);
+          sums->rolling += lane(r.rolling, l);
+          sums->e_normal += spring_energy_normal(cl, un);
+          sums->e_shear += spring_energy_shear(cl, hl);
+          if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(cl, hl);
+          sums->sum_contact_force += Fl.norm();
+          ++sums->contacts_per_particle[i];
+          sums->sum_overlap += un;
+          const real_t ratio = un / lane(rmin, l);
+          if (ratio > sums->max_overlap_ratio) {
+            sums->max_overlap_ratio = ratio;
+            sums->max_overlap_a = P.id[i];
+            sums->max_overlap_b = P.id[j];
+          }
+        }
+        if (std::size_t(j) < n_owned) ++sums->contacts_per_particle[j];
+      }
+    }
+  }
+
+  // The passes alternate over blocks of kBlock pairs, so that the work arrays stay in the
+  // first-level cache and the particles of a block are still near when the law runs; the
+  // contacts left over from a block (fewer than the lanes) go first into the next one.
+  static constexpr std::size_t kBlock = 512;
+  void run() {
+    using simd::d4;
+    PairList::Work& W = pl.work;
+    const std::size_t np = pl.size();
+    W.resize(std::min(np, kBlock) + 8);  // + the lanes the packed stores may write past the end
+    W.openings.clear();
+    std::size_t nc = 0;  // contacts in the work arrays
+    for (std::size_t q0 = 0; q0 < np; q0 += kBlock) {
+      const std::size_t q1 = std::min(np, q0 + kBlock);
+      nc = collect_touching(q0, q1, nc);
+      next_before = next_opening < W.openings.size() ? W.openings[next_opening].before : kNone;
+      std::size_t c = 0;
+      if (ctx.lanes == 4)
+        for (; c + 4 <= nc; c += 4) contacts<d4>(c);
+      if (ctx.lanes != 4 || q1 == np)
+        for (; c < nc; ++c) contacts<real_t>(c);
+      // Carry contacts [c, nc) and the openings not booked yet to the front.
+      for (std::size_t k = c; k < nc; ++k) {
+        W.q[k - c] = W.q[k], W.i[k - c] = W.i[k], W.j[k - c] = W.j[k];
+        W.dx[k - c] = W.dx[k], W.dy[k - c] = W.dy[k], W.dz[k - c] = W.dz[k], W.r2[k - c] = W.r2[k];
+      }
+      W.openings.erase(W.openings.begin(), W.openings.begin() + std::ptrdiff_t(next_opening));
+      for (auto& o : W.openings) o.before -= c;
+      next_opening = 0;
+      nc -= c;
+    }
+    book_openings(std::numeric_limits<std::size_t>::max());
+  }
+};
+
 template <bool Rolling, bool Viscous, bool Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                  Dissipation& diss, ContactSums* sums) {
-  const Vec3& L = cell.lengths();
-  const Vec3& edot = cell.strain_rate();
-  std::array<Vec3, 27> shift;
-  for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, L);
-  const ContactLawParams& law = ctx.law;
-  const real_t dt = ctx.dt;
-
-  const Vec3* x = P.x.data();
-  const Vec3* v = P.v.data();
-  const Vec3* w = P.w.data();
-  const real_t* R = P.radius.data();
-  const real_t* m = P.mass.data();
-  Vec3* f = P.f.data();
-  Vec3* t = P.t.data();
-  const Index* pi = pl.i.data();
-  const Index* pj = pl.j.data();
-  const std::uint8_t* img = pl.image.data();
-  std::uint8_t* touching = pl.touching.data();
-  Vec3* fs = pl.fs.data();
-  Vec3* mr = Rolling ? pl.mr.data() : nullptr;
-
-  real_t e_fric = 0, e_roll = 0, e_visc = 0;
-  const std::size_t np = pl.size();
-  const std::size_t n_owned = P.n_owned();
-  // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in memory,
-  // but the curve's jumps and the second body of each pair are not: fetch the positions and
-  // radii of the pair kAhead places on. Changes no result (it paid 7 % of the whole step on
-  // dense-13584 when the list was in id order, benchmarks/README.md).
-  constexpr std::size_t kAhead = 8;
-  for (std::size_t q = 0; q < np; ++q) {
-    if (q + kAhead < np) {
-      const Index ia = pi[q + kAhead], ja = pj[q + kAhead];
-      __builtin_prefetch(&x[ia]);
-      __builtin_prefetch(&x[ja]);
-      __builtin_prefetch(&R[ia]);
-      __builtin_prefetch(&R[ja]);
-    }
-    const Index i = pi[q], j = pj[q];
-    const Vec3 d = x[j] + shift[img[q]] - x[i];
-    const real_t sum_r = R[i] + R[j];
-    const real_t r2 = d.squaredNorm();
-    if (r2 >= sum_r * sum_r) {
-      if (touching[q]) {  // the contact opens: the energy left in its springs is lost
-        touching[q] = 0;
-        const PairConstants c = pair_constants<Rolling, false>(law, R[i], R[j], m[i], m[j]);
-        const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-        e_fric += own_i * 0.5 * fs[q].squaredNorm() / c.ks;
-        fs[q].setZero();
-        if constexpr (Rolling) {
-          e_roll += own_i * 0.5 * mr[q].squaredNorm() / c.kr;
-          mr[q].setZero();
-        }
-      }
-      continue;
-    }
-    touching[q] = 1;
-    const real_t dist = std::sqrt(r2);
-    ContactKinematics k;
-    k.n = d / dist;
-    k.un = sum_r - dist;
-    if (k.un > kMaxOverlapRatio * std::min(R[i], R[j]) && std::size_t(i) < n_owned) [[unlikely]]
-      note_overlap(ctx.alarm, k.un, std::min(R[i], R[j]), P.id[i], P.id[j]);
-    const real_t a1 = R[i] - 0.5 * k.un, a2 = R[j] - 0.5 * k.un;
-    k.w1 = w[i];
-    k.w2 = w[j];
-    k.vrel = v[j] - v[i] + edot.cwiseProduct(d) - (a2 * w[j] + a1 * w[i]).cross(k.n);
-    const PairConstants c = pair_constants<Rolling, Viscous>(law, R[i], R[j], m[i], m[j]);
-    ContactHistory h;
-    h.fs = fs[q];
-    if constexpr (Rolling) h.mr = mr[q];
-    // Assigned, not initialised, on purpose. The law is out of line here and returns its
-    // 96-byte result through memory, writing fn with an 8-byte store, fs.xy with a 16-byte one
-    // and fs.z with an 8-byte one. Initialised in place, GCC 12 reads fs back for the cross
-    // product with 16-byte loads that straddle two of those stores ({fn, fs.x}, {fs.y, fs.z}),
-    // so store-to-load forwarding fails twice per contact: 6 to 7 % of this loop with the
-    // features off (benchmarks/README.md, "Zero cost of unused features"). Assigned, the
-    // result is copied with loads that match the law's stores. Same arithmetic, same bits.
-    ContactResult r;
-    r = contact_law<Rolling, Viscous>(law, c, k, h, dt);
-    fs[q] = h.fs;
-    if constexpr (Rolling) mr[q] = h.mr;
-
-    const Vec3 F = r.fn * k.n + r.fs;  // on j
-    const Vec3 nxfs = k.n.cross(r.fs);
-    f[j] += F;
-    f[i] -= F;
-    if constexpr (Rolling) {
-      t[j] += r.mr - a2 * nxfs;
-      t[i] -= r.mr + a1 * nxfs;
-    } else {
-      t[j] -= a2 * nxfs;
-      t[i] -= a1 * nxfs;
-    }
-    // A pair between an owned particle and a ghost is computed on both ranks; its energy and
-    // its share of the measures belong to the rank that owns body i (the lower id).
-    const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-    e_fric += own_i * r.e_friction;
-    if constexpr (Rolling) e_roll += own_i * r.e_rolling;
-    if constexpr (Viscous) e_visc += own_i * r.e_viscous;
-    if constexpr (Measure) {
-      if (own_i != 0.0) {
-        sums->fb.noalias() += F * d.transpose();
-        ++sums->contacts;
-        sums->sliding += r.sliding;
-        sums->rolling += r.rolling;
-        sums->e_normal += spring_energy_normal(c, k.un);
-        sums->e_shear += spring_energy_shear(c, h);
-        if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
-        sums->sum_contact_force += F.norm();
-        ++sums->contacts_per_particle[i];
-        sums->sum_overlap += k.un;
-        const real_t ratio = k.un / std::min(R[i], R[j]);
-        if (ratio > sums->max_overlap_ratio) {
-          sums->max_overlap_ratio = ratio;
-          sums->max_overlap_a = P.id[i];
-          sums->max_overlap_b = P.id[j];
-        }
-      }
-      if (std::size_t(j) < n_owned) ++sums->contacts_per_particle[j];
-    }
-  }
-  diss.friction += e_fric;
-  diss.rolling += e_roll;
-  diss.viscous += e_visc;
+  PairKernel<Rolling, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
+  for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
+  K.run();
+  diss.friction += K.e_fric;
+  diss.rolling += K.e_roll;
+  diss.viscous += K.e_visc;
 }
 
 // Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own

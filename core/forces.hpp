@@ -61,6 +61,7 @@ struct ForceContext {
   Vec3 gravity;  // m/s^2
   real_t dt;
   OverlapAlarm* alarm = nullptr;  // if set, receives the largest overlap beyond the limit
+  int lanes = 4;  // contacts the pair loop evaluates at once: 4 (SIMD) or 1; the same bits
 };
 
 // Sets f = m g and t = 0, then adds every contact. 'sums' may be null (no measurement).

@@ -144,7 +144,7 @@ void Simulation::step(bool measure) {
 
 void Simulation::compute(bool measure, real_t dt) {
   overlap_ = OverlapAlarm{};
-  const ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_};
+  const ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_, par_.kernel_lanes};
   const bool moving = dt > 0 && par_.moving_walls();
   real_t power = 0;
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,

@@ -28,6 +28,8 @@ struct SimulationParams {
   std::vector<Wall> walls;          // planes (core/contact_list.hpp)
   std::vector<DrivenSet> driven;    // particles of prescribed motion (core/driven.hpp)
   bool spatial_sort = true;         // reorder particles in space at rebuilds (cache locality)
+  int kernel_lanes = 4;             // contacts the force loop evaluates at once (4 or 1: the
+                                    // same bits, core/forces.cpp)
 
   // The kernel's switches: the scene's law or a wall's own law needs them.
   bool rolling() const {
@@ -196,6 +198,35 @@ class Simulation {
       if (walls_.touching[q])
         fn(p_.id[walls_.i[q]], GlobalId(-1 - walls_.wall[q]),
            ContactHistory{walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+  }
+
+  // Contacts [first, first + n) of for_each_contact's order. 'at' carries the place in the
+  // lists from one call to the next (start with {}): ranges taken in order, as a checkpoint
+  // writes its blocks, cost one pass over the lists in all, not one pass per range.
+  struct ContactCursor {
+    std::size_t q = 0;       // the next entry of the pair list, then of the wall list
+    std::uint64_t k = 0;     // the contacts before it
+  };
+  template <class F>
+  void for_each_contact_in(std::uint64_t first, std::uint64_t n, ContactCursor& at, F&& fn) const {
+    if (first < at.k) at = {};
+    const bool rolling = par_.rolling();
+    const std::size_t np = pairs_.size(), nq = np + walls_.size();
+    for (; at.q < nq && at.k < first + n; ++at.q) {
+      const std::size_t q = at.q;
+      if (q < np) {
+        if (!pairs_.touching[q] || std::size_t(pairs_.i[q]) >= p_.n_owned()) continue;
+        if (at.k++ >= first)
+          fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
+             ContactHistory{pairs_.fs[q], rolling ? pairs_.mr[q] : Vec3::Zero()});
+      } else {
+        const std::size_t w = q - np;
+        if (!walls_.touching[w]) continue;
+        if (at.k++ >= first)
+          fn(p_.id[walls_.i[w]], GlobalId(-1 - walls_.wall[w]),
+             ContactHistory{walls_.fs[w], rolling ? walls_.mr[w] : Vec3::Zero()});
+      }
+    }
   }
 
   // True once particles (on any rank) have moved, or the cell has strained, enough that a pair

@@ -303,12 +303,12 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   Staged contacts{prefix + ".contacts", SectionKind::Distributed,
                   std::uint32_t(contact_record_bytes()), {}};
   sim.for_each_contact([&](GlobalId, GlobalId, const ContactHistory&) { ++contacts.records; });
-  // Records [first, first + n) of the contacts in for_each_contact's order (one pass each).
-  contacts.produce = [&sim](std::uint64_t first, std::uint64_t n, std::string& out) {
-    std::uint64_t k = 0;
-    sim.for_each_contact([&](GlobalId a, GlobalId b, const ContactHistory& h) {
-      if (k >= first && k < first + n) write_contact(a, b, h, out);
-      ++k;
+  // Records [first, first + n) of the contacts in for_each_contact's order; the cursor makes
+  // the blocks, written in order, one pass over the lists in all.
+  contacts.produce = [&sim, at = Simulation::ContactCursor{}](std::uint64_t first, std::uint64_t n,
+                                                               std::string& out) mutable {
+    sim.for_each_contact_in(first, n, at, [&](GlobalId a, GlobalId b, const ContactHistory& h) {
+      write_contact(a, b, h, out);
     });
   };
   staged_.push_back(std::move(contacts));

@@ -137,7 +137,7 @@ class CheckpointWriter {
     // rank never holds its whole share of the file: 'records' here, and produce(first, n, out)
     // appends records [first, first + n) of this rank to out.
     std::uint64_t records = 0;
-    std::function<void(std::uint64_t, std::uint64_t, std::string&)> produce;
+    std::function<void(std::uint64_t, std::uint64_t, std::string&)> produce = {};
     std::uint64_t bytes() const { return produce ? records * record_bytes : local.size(); }
   };
   MPI_Comm comm_;

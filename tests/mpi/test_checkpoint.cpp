@@ -242,6 +242,31 @@ TEST(Checkpoint, SmallBlocksWriteTheSameFile) {
   }
 }
 
+// Simulation::for_each_contact_in, as the checkpoint's contact blocks use it: ranges taken in
+// order with one cursor give for_each_contact's sequence; a range before the cursor starts over.
+TEST(Checkpoint, ContactRangesFollowTheWholeOrder) {
+  fabrica::Setup s = dense_setup();
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation sim(s.particles, s.cell, s.params, &domain);
+  deform(sim);
+  run_to_rebuild(sim, 20);
+  using Pair = std::pair<fabrica::GlobalId, fabrica::GlobalId>;
+  std::vector<Pair> whole, ranged, again;
+  sim.for_each_contact([&](fabrica::GlobalId a, fabrica::GlobalId b, const fabrica::ContactHistory&) {
+    whole.emplace_back(a, b);
+  });
+  ASSERT_GT(whole.size(), 1000u);
+  Simulation::ContactCursor at;
+  const std::uint64_t n = 7;
+  for (std::uint64_t first = 0; first < whole.size(); first += n)
+    sim.for_each_contact_in(first, n, at, [&](fabrica::GlobalId a, fabrica::GlobalId b,
+                                              const fabrica::ContactHistory&) { ranged.emplace_back(a, b); });
+  EXPECT_TRUE(ranged == whole) << ranged.size() << " contacts by ranges, " << whole.size() << " in all";
+  sim.for_each_contact_in(3, 5, at, [&](fabrica::GlobalId a, fabrica::GlobalId b,
+                                        const fabrica::ContactHistory&) { again.emplace_back(a, b); });
+  EXPECT_TRUE(again == std::vector<Pair>(whole.begin() + 3, whole.begin() + 8));
+}
+
 // Written here for CheckpointFiles.ReadAndContinue at another rank count.
 TEST(CheckpointFiles, Write) {
   const char* path = std::getenv("FABRICA_CHECKPOINT_FILE");

@@ -1,0 +1,226 @@
+// The SIMD contact kernel (core/simd.hpp, core/contact_law.hpp, core/forces.cpp) against the
+// one-lane kernel (docs/verification.md section 11): four contacts evaluated at once must give
+// the same bits as one at a time, lane for lane, for every branch of the law (Coulomb and
+// rolling caps, zero springs, dashpot cut-off), and a whole run must be the same bit for bit:
+//  - contact_law_l over simd::d4 against contact_law_l over double on random contacts, in
+//    every combination of rolling resistance and dashpots: every output equal (== on doubles);
+//  - a dense polydisperse packing with random velocities and spins, stepped 400 steps with
+//    kernel_lanes = 1 and = 4 (measuring every 50 steps, a deforming cell): every
+//    position, velocity, spin, shear and rolling spring, touching flag, energy book and
+//    measured sum equal bit for bit, for each law variant.
+#include "core/contact_law.hpp"
+#include "core/generate.hpp"
+#include "core/timestep.hpp"
+#include "scene_helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <random>
+
+namespace fabrica {
+namespace {
+
+using simd::d4;
+
+// Random contacts (n, un, vrel, w1, w2, springs) with a quarter of the springs zero and a mix
+// of capped and free springs; the constants of a sphere pair of random radii and masses.
+template <bool Rolling, bool Viscous>
+void law_lanes_case(const char* label) {
+  std::mt19937_64 g(7);
+  std::uniform_real_distribution<real_t> u(-1.0, 1.0);
+  ContactLawParams p;
+  p.youngs_modulus = 70e6;
+  p.stiffness_ratio = 1.5;
+  p.friction = 0.35;
+  p.rolling_friction = Rolling ? 0.12 : 0.0;
+  if (Viscous) p.damping_ratio_n = 0.4, p.damping_ratio_s = 0.25, p.damping_rate_n = 30.0;
+  const real_t dt = 2e-6;
+  int capped = 0, rcapped = 0, free_ = 0, cut = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    PairConstantsL<real_t> c1[4];
+    ContactKinematicsL<real_t> k1[4];
+    ContactHistoryL<real_t> h1[4];
+    for (int l = 0; l < 4; ++l) {
+      const real_t R1 = 0.005 * (1.5 + u(g)), R2 = 0.005 * (1.5 + u(g));
+      const PairConstants c = pair_constants<Rolling, Viscous>(p, R1, R2, 1e-3 * (1.2 + u(g)), 1e-3 * (1.2 + u(g)));
+      c1[l] = {c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar};
+      Vec3 n(u(g), u(g), u(g));
+      n.normalize();
+      const real_t un = 1e-5 * (1.0 + u(g));
+      const real_t scale = std::pow(10.0, 2 * u(g));  // from deep stick to sliding
+      k1[l] = {simd::from_vec(n), un, simd::from_vec(0.1 * scale * Vec3(u(g), u(g), u(g))),
+               simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g))),
+               simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g)))};
+      const bool zero = (g() & 3) == 0;
+      const real_t fcap = p.friction * c.kn * un;
+      const Vec3 fs = zero ? Vec3::Zero() : Vec3(fcap * 1.2 * Vec3(u(g), u(g), u(g)));
+      const Vec3 mr = zero ? Vec3::Zero() : Vec3(p.rolling_friction * c.rbar * fcap * 1.2 * Vec3(u(g), u(g), u(g)));
+      h1[l] = {simd::from_vec(fs), simd::from_vec(mr)};
+    }
+    // The same contacts in four lanes.
+    auto pack = [](auto get) { return d4{get(0), get(1), get(2), get(3)}; };
+    auto pack3 = [&](auto get) {
+      return simd::V3<d4>{pack([&](int l) { return get(l).x; }), pack([&](int l) { return get(l).y; }),
+                          pack([&](int l) { return get(l).z; })};
+    };
+    const PairConstantsL<d4> c4{pack([&](int l) { return c1[l].kn; }), pack([&](int l) { return c1[l].ks; }),
+                                pack([&](int l) { return c1[l].kr; }), pack([&](int l) { return c1[l].cn; }),
+                                pack([&](int l) { return c1[l].cs; }), pack([&](int l) { return c1[l].rbar; })};
+    const ContactKinematicsL<d4> k4{pack3([&](int l) { return k1[l].n; }), pack([&](int l) { return k1[l].un; }),
+                                    pack3([&](int l) { return k1[l].vrel; }), pack3([&](int l) { return k1[l].w1; }),
+                                    pack3([&](int l) { return k1[l].w2; })};
+    ContactHistoryL<d4> h4{pack3([&](int l) { return h1[l].fs; }), pack3([&](int l) { return h1[l].mr; })};
+    const ContactResultL<d4> r4 = contact_law_l<Rolling, Viscous>(p, c4, k4, h4, dt);
+    for (int l = 0; l < 4; ++l) {
+      const ContactResultL<real_t> r1 = contact_law_l<Rolling, Viscous>(p, c1[l], k1[l], h1[l], dt);
+      auto same3 = [&](const simd::V3<real_t>& a, const simd::V3<d4>& b) {
+        return a.x == b.x[l] && a.y == b.y[l] && a.z == b.z[l];
+      };
+      ASSERT_EQ(r1.fn, r4.fn[l]) << label << " trial " << trial << " lane " << l;
+      ASSERT_TRUE(same3(r1.fs, r4.fs)) << label << " trial " << trial << " lane " << l;
+      ASSERT_TRUE(same3(r1.mr, r4.mr)) << label << " trial " << trial << " lane " << l;
+      ASSERT_TRUE(same3(h1[l].fs, h4.fs)) << label << " trial " << trial << " lane " << l;
+      if (Rolling) ASSERT_TRUE(same3(h1[l].mr, h4.mr)) << label << " trial " << trial << " lane " << l;
+      ASSERT_EQ(r1.sliding, simd::lane(r4.sliding, l));
+      ASSERT_EQ(r1.rolling, simd::lane(r4.rolling, l));
+      ASSERT_EQ(r1.e_friction, r4.e_friction[l]);
+      ASSERT_EQ(r1.e_rolling, r4.e_rolling[l]);
+      ASSERT_EQ(r1.e_viscous, r4.e_viscous[l]);
+      capped += r1.e_friction != 0;
+      rcapped += r1.e_rolling != 0;
+      free_ += r1.e_friction == 0;
+      cut += Viscous && r1.fn == 0;
+    }
+  }
+  std::printf("[law lanes] %s: 16000 contacts, %d capped, %d free, %d rolling capped, %d with "
+              "the dashpot cut-off\n", label, capped, free_, rcapped, cut);
+  // Every branch was taken on some lanes and not on others.
+  EXPECT_GT(capped, 1000);
+  EXPECT_GT(free_, 1000);
+  if (Rolling) EXPECT_GT(rcapped, 1000);
+  if (Viscous) EXPECT_GT(cut, 100);
+}
+
+TEST(ForcesSimd, LawLanesBitwise) {
+  law_lanes_case<false, false>("no rolling, no dashpots");
+  law_lanes_case<false, true>("dashpots");
+  law_lanes_case<true, false>("rolling");
+  law_lanes_case<true, true>("rolling and dashpots");
+}
+
+Vec3 random_vec(Random& rng) {
+  return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0;
+}
+
+// As tests/unit/test_conservation.cpp: n fractal diameters at solid fraction phi0, shrunk by s
+// per axis (overlaps), random velocities and spins.
+Simulation dense_sim(const ContactLawParams& law, int lanes) {
+  Random rng(5);
+  std::vector<real_t> d = fractal_diameters(400, 1.9, 0.01, 0.05, rng);
+  real_t vs = 0;
+  for (real_t x : d) vs += std::numbers::pi / 6 * x * x * x;
+  const real_t L = std::cbrt(vs / 0.4);
+  const PeriodicCell big(Vec3(L, 0.9 * L, 1.1 * L));
+  Particles p = random_packing(d, test::kRho, big, rng);
+  const PeriodicCell cell(big.lengths() * 0.85);
+  for (std::size_t a = 0; a < p.size(); ++a) {
+    p.x[a] = cell.wrap(p.x[a] * 0.85);
+    p.v[a] = 0.5 * random_vec(rng);
+    p.w[a] = 0.5 / 0.01 * random_vec(rng);
+  }
+  SimulationParams sp;
+  sp.law = law;
+  sp.skin = 0.002;
+  sp.dt = 0.3 * critical_time_step(p, law, false);
+  sp.kernel_lanes = lanes;
+  Simulation sim(std::move(p), cell, sp);
+  sim.cell().set_strain_rate(Vec3(-0.02, 0.01, 0.01) / (400 * sp.dt));
+  return sim;
+}
+
+template <class T>
+bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
+  return a == b;  // element-wise ==: doubles compare by value (no NaN arises here)
+}
+
+void run_case(const ContactLawParams& law, const char* label) {
+  Simulation s1 = dense_sim(law, 1), s4 = dense_sim(law, 4);
+  std::int64_t max_contacts = 0, max_sliding = 0, min_rolling = 1 << 30;
+  for (int k = 1; k <= 400; ++k) {
+    const bool measure = k % 50 == 0;
+    s1.step(measure);
+    s4.step(measure);
+    if (measure) {
+      const MacroState &m1 = s1.macro(), &m4 = s4.macro();
+      ASSERT_EQ(m1.contacts, m4.contacts) << label << " step " << k;
+      ASSERT_EQ(m1.sliding, m4.sliding) << label << " step " << k;
+      ASSERT_EQ(m1.rolling, m4.rolling) << label << " step " << k;
+      ASSERT_TRUE(m1.stress == m4.stress) << label << " step " << k;
+      ASSERT_EQ(m1.e_normal, m4.e_normal) << label << " step " << k;
+      ASSERT_EQ(m1.e_shear, m4.e_shear) << label << " step " << k;
+      ASSERT_EQ(m1.e_rolling, m4.e_rolling) << label << " step " << k;
+      ASSERT_EQ(m1.kinetic, m4.kinetic) << label << " step " << k;
+      max_contacts = std::max(max_contacts, m1.contacts);
+      max_sliding = std::max(max_sliding, m1.sliding);
+      min_rolling = std::min(min_rolling, m1.rolling);
+    }
+  }
+  const Particles &p1 = s1.particles(), &p4 = s4.particles();
+  EXPECT_TRUE(p1.id == p4.id) << label;
+  EXPECT_TRUE(same_bits(p1.x, p4.x)) << label;
+  EXPECT_TRUE(same_bits(p1.v, p4.v)) << label;
+  EXPECT_TRUE(same_bits(p1.w, p4.w)) << label;
+  EXPECT_TRUE(same_bits(p1.f, p4.f)) << label;
+  EXPECT_TRUE(same_bits(p1.t, p4.t)) << label;
+  const PairList &l1 = s1.pairs(), &l4 = s4.pairs();
+  EXPECT_TRUE(l1.i == l4.i && l1.j == l4.j && l1.touching == l4.touching) << label;
+  EXPECT_TRUE(same_bits(l1.fs, l4.fs)) << label;
+  EXPECT_TRUE(same_bits(l1.mr, l4.mr)) << label;
+  const MacroState &m1 = s1.macro(), &m4 = s4.macro();
+  EXPECT_EQ(m1.dissipated.friction, m4.dissipated.friction) << label;
+  EXPECT_EQ(m1.dissipated.rolling, m4.dissipated.rolling) << label;
+  EXPECT_EQ(m1.dissipated.viscous, m4.dissipated.viscous) << label;
+  EXPECT_EQ(s1.rebuild_count(), s4.rebuild_count()) << label;
+  std::printf("[lanes 1 vs 4] %s: up to %lld contacts, up to %lld sliding, at least %lld rolling; "
+              "%lld rebuilds; dissipated friction %.3e rolling %.3e viscous %.3e J: bitwise equal\n",
+              label, (long long)max_contacts, (long long)max_sliding, (long long)min_rolling,
+              (long long)s1.rebuild_count(), m1.dissipated.friction, m1.dissipated.rolling,
+              m1.dissipated.viscous);
+  // The scene exercised what it claims to.
+  EXPECT_GT(max_contacts, 400) << label;
+  EXPECT_GT(max_sliding, 10) << label;
+  EXPECT_GT(m1.dissipated.friction, 0.0) << label;
+  EXPECT_GT(s1.rebuild_count(), 1) << label;
+  if (law.rolling()) {
+    EXPECT_GT(m1.dissipated.rolling, 0.0) << label;
+    EXPECT_EQ(l1.mr.size(), l1.size()) << label;
+  } else {
+    EXPECT_TRUE(l1.mr.empty()) << label;  // mu_r = 0: no rolling springs at all
+  }
+  if (law.viscous()) EXPECT_GT(m1.dissipated.viscous, 0.0) << label;
+}
+
+ContactLawParams law_of(bool rolling, bool viscous) {
+  ContactLawParams law;
+  law.youngs_modulus = 100e6;
+  law.friction = 0.3;
+  law.rolling_friction = rolling ? 0.1 : 0.0;
+  if (viscous) law.damping_ratio_n = 0.3, law.damping_ratio_s = 0.2;
+  return law;
+}
+
+TEST(ForcesSimd, RunBitwiseRollingViscous) { run_case(law_of(true, true), "rolling and dashpots"); }
+TEST(ForcesSimd, RunBitwiseRolling) { run_case(law_of(true, false), "rolling"); }
+TEST(ForcesSimd, RunBitwiseViscous) { run_case(law_of(false, true), "dashpots"); }
+TEST(ForcesSimd, RunBitwisePlain) { run_case(law_of(false, false), "no rolling, no dashpots"); }
+TEST(ForcesSimd, RunBitwiseDirectStiffness) {
+  ContactLawParams law = test::direct_law(2e5, 0.4, 0.05, 1.25);
+  law.damping_rate_n = 50.0;
+  run_case(law, "direct stiffness, rolling, mass-proportional dashpot");
+}
+
+}  // namespace
+}  // namespace fabrica
