@@ -1,13 +1,17 @@
 // bench_scaling: MPI scaling on the shared dense-13584 scene.
 //
-//   mpirun -np P bench_scaling strong|weak [REPS=3] [STEPS=2000] [SCENE=dense-13584.toml]
+//   mpirun -np P bench_scaling strong|weak [REPS=3] [STEPS=2000] [SCENE=dense-13584.toml] [CUT]
 //
 // strong: the scene's spheres (by default the 13,584 of dense-13584) on P ranks. weak: P copies of the packing stacked along its long
 // axis (13,584 spheres per rank; the Cartesian decomposition gives each rank one copy's worth).
 // Each repetition builds a fresh Simulation (outside the timer) and times the step loop; the
 // time is the slowest rank's. One rank runs the serial code (no MPI domain), as a user's
 // one-rank run does. Per phase: the slowest rank's seconds per step. Bytes: sent by all ranks
-// per step (ghost updates every step, migration and ghost rebuilds amortised). The last line is
+// per step (ghost updates every step, migration and ghost rebuilds amortised). CUT (work or
+// even; by default the scene's [parallel] cut) places the Cartesian runs of bins by the work or
+// in equal lengths; the "balance" line gives, for the last repetition, the ranks' max/mean of
+// list pairs at the end and of work (1 + list pairs per particle) at the last check of the runs,
+// before and after it, and the peak resident memory of the largest rank. The last line is
 // machine-readable.
 #include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
@@ -15,6 +19,8 @@
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
+
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -65,21 +71,26 @@ int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "strong";
   const int reps = argc > 2 ? std::atoi(argv[2]) : 3;
   const int steps = argc > 3 ? std::atoi(argv[3]) : 2000;
-  if ((mode != "strong" && mode != "weak") || reps < 1 || steps < 1) {
-    if (mpi.rank() == 0) std::fprintf(stderr, "usage: bench_scaling strong|weak [REPS] [STEPS] [SCENE]\n");
-    return 2;
-  }
   const std::string path =
       argc > 4 ? argv[4] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
   const Scene scene = load_scene(path);
+  const std::string cut = argc > 5 ? argv[5] : scene.parallel.cut;
+  if ((mode != "strong" && mode != "weak") || reps < 1 || steps < 1 || (cut != "work" && cut != "even")) {
+    if (mpi.rank() == 0)
+      std::fprintf(stderr, "usage: bench_scaling strong|weak [REPS] [STEPS] [SCENE] [work|even]\n");
+    return 2;
+  }
+  MpiDomainOptions options;
+  options.balance_work = cut == "work";
   Setup setup = replicate(make_setup(scene), mode == "weak" ? mpi.size() : 1);
   const double n = double(setup.particles.n_owned());
   std::vector<double> us;
   PhaseTimes ph;
-  double bytes_per_step = 0, rebuilds = 0;
+  double bytes_per_step = 0, rebuilds = 0, pair_imbalance = 1;
+  DomainStats last;
   for (int rep = 0; rep < reps; ++rep) {
     std::unique_ptr<MpiDomain> domain;
-    if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(comm);
+    if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(comm, options);
     // The last repetition takes the particles over (no copy held: peak memory as in a run).
     Simulation sim(rep + 1 < reps ? Particles(setup.particles) : std::move(setup.particles),
                    setup.cell, setup.params, domain.get());
@@ -106,12 +117,22 @@ int main(int argc, char** argv) {
                        double(st.bytes_migrated - st0.bytes_migrated) +
                        double(st.bytes_ghost_build - st0.bytes_ghost_build);
       bytes_per_step += sum_all(comm, b) / (reps * steps);
+      const double pairs = double(sim.pairs().size());
+      pair_imbalance = max_all(comm, pairs) / (sum_all(comm, pairs) / mpi.size());
+      last = st;
     }
     if (mpi.rank() == 0)
       std::printf("rep %d: %.4f us per particle-step (%.3f s for %d steps of %.0f spheres)\n", rep + 1,
                   us.back(), secs, steps, n);
   }
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  const double rss_mb = max_all(comm, double(ru.ru_maxrss) / 1024.0);  // ru_maxrss: KiB on Linux
   if (mpi.rank() == 0) {
+    std::printf("balance: cut %s, list pairs max/mean %.4f at the end; work max/mean %.4f before and %.4f "
+                "after the last check of the runs (%lld checks, %lld moves); peak RSS %.1f MB (largest rank)\n",
+                cut.c_str(), pair_imbalance, last.work_imbalance_before, last.work_imbalance,
+                (long long)last.cut_checks, (long long)last.cuts_moved, rss_mb);
     std::printf("phases (slowest rank, us per step): integrate %.1f, ghost update %.1f, rebuild check "
                 "(allreduce) %.1f, neighbour build %.1f, migration + ghost build %.1f, force %.1f, "
                 "reduction %.1f; %.1f rebuilds\n",

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <vector>
 
 namespace fabrica {
 
@@ -19,6 +20,19 @@ namespace fabrica {
 enum class Holding {
   Whole,  // every rank the same complete set
   Share,  // each rank a disjoint part
+};
+
+// What a restart on the same rank count needs to remake a decomposition (a checkpoint field):
+// the cell lengths it was made for and, for a Cartesian one whose runs follow the work, the
+// first bin of each run along each axis (Decomposition::cuts, flattened: P1, then P2, then P3
+// values), and the rebuilds since the runs were last checked against the work (so that a
+// restart checks them at the same rebuilds as the run it continues; -1: not checked yet).
+// Zero lengths: nothing to remake (one rank, METIS, or another rank count).
+struct DecompositionRecord {
+  Vec3 lengths = Vec3::Zero();
+  std::vector<std::int32_t> cuts;  // empty: runs of equal length
+  std::int64_t since_check = -1;
+  bool empty() const { return lengths.isZero(); }
 };
 
 class Domain {
@@ -48,23 +62,27 @@ class Domain {
   // contact on at least one rank). After: each rank holds exactly the particles of its
   // subdomain, whose bins are at least 'cutoff' (2 Rmax + skin) wide, and in 'history' the
   // springs of every contact one of whose bodies it owns. No rank ever holds more than its
-  // share plus what it read. With 'decomposed_for' (a restart on the same rank count), the
-  // decomposition is the one made for a cell of those lengths (see decomposition_lengths()),
-  // so that every rank owns what it owned when saved.
+  // share plus what it read. With 'decomposed_as' (a restart on the same rank count), the
+  // decomposition is the saved one (see decomposition_record()), so that every rank owns what
+  // it owned when saved.
   virtual void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-                     const Vec3* decomposed_for = nullptr, Holding holding = Holding::Whole,
-                     HistoryMap* history = nullptr) = 0;
+                     const DecompositionRecord* decomposed_as = nullptr,
+                     Holding holding = Holding::Whole, HistoryMap* history = nullptr) = 0;
 
-  // The cell lengths the current decomposition was made for (zero for the serial domain or a
-  // decomposition that cannot be remade from them, METIS).
-  virtual Vec3 decomposition_lengths() const = 0;
+  // How to remake the current decomposition (empty for the serial domain or a decomposition
+  // that cannot be remade from it, METIS).
+  virtual DecompositionRecord decomposition_record() const = 0;
 
   // At a rebuild, with owned positions wrapped into the cell. Before: 'history' holds the
   // springs of this rank's touching contacts, keyed by the two global ids. After: every owned
   // particle lies in this rank's subdomain; particles that left were sent to their new owners
   // with the springs of their contacts, and those received were added to 'history'. Ghosts are
   // dropped (they are rebuilt by build_ghosts after any reordering of the owned particles).
-  virtual void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) = 0;
+  // 'work': the cost of each owned particle over the last list (1 + the list pairs it is in,
+  // n_owned values), which a decomposition may be balanced by; null when not known (then null
+  // on every rank: the decision to balance is collective).
+  virtual void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
+                       const std::vector<std::int32_t>* work) = 0;
 
   // Before: no ghosts, owned particles in their subdomain. After: every particle of another
   // rank within 'cutoff' (2 Rmax + skin, a lower bound on the decomposition bin edge) of this

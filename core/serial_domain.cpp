@@ -9,9 +9,9 @@ real_t SerialDomain::max_all(real_t local) { return local; }
 void SerialDomain::max_all(std::span<double>) {}
 void SerialDomain::sum_all(std::span<double>) {}
 void SerialDomain::sum_all(std::span<std::int64_t>) {}
-void SerialDomain::adopt(Particles&, const PeriodicCell&, real_t, const Vec3*, Holding, HistoryMap*) {}
-Vec3 SerialDomain::decomposition_lengths() const { return Vec3::Zero(); }
-void SerialDomain::migrate(Particles&, const PeriodicCell&, HistoryMap&) {}
+void SerialDomain::adopt(Particles&, const PeriodicCell&, real_t, const DecompositionRecord*, Holding, HistoryMap*) {}
+DecompositionRecord SerialDomain::decomposition_record() const { return {}; }
+void SerialDomain::migrate(Particles&, const PeriodicCell&, HistoryMap&, const std::vector<std::int32_t>*) {}
 void SerialDomain::build_ghosts(Particles&, const PeriodicCell&, real_t) {}
 std::unique_ptr<Domain> SerialDomain::clone() const { return std::make_unique<SerialDomain>(); }
 int SerialDomain::rank() const { return 0; }

@@ -17,10 +17,11 @@ class SerialDomain final : public Domain {
   void sum_all(std::span<double> values) override;
   void sum_all(std::span<std::int64_t> values) override;
   void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-             const Vec3* decomposed_for = nullptr, Holding holding = Holding::Whole,
+             const DecompositionRecord* decomposed_as = nullptr, Holding holding = Holding::Whole,
              HistoryMap* history = nullptr) override;
-  Vec3 decomposition_lengths() const override;
-  void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) override;
+  DecompositionRecord decomposition_record() const override;
+  void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
+               const std::vector<std::int32_t>* work) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
   std::unique_ptr<Domain> clone() const override;
   int rank() const override;

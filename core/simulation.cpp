@@ -77,8 +77,7 @@ Simulation::Simulation(SimulationSnapshot s, Domain* domain)
   cutoff_max_ = 2 * rmax + par_.skin;
   check_cell_size(cell_, rmax, par_.skin);
   carry_ = std::move(s.history);
-  domain_->adopt(p_, cell_, cutoff_max_,
-                 s.decomposition_lengths.isZero() ? nullptr : &s.decomposition_lengths,
+  domain_->adopt(p_, cell_, cutoff_max_, s.decomposition.empty() ? nullptr : &s.decomposition,
                  s.holding, &carry_);
   e0_ = s.energy.e0;
   work_ = s.energy.work;
@@ -303,6 +302,15 @@ void Simulation::rebuild() {
     if (walls_.touching[q])
       carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
                     {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+  // The work of each owned particle over the last list (1 + its pairs), by which the MPI
+  // domain may balance its decomposition.
+  if (domain_->size() > 1) {  // on every rank, so that the balancing decision is collective
+    std::vector<std::int32_t>& w = particle_work_.emplace(p_.n_owned(), 1);
+    for (std::size_t q = 0; q < pairs_.size(); ++q) {
+      if (std::size_t(pairs_.i[q]) < p_.n_owned()) ++w[pairs_.i[q]];
+      if (std::size_t(pairs_.j[q]) < p_.n_owned()) ++w[pairs_.j[q]];
+    }
+  }
   // The old lists are now in carry_: free them before the new ones are built (memory at large N).
   pairs_ = PairList();
   walls_ = WallContactList();
@@ -341,7 +349,8 @@ void Simulation::rebuild_lists() {
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
   using clock = std::chrono::steady_clock;
   const auto t0 = timing_ ? clock::now() : clock::time_point{};
-  domain_->migrate(p_, cell_, carry_);
+  domain_->migrate(p_, cell_, carry_, particle_work_ ? &*particle_work_ : nullptr);
+  particle_work_.reset();
   const auto t1 = timing_ ? clock::now() : clock::time_point{};
   if (par_.spatial_sort) p_.permute_owned(search_.spatial_order(p_, cell_));
   const auto t2 = timing_ ? clock::now() : clock::time_point{};

@@ -13,6 +13,7 @@
 #include "core/serial_domain.hpp"
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -88,7 +89,7 @@ struct SimulationSnapshot {
   Dissipation dissipation;   // this rank's accumulators
   std::int64_t step = 0, rebuilds = 0;
   real_t time = 0;
-  Vec3 decomposition_lengths = Vec3::Zero();  // see Domain::decomposition_lengths()
+  DecompositionRecord decomposition;  // see Domain::decomposition_record()
   EnergyAccount energy;      // the global part, and this rank's gravity work
   Holding holding = Holding::Whole;  // particles and history: all of them, or this rank's part
 };
@@ -166,6 +167,7 @@ class Simulation {
   std::int64_t step_count() const { return step_; }
   real_t time() const { return time_; }
   std::int64_t rebuild_count() const { return rebuilds_; }
+  real_t cutoff() const { return cutoff_max_; }  // 2 Rmax + skin, Rmax over every rank
   // True if the last step() (or the construction) rebuilt the lists: the moments at which a
   // checkpoint can be taken (and restored bit for bit).
   bool rebuilt_last_step() const { return rebuilt_last_; }
@@ -266,6 +268,8 @@ class Simulation {
   PairList pairs_;
   WallContactList walls_;
   HistoryMap carry_;
+  // Per owned particle, from rebuild() to migrate(); none at the first list (and on one rank).
+  std::optional<std::vector<std::int32_t>> particle_work_;
   Dissipation diss_;
   ContactSums sums_;
   MacroState macro_;

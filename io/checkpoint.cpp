@@ -283,7 +283,10 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   g.i64("step", sim.step_count()).i64("rebuilds", sim.rebuild_count()).f64("time", sim.time());
   write_macro(g, sim.macro());
   Simulation& mut = const_cast<Simulation&>(sim);  // Domain accessors are not const
-  g.vec3("decomposition_lengths", mut.domain().decomposition_lengths());
+  const DecompositionRecord dec = mut.domain().decomposition_record();
+  g.vec3("decomposition_lengths", dec.lengths).i64("decomposition_cuts", std::int64_t(dec.cuts.size()));
+  for (std::int32_t c : dec.cuts) g.i32("decomposition_cut", c);  // format 5
+  g.i64("decomposition_since_check", dec.since_check);
   const EnergyAccount ea = sim.energy_account();
   g.f64("energy.e0", ea.e0).f64("energy.work", ea.work).vec3("energy.vol_strain", ea.vol_strain);
   g.mat3("energy.stress_prev", ea.stress_prev);
@@ -624,7 +627,14 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   snap.rebuilds = g.i64("rebuilds");
   snap.time = g.f64("time");
   snap.macro = read_macro(g);
-  snap.decomposition_lengths = g.vec3("decomposition_lengths");
+  snap.decomposition.lengths = g.vec3("decomposition_lengths");
+  const std::int64_t cuts = g.i64("decomposition_cuts");
+  if (cuts < 0 || cuts > 3 * std::int64_t(head_.ranks))
+    throw InputError(where + ": decomposition_cuts = " + std::to_string(cuts) + ", expected 0 to " +
+                     std::to_string(3 * head_.ranks) + " (three axes of at most " +
+                     std::to_string(head_.ranks) + " runs)");
+  for (std::int64_t c = 0; c < cuts; ++c) snap.decomposition.cuts.push_back(g.i32("decomposition_cut"));
+  snap.decomposition.since_check = g.i64("decomposition_since_check");
   snap.energy.e0 = g.f64("energy.e0");
   snap.energy.work = g.f64("energy.work");
   snap.energy.vol_strain = g.vec3("energy.vol_strain");
@@ -636,7 +646,7 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
-  if (size != head_.ranks) snap.decomposition_lengths = Vec3::Zero();  // a new decomposition
+  if (size != head_.ranks) snap.decomposition = {};  // a new decomposition
 
   auto records = [&](const std::string& name, std::size_t bytes) -> const std::string& {
     const CheckpointSection& s = find(name);

@@ -567,6 +567,9 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (auto k = M.integer("rebalance_interval")) ps.rebalance_interval = *k;
   if (ps.rebalance_interval <= 0)
     M.fail("rebalance_interval", std::to_string(ps.rebalance_interval), "must be positive");
+  ps.cut = M.string("cut").value_or(ps.cut);
+  if (ps.cut != "work" && ps.cut != "even")
+    M.fail("cut", "\"" + ps.cut + "\"", "must be \"work\" or \"even\"");
   M.reject_unknown();
 
   Section F(table("fabric"), path, "fabric");

@@ -93,6 +93,7 @@ struct ParallelSpec {
   std::string decomposition = "cartesian";  // "cartesian" or "metis"
   double rebalance_threshold = 1.10;        // max/mean owned particles that triggers METIS
   std::int64_t rebalance_interval = 10;     // neighbour rebuilds between imbalance checks
+  std::string cut = "work";                 // Cartesian runs of bins: "work" or "even"
 };
 
 // Fabric analysis of the contact sub-networks (core/fabric.hpp, docs/fabric.md) at the output

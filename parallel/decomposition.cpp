@@ -30,7 +30,7 @@ bool Decomposition::fits(const Vec3& L, real_t cutoff) const {
   return true;
 }
 
-Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff) {
+Decomposition Decomposition::grid(int nranks, const Vec3& L, real_t cutoff) {
   Decomposition d;
   d.kind_ = DecompositionKind::Cartesian;
   d.dims_ = bin_dims(L, cutoff);
@@ -59,17 +59,100 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff)
         "cannot split a cell of " + std::to_string(d.dims_[0]) + " x " + std::to_string(d.dims_[1]) +
         " x " + std::to_string(d.dims_[2]) + " bins (bin edge >= (2 Rmax + skin) / 2) over " +
         std::to_string(nranks) + " ranks; use fewer ranks or a larger specimen");
-  d.owner_.resize(d.bins());
-  for (int z = 0; z < d.dims_[2]; ++z)
-    for (int y = 0; y < d.dims_[1]; ++y)
-      for (int x = 0; x < d.dims_[0]; ++x) {
-        const int c0 = x * d.grid_[0] / d.dims_[0];
-        const int c1 = y * d.grid_[1] / d.dims_[1];
-        const int c2 = z * d.grid_[2] / d.dims_[2];
-        d.owner_[x + d.dims_[0] * (y + d.dims_[1] * z)] = c0 + d.grid_[0] * (c1 + d.grid_[1] * c2);
-      }
+  return d;
+}
+
+void Decomposition::own_by_cuts() {
+  std::array<std::vector<int>, 3> run;  // per axis: the run of each bin plane
+  for (int k = 0; k < 3; ++k) {
+    const int n = dims_[k], P = grid_[k];
+    run[k].assign(n, 0);
+    for (int j = 0; j < P; ++j) {
+      const int first = cuts_[k][j], end = j + 1 < P ? cuts_[k][j + 1] : cuts_[k][0] + n;
+      for (int x = first; x < end; ++x) run[k][x % n] = j;
+    }
+  }
+  owner_.resize(bins());
+  for (int z = 0; z < dims_[2]; ++z)
+    for (int y = 0; y < dims_[1]; ++y)
+      for (int x = 0; x < dims_[0]; ++x)
+        owner_[x + dims_[0] * (y + dims_[1] * z)] = run[0][x] + grid_[0] * (run[1][y] + grid_[1] * run[2][z]);
+}
+
+Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff) {
+  Decomposition d = grid(nranks, L, cutoff);
+  for (int k = 0; k < 3; ++k)  // equal runs: bin x in run floor(x P / n)
+    for (int j = 0; j < d.grid_[k]; ++j) d.cuts_[k].push_back((j * d.dims_[k] + d.grid_[k] - 1) / d.grid_[k]);
+  d.own_by_cuts();
   d.finish(nranks);
   return d;
+}
+
+Decomposition Decomposition::by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work) {
+  Decomposition d = grid(nranks, L, cutoff);
+  for (int k = 0; k < 3; ++k) {
+    if (int(plane_work[k].size()) != d.dims_[k])
+      throw std::logic_error("Decomposition::by_work: one work value per bin plane expected");
+    d.cuts_[k] = balanced_runs(plane_work[k], d.grid_[k]);
+  }
+  d.own_by_cuts();
+  d.finish(nranks);
+  return d;
+}
+
+Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff, const CartesianCuts& cuts) {
+  Decomposition d = grid(nranks, L, cutoff);
+  for (int k = 0; k < 3; ++k) {
+    const std::vector<int>& c = cuts[k];
+    bool ok = int(c.size()) == d.grid_[k] && !c.empty() && c[0] >= 0 && c[0] < d.dims_[k];
+    for (std::size_t j = 1; ok && j < c.size(); ++j) ok = c[j] > c[j - 1];
+    ok = ok && c.back() < d.dims_[k];
+    if (!ok)
+      throw std::runtime_error("the saved decomposition's cuts along axis " + std::to_string(k + 1) +
+                               " do not fit " + std::to_string(d.grid_[k]) + " runs of " +
+                               std::to_string(d.dims_[k]) + " bins");
+  }
+  d.cuts_ = cuts;
+  d.own_by_cuts();
+  d.finish(nranks);
+  return d;
+}
+
+std::vector<int> balanced_runs(std::span<const std::int64_t> w, int parts) {
+  const int n = int(w.size());
+  if (parts < 1 || parts > n) throw std::logic_error("balanced_runs: need 1 <= parts <= planes");
+  std::int64_t total = 0, heaviest = 0;
+  for (std::int64_t x : w) total += x, heaviest = std::max(heaviest, x);
+  // The fewest runs, from plane s, none heavier than M (each at least one plane).
+  auto runs_needed = [&](int s, std::int64_t M) {
+    int runs = 0;
+    for (int i = 0; i < n;) {
+      std::int64_t sum = w[(s + i++) % n];
+      while (i < n && sum + w[(s + i) % n] <= M) sum += w[(s + i++) % n];
+      ++runs;
+    }
+    return runs;
+  };
+  std::int64_t best_M = total + 1;
+  int best_s = 0;
+  for (int s = 0; s < n; ++s) {  // the lightest bound for this start (bisection on integers)
+    std::int64_t lo = heaviest, hi = std::min(total, best_M - 1);
+    if (lo > hi || runs_needed(s, hi) > parts) continue;  // cannot beat the best so far
+    while (lo < hi) {
+      const std::int64_t mid = lo + (hi - lo) / 2;
+      if (runs_needed(s, mid) <= parts) hi = mid; else lo = mid + 1;
+    }
+    best_M = lo, best_s = s;
+  }
+  // Runs from best_s, each as long as best_M allows while leaving a plane for each later run.
+  std::vector<int> first;
+  for (int i = 0, j = 0; j < parts; ++j) {
+    first.push_back((best_s + i) % n);
+    std::int64_t sum = w[(best_s + i++) % n];
+    while (n - i > parts - 1 - j && sum + w[(best_s + i) % n] <= best_M) sum += w[(best_s + i++) % n];
+  }
+  std::sort(first.begin(), first.end());
+  return first;
 }
 
 namespace {

@@ -8,7 +8,10 @@
 // cut twice as finely as cutoff-wide bins would, for a better balance of the load.
 // Each bin belongs to one rank:
 //   - Cartesian: the ranks form a P1 x P2 x P3 grid (the factorisation of the rank count that
-//     minimises the largest subdomain surface for this cell's aspect) and own blocks of bins;
+//     minimises the largest subdomain surface for this cell's aspect) and own blocks of bins:
+//     along each axis the bins are cut into Pk runs of consecutive (periodic) bin planes, of
+//     equal length, or - given the work of each bin - placed so that the heaviest slab of the
+//     axis is as light as whole bin planes allow (balanced_runs);
 //   - METIS: the bin graph (26-neighbour edges), weighted by the work in each bin, is
 //     partitioned by METIS_PartGraphKway; bins then need not form boxes.
 // The map is computed identically on every rank (METIS on rank 0, then broadcast).
@@ -18,6 +21,8 @@
 #include <mpi.h>
 
 #include <array>
+#include <cstdint>
+#include <span>
 #include <vector>
 
 namespace fabrica {
@@ -26,11 +31,33 @@ enum class DecompositionKind { Cartesian, Metis };
 
 inline constexpr int kReach = 2;  // bins per cutoff
 
+// Along each axis k, the first bin of each of the Pk runs of the rank grid, ascending; run j
+// ends where run j + 1 starts, and the last one wraps round to cuts[k][0] (periodic).
+using CartesianCuts = std::array<std::vector<int>, 3>;
+
+// Along each axis k, the work summed over each of the dims[k] bin planes normal to k: all that
+// the runs of a tensor-product grid depend on (dims[0] + dims[1] + dims[2] values, not one per
+// bin, so that the sums over the ranks stay small at 10^6 spheres).
+using PlaneWork = std::array<std::vector<std::int64_t>, 3>;
+
+// 'parts' runs of consecutive planes (periodic, each at least one plane) of weights w, whose
+// heaviest run is as light as possible; among the best, the one starting at the lowest plane.
+// Returns the first plane of each run, ascending. Exact (integer weights): the same on every
+// rank.
+std::vector<int> balanced_runs(std::span<const std::int64_t> w, int parts);
+
 class Decomposition {
  public:
   // Cartesian decomposition; throws std::runtime_error if the cell is too small for nranks
   // subdomains of at least one bin each.
   static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff);
+  // The same grid of ranks, its runs along each axis placed by the work of the bin planes
+  // (balanced_runs of plane_work[k], which holds dims()[k] values); throws std::logic_error if
+  // the sizes do not match this cell's bins.
+  static Decomposition by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work);
+  // The same grid of ranks with the given runs (a decomposition saved in a checkpoint); throws
+  // std::runtime_error if they do not fit this cell's bins and rank grid.
+  static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff, const CartesianCuts& cuts);
   // METIS decomposition with one weight per bin (size dims product, in bin order).
   static Decomposition metis(int nranks, const Vec3& L, real_t cutoff,
                              const std::vector<double>& bin_work, MPI_Comm comm);
@@ -41,6 +68,7 @@ class Decomposition {
   const std::array<int, 3>& dims() const { return dims_; }
   int bins() const { return dims_[0] * dims_[1] * dims_[2]; }
   const std::array<int, 3>& rank_grid() const { return grid_; }  // Cartesian only
+  const CartesianCuts& cuts() const { return cuts_; }              // Cartesian only
 
   // Bin of a position wrapped into [0, L).
   int bin_of(const Vec3& x, const Vec3& L) const {
@@ -62,10 +90,13 @@ class Decomposition {
   bool fits(const Vec3& L, real_t cutoff) const;
 
  private:
+  static Decomposition grid(int nranks, const Vec3& L, real_t cutoff);  // dims_ and grid_
+  void own_by_cuts();       // owner_ from cuts_
   void finish(int nranks);  // fills adj_ranks_
   DecompositionKind kind_ = DecompositionKind::Cartesian;
   std::array<int, 3> dims_{1, 1, 1};
   std::array<int, 3> grid_{1, 1, 1};
+  CartesianCuts cuts_;
   std::vector<int> owner_;
   std::vector<std::vector<int>> adj_ranks_;  // per bin: other ranks owning a neighbour bin
 };

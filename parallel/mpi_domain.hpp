@@ -22,6 +22,10 @@ struct MpiDomainOptions {
   DecompositionKind kind = DecompositionKind::Cartesian;
   double rebalance_threshold = 1.10;  // repartition (METIS) when max/mean work exceeds this
   int rebalance_interval = 10;        // check the imbalance every this many rebuilds
+  // Cartesian: place the runs of bins by the particles' work (1 + list pairs) rather than in
+  // equal lengths; checked at the first rebuild and every rebalance_interval rebuilds, and
+  // moved when the busiest rank has 2 % more than the mean and new runs would lighten it by 1 %.
+  bool balance_work = true;
 };
 
 struct DomainStats {
@@ -35,6 +39,11 @@ struct DomainStats {
   std::int64_t rebalances = 0;
   double imbalance_before = 1, imbalance_after = 1;  // last rebalance (max/mean owned particles)
   double imbalance = 1;                 // at the last check
+  // Cartesian runs by work, at the last check: max/mean of the ranks' work (1 + list pairs per
+  // owned particle) with the runs in use before it and with those kept after it; the number of
+  // checks and of times the runs were moved.
+  double work_imbalance_before = 1, work_imbalance = 1;
+  std::int64_t cut_checks = 0, cuts_moved = 0;
 };
 
 class MpiDomain final : public Domain {
@@ -47,10 +56,11 @@ class MpiDomain final : public Domain {
   void sum_all(std::span<double> values) override;
   void sum_all(std::span<std::int64_t> values) override;
   void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-             const Vec3* decomposed_for = nullptr, Holding holding = Holding::Whole,
+             const DecompositionRecord* decomposed_as = nullptr, Holding holding = Holding::Whole,
              HistoryMap* history = nullptr) override;
-  Vec3 decomposition_lengths() const override;
-  void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history) override;
+  DecompositionRecord decomposition_record() const override;
+  void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
+               const std::vector<std::int32_t>* work) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
   std::unique_ptr<Domain> clone() const override { return std::make_unique<MpiDomain>(*this); }
   int rank() const override { return rank_; }
@@ -64,7 +74,14 @@ class MpiDomain final : public Domain {
   double load_imbalance(const Particles& p);
 
  private:
-  void decompose(const Particles& p, const PeriodicCell& cell);
+  void decompose(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>* work);
+  // The Cartesian runs by work (MpiDomainOptions::balance_work); collective (two allreduces).
+  void balance_cuts(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>& work);
+  // Per axis of d's bins, the owned particles' work summed over each bin plane and over all
+  // ranks (exact integers: the same on every rank); one allreduce of dims[0] + dims[1] + dims[2]
+  // values.
+  PlaneWork global_plane_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d,
+                              const std::vector<std::int32_t>& work);
   void set_decomposition(Decomposition d);  // and its partner ranks
   // adopt() of a share: particles to their owners, springs to the owners of their bodies.
   void gather_share(Particles& p, const PeriodicCell& cell, HistoryMap* history);
@@ -87,6 +104,7 @@ class MpiDomain final : public Domain {
   NeighbourExchange forward_;
   std::size_t forward_bytes_per_particle_ = 0;
   std::int64_t rebuilds_since_check_ = 0;
+  std::int64_t rebuilds_since_cut_check_ = -1;  // -1: not checked yet
   DomainStats stats_;
 };
 

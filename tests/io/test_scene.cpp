@@ -150,6 +150,24 @@ TEST(Scene, FabricTableIsValidated) {
   expect_error("[fabric]\nbins = 3\n", {"[fabric] bins", "unknown key"});
 }
 
+// [parallel]: the defaults, values, and bad values refused naming the key.
+TEST(Scene, ParallelKeys) {
+  const Scene d = parse_scene("", "empty.toml");
+  EXPECT_EQ(d.parallel.decomposition, "cartesian");
+  EXPECT_EQ(d.parallel.rebalance_threshold, 1.10);
+  EXPECT_EQ(d.parallel.rebalance_interval, 10);
+  EXPECT_EQ(d.parallel.cut, "work");
+  const Scene s = parse_scene("[parallel]\ncut = \"even\"\nrebalance_interval = 4\n", "ok.toml");
+  EXPECT_EQ(s.parallel.cut, "even");
+  EXPECT_EQ(s.parallel.rebalance_interval, 4);
+  expect_error("[parallel]\ncut = \"weight\"\n", {"[parallel] cut = \"weight\"", "\"work\" or \"even\""});
+  expect_error("[parallel]\ncut = 1\n", {"[parallel]", "cut"});
+  expect_error("[parallel]\nrebalance_interval = 0\n", {"[parallel] rebalance_interval = 0", "positive"});
+  expect_error("[parallel]\ndecomposition = \"rcb\"\n", {"[parallel] decomposition = \"rcb\"", "\"cartesian\" or \"metis\""});
+  expect_error("[parallel]\nrebalance_threshold = 0.9\n", {"[parallel]", "rebalance_threshold", ">= 1"});
+  expect_error("[parallel]\ncuts = \"work\"\n", {"[parallel]", "cuts", "unknown key"});
+}
+
 TEST(Scene, OutputKeys) {
   const Scene d = parse_scene("", "empty.toml");
   EXPECT_EQ(d.snapshot_every, 10000);

@@ -3,7 +3,9 @@
 // trajectory does not depend on the rank count); the restarted run must match it bit for bit:
 // positions, velocities, spins and every shear and rolling spring.
 //   Checkpoint.BitwiseContinuation   - save at N/2 (first rebuild step from there), restore
-//                                      into a fresh Simulation, continue to N (np 1 and 2);
+//                                      into a fresh Simulation, continue to N (np 1 and 2); on
+//                                      2 ranks the saved Cartesian runs (placed by the work,
+//                                      not the even split) are the restarted domain's;
 //   Checkpoint.KeepSeriesThrough     - the series rows kept on a restart;
 //   Checkpoint.SmallBlocksWriteTheSameFile - records made and written 1,000 at a time (some 14
 //                                      blocks of particles and 16 of contacts over the ranks)
@@ -121,12 +123,24 @@ TEST(Checkpoint, BitwiseContinuation) {
 
   const std::string path = checkpoint_path("continuation");
   std::int64_t saved_at = 0;
+  DecompositionRecord saved_dec;
+  std::vector<int> saved_owner;
   {
     MpiDomain domain(MPI_COMM_WORLD);
     Simulation first(s.particles, s.cell, s.params, &domain);
     deform(first);
     run_to_rebuild(first, kSteps / 2);
     saved_at = first.step_count();
+    saved_dec = domain.decomposition_record();
+    for (int b = 0; b < domain.decomposition().bins(); ++b) saved_owner.push_back(domain.decomposition().owner(b));
+    if (comm_size() > 1) {  // the runs have followed the work: not those of the even split
+      EXPECT_GE(domain.stats().cuts_moved, 1);
+      const Decomposition even = Decomposition::cartesian(comm_size(), saved_dec.lengths, first.cutoff());
+      std::vector<std::int32_t> even_cuts;
+      for (const std::vector<int>& axis : even.cuts()) even_cuts.insert(even_cuts.end(), axis.begin(), axis.end());
+      EXPECT_NE(saved_dec.cuts, even_cuts);
+      EXPECT_GE(saved_dec.since_check, 0);
+    }
     CheckpointWriter w(MPI_COMM_WORLD, scene_fingerprint(text), "run");
     w.add_simulation("sim", first);
     w.add_global("app", Bytes().put(std::int64_t(42)).str());
@@ -155,6 +169,15 @@ TEST(Checkpoint, BitwiseContinuation) {
   MpiDomain domain(MPI_COMM_WORLD);
   Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
   EXPECT_EQ(restarted.step_count(), saved_at);
+  {  // the saved decomposition, remade: the same runs, bins, owners and check schedule
+    const DecompositionRecord again = domain.decomposition_record();
+    EXPECT_EQ(again.lengths, saved_dec.lengths);
+    EXPECT_EQ(again.cuts, saved_dec.cuts);
+    EXPECT_EQ(again.since_check, saved_dec.since_check);
+    std::vector<int> owner;
+    for (int b = 0; b < domain.decomposition().bins(); ++b) owner.push_back(domain.decomposition().owner(b));
+    EXPECT_EQ(owner, saved_owner);
+  }
   run_to(restarted, kSteps);
   expect_same_trajectory(restarted, ref);
   EXPECT_EQ(restarted.time(), ref.time());
@@ -177,6 +200,9 @@ TEST(Checkpoint, BitwiseContinuation) {
   EXPECT_EQ(a.dissipated.rolling, b.dissipated.rolling);
   EXPECT_EQ(a.dissipated.viscous, b.dissipated.viscous);
   EXPECT_EQ(a.contacts, b.contacts);
+  // and the same decomposition at the end as the uninterrupted run
+  EXPECT_EQ(domain.decomposition_record().cuts, domain_full.decomposition_record().cuts);
+  EXPECT_EQ(domain.decomposition_record().since_check, domain_full.decomposition_record().since_check);
   MPI_Barrier(MPI_COMM_WORLD);
   if (domain.rank() == 0) std::filesystem::remove(path);
 }

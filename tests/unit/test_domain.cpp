@@ -32,7 +32,7 @@ TEST(SerialDomain, ReductionsAreTheIdentity) {
   EXPECT_EQ(n[0], 7);
   EXPECT_EQ(d.rank(), 0);
   EXPECT_EQ(d.size(), 1);
-  EXPECT_TRUE(d.decomposition_lengths().isZero());
+  EXPECT_TRUE(d.decomposition_record().empty());
   EXPECT_NE(dynamic_cast<SerialDomain*>(d.clone().get()), nullptr);
 }
 
