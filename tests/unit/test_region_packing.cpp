@@ -27,19 +27,20 @@ RegionSpec spec(std::int64_t n) {
   return s;
 }
 
-Vec3 cell_for(const RegionSpec& s, real_t volume, real_t fraction) {
+// The cell of aspect 2:1:1 that holds 'volume' of solid at solid fraction 'fraction'.
+Vec3 cell_for(real_t volume, real_t fraction) {
   const Vec3 aspect(2, 1, 1);
   return aspect * std::cbrt(volume / fraction / aspect.prod());
 }
 
 Particles make(const RegionSpec& s, real_t fraction, RegionGrid* out_grid = nullptr,
                PeriodicCell* out_cell = nullptr) {
-  const Vec3 expected = cell_for(s, expected_solid_volume(s), fraction);
+  const Vec3 expected = cell_for(expected_solid_volume(s), fraction);
   RegionGrid cut(s, expected, expected);
   real_t v = 0;
   for (int g = 0; g < cut.regions(); ++g)
     for (real_t d : region_diameters(s, cut, g)) v += std::numbers::pi / 6 * d * d * d;
-  const PeriodicCell cell(cell_for(s, v, fraction));
+  const PeriodicCell cell(cell_for(v, fraction));
   RegionGrid grid(s, expected, cell.lengths());
   std::vector<int> all(std::size_t(grid.regions()));
   std::iota(all.begin(), all.end(), 0);
@@ -139,7 +140,7 @@ TEST(RegionPacking, SameColourRegionsAreNeverAdjacent) {
 TEST(RegionPacking, NoRoomIsReportedAfterEveryRound) {
   RegionSpec s = spec(500);
   s.d_min = s.d_max = 0.05;  // equal spheres at 0.7: beyond random sequential addition
-  const Vec3 expected = cell_for(s, expected_solid_volume(s), 0.7);
+  const Vec3 expected = cell_for(expected_solid_volume(s), 0.7);
   RegionGrid grid(s, expected, expected);
   PeriodicCell cell(expected);
   std::vector<int> all(std::size_t(grid.regions()));
