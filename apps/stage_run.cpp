@@ -91,12 +91,8 @@ void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
 }
 
 void StageRun::apply_contact(const StageSpec& st) {
-  if (st.friction || st.rolling_friction) {
-    ContactLawParams law = sim_.params().law;
-    if (st.friction) law.friction = *st.friction;
-    if (st.rolling_friction) law.rolling_friction = *st.rolling_friction;
-    sim_.set_law(law);
-  }
+  if (st.friction || st.rolling_friction || st.damping_ratio_normal || st.damping_ratio_shear)
+    sim_.set_law(stage_law(sim_.params().law, st));
   if (st.local_damping) sim_.set_local_damping(*st.local_damping);
 }
 

@@ -37,6 +37,9 @@ Scene triaxial_setup_scene(const Scene& scene) {
     sized.law.rolling_friction = std::max(sized.law.rolling_friction, mur);
   for (const StageSpec& st : scene.stages)
     if (st.rolling_friction) sized.law.rolling_friction = std::max(sized.law.rolling_friction, *st.rolling_friction);
+  // Damping shortens the critical time step: the estimate takes the strongest dashpots any
+  // stage sets (a stage's damping_ratio_normal / _shear).
+  sized.law = most_damped_law(sized.law, scene.stages);
   return sized;
 }
 

@@ -59,8 +59,9 @@ int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& o
                  Setup* setup = nullptr);
 
 // The scene whose particle set-up a triaxial or stages run uses: the scene with the largest mu_r
-// of its sweep or its stages, so that the time step suits the stiffest stage (rolling springs
-// included).
+// of its sweep or its stages and the strongest dashpots of its stages (most_damped_law), so
+// that the time step suits every stage (rolling springs and damping included). The run itself
+// starts from the scene's own law.
 Scene triaxial_setup_scene(const Scene& scene);
 
 }  // namespace fabrica

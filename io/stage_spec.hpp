@@ -6,12 +6,15 @@
 // extension positive (1/s); strains eps_k = ln(l_k0 / l_k), compression positive, measured from
 // the stage's start.
 #pragma once
+#include "core/contact_law.hpp"
 #include "core/types.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace fabrica {
 
@@ -67,13 +70,39 @@ struct StageSpec {
   real_t amplitude = 0;        // cyclic: of eps_1 (strain) or of q (stress, Pa)
   std::int64_t cycles = 0;     // cyclic
   StageEnd end;
-  // Contact parameters set at the start of the stage (the others are kept).
+  // Contact parameters set at the start of the stage (the others are kept). A damping ratio
+  // replaces the dashpot of that direction, rate form included (stage_law).
   std::optional<real_t> friction, rolling_friction, local_damping;
+  std::optional<real_t> damping_ratio_normal, damping_ratio_shear;
   bool reset_strain = false;  // the series' strains measured from this stage's start
   StageFabric fabric = StageFabric::None;
   bool track_peak = false;    // the result's peak q/p and lateral error over the rows
   ServoSettings servo;
   std::int64_t max_steps = 2000000;  // a stage that does not end by then stops the run
 };
+
+// The contact law in force during stage 'st', given the law before it.
+inline ContactLawParams stage_law(ContactLawParams law, const StageSpec& st) {
+  if (st.friction) law.friction = *st.friction;
+  if (st.rolling_friction) law.rolling_friction = *st.rolling_friction;
+  if (st.damping_ratio_normal) law.damping_ratio_n = *st.damping_ratio_normal, law.damping_rate_n = 0;
+  if (st.damping_ratio_shear) law.damping_ratio_s = *st.damping_ratio_shear, law.damping_rate_s = 0;
+  return law;
+}
+
+// A law whose dashpots are at least as strong as those of the scene's law and of every stage's
+// (the largest damping ratio and the largest rate of each direction): the critical time step
+// estimated with it holds in every stage, since damping only shortens that step.
+inline ContactLawParams most_damped_law(const ContactLawParams& scene_law, const std::vector<StageSpec>& stages) {
+  ContactLawParams bound = scene_law, law = scene_law;
+  for (const StageSpec& st : stages) {
+    law = stage_law(law, st);
+    bound.damping_ratio_n = std::max(bound.damping_ratio_n, law.damping_ratio_n);
+    bound.damping_ratio_s = std::max(bound.damping_ratio_s, law.damping_ratio_s);
+    bound.damping_rate_n = std::max(bound.damping_rate_n, law.damping_rate_n);
+    bound.damping_rate_s = std::max(bound.damping_rate_s, law.damping_rate_s);
+  }
+  return bound;
+}
 
 }  // namespace fabrica

@@ -5,13 +5,16 @@
 // so the response is elastic. Each stage is given as a [[stage]] table and read by parse_scene.
 #include "apps/stage_end.hpp"
 #include "apps/stage_run.hpp"
+#include "apps/triaxial.hpp"
 #include "io/scene.hpp"
+#include "io/setup.hpp"
 #include "tests/apps/fcc_lattice.hpp"
 
 #include <fmt/core.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -275,10 +278,51 @@ end = { q_p = 0.2 })");
 
 // A contact parameter set by a stage is the simulation's from then on.
 TEST(Stages, StageSetsContactParameters) {
-  LatticeRun r("type = \"hold\"\nfriction = 0.25\nrolling_friction = 0.05\nlocal_damping = 0.3\nend = { steps = 4 }");
+  LatticeRun r("type = \"hold\"\nfriction = 0.25\nrolling_friction = 0.05\nlocal_damping = 0.3\n"
+               "damping_ratio_normal = 0.2\ndamping_ratio_shear = 0.1\nend = { steps = 4 }");
   EXPECT_EQ(r.sim.params().law.friction, 0.25);
   EXPECT_EQ(r.sim.params().law.rolling_friction, 0.05);
   EXPECT_EQ(r.sim.params().local_damping, 0.3);
+  EXPECT_EQ(r.sim.params().law.damping_ratio_n, 0.2);
+  EXPECT_EQ(r.sim.params().law.damping_ratio_s, 0.1);
+}
+
+// A stage's damping ratio replaces that direction's dashpot, rate form included; later stages
+// keep it until one changes it.
+TEST(Stages, StageLawReplacesTheDashpot) {
+  ContactLawParams law;
+  law.damping_rate_n = 50;
+  law.damping_rate_s = 20;
+  StageSpec st;
+  st.damping_ratio_normal = 0.3;
+  const ContactLawParams a = stage_law(law, st);
+  EXPECT_EQ(a.damping_ratio_n, 0.3);
+  EXPECT_EQ(a.damping_rate_n, 0.0);
+  EXPECT_EQ(a.damping_rate_s, 20.0);  // untouched
+  StageSpec later;
+  const ContactLawParams bound = most_damped_law(law, {st, later});
+  EXPECT_EQ(bound.damping_ratio_n, 0.3);
+  EXPECT_EQ(bound.damping_rate_n, 50.0);  // the scene's own law is among those bounded
+  EXPECT_EQ(bound.damping_rate_s, 20.0);
+}
+
+// Damping shortens the critical time step by sqrt(1 + beta^2) - beta (the damped oscillator):
+// the set-up of a stage list takes the strongest dashpots any stage sets, so a stage with
+// beta = 0.5 in both directions makes the estimate 0.618... of the undamped one, and the time
+// step (the same fraction of it) is stable in that stage too.
+TEST(Stages, StageDampingSizesTheTimeStep) {
+  const std::string base =
+      "[particles]\ncount = 60\nd_min = 0.02\nd_max = 0.03\nseed = 3\nsolid_fraction = 0.3\n"
+      "[contact]\nyoungs_modulus = 100e6\nfriction = 0.3\n";
+  const std::string hold = "[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n";
+  const std::string damped_hold =
+      "[[stage]]\ntype = \"hold\"\ndamping_ratio_normal = 0.5\ndamping_ratio_shear = 0.5\nend = { steps = 1 }\n";
+  const fabrica::Setup a = make_setup(triaxial_setup_scene(parse_scene(base + hold + hold, "a.toml")));
+  const fabrica::Setup b = make_setup(triaxial_setup_scene(parse_scene(base + hold + damped_hold + hold, "b.toml")));
+  std::printf("[stages] critical time step %.6e s undamped, %.6e s with a stage at beta = 0.5\n",
+              a.critical_dt, b.critical_dt);
+  EXPECT_NEAR(b.critical_dt / a.critical_dt, std::sqrt(1.25) - 0.5, 1e-12);
+  EXPECT_NEAR(b.params.dt / a.params.dt, std::sqrt(1.25) - 0.5, 1e-12);
 }
 
 }  // namespace

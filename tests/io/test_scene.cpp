@@ -244,6 +244,7 @@ type = "isotropic"
 pressure = 1e5
 friction = 1.0
 local_damping = 0.7
+damping_ratio_normal = 0.4
 end = { at_rest = true }
 [[stage]]
 name = "by hand"
@@ -281,6 +282,8 @@ end = { strain = -0.01, strain_axis = 1 }
   EXPECT_EQ(*a.friction, 1.0);
   EXPECT_FALSE(a.rolling_friction);
   EXPECT_EQ(*a.local_damping, 0.7);
+  EXPECT_EQ(*a.damping_ratio_normal, 0.4);
+  EXPECT_FALSE(a.damping_ratio_shear);
   const StageSpec& m = s.stages[1];
   EXPECT_EQ(m.name, "by hand");
   EXPECT_EQ(m.mode[0], AxisMode::StrainRate);
@@ -324,6 +327,10 @@ end = { strain = -0.01, strain_axis = 1 }
   expect_error("[[stage]]\ntype = \"triaxial_compression\"\npressure = 1e5\naxial_strain_rate = 5\nend = { strain = 0.1 }\n",
                {"stage[1].axial_strain_rate = 5", "max_strain_rate"});
   expect_error("[[stage]]\ntype = \"hold\"\nlocal_damping = 1.0\nend = { steps = 1 }\n", {"stage[1].local_damping = 1", "[0, 1)"});
+  expect_error("[[stage]]\ntype = \"hold\"\ndamping_ratio_normal = 1.0\nend = { steps = 1 }\n",
+               {"stage[1].damping_ratio_normal = 1", "[0, 1)"});
+  expect_error("[[stage]]\ntype = \"hold\"\ndamping_ratio_shear = -0.1\nend = { steps = 1 }\n",
+               {"stage[1].damping_ratio_shear = -0.1", "[0, 1)"});
   expect_error("[[stage]]\ntype = \"hold\"\nname = \"a,b\"\nend = { steps = 1 }\n", {"stage[1].name", "commas"});
   expect_error("stage = 3\n", {"stage = 3", "array of tables"});
   expect_error("[triaxial]\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[[stage]] and [triaxial] both given"});
