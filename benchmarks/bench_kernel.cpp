@@ -89,8 +89,8 @@ Dense make_dense() {
     k.w2 = d.p.w[j];
     k.vrel = d.p.v[j] - d.p.v[i] + edot.cwiseProduct(dv) - (a2 * d.p.w[j] + a1 * d.p.w[i]).cross(k.n);
     ContactHistory h;
-    h.fs = d.pairs.fs[q];
-    h.mr = d.pairs.mr.empty() ? Vec3::Zero() : d.pairs.mr[q];
+    h.fs = d.pairs.shear_spring(q);
+    h.mr = d.pairs.rolling_spring(q);
     d.ci.push_back(i);
     d.cj.push_back(j);
     d.kin.push_back(k);
@@ -162,7 +162,7 @@ void BM_ComputeForces(benchmark::State& state) {
   const ContactLawParams law = variant_law(d.par.law, Rolling, Viscous);
   Particles p = d.p;
   PairList pairs = d.pairs;
-  if (!Rolling) pairs.mr.clear();
+  if (!Rolling) pairs.set_rolling(false);
   WallContactList walls = d.walls;
   Dissipation diss;
   const ForceContext ctx{law, d.par.walls, d.par.gravity, d.par.dt};
@@ -170,9 +170,8 @@ void BM_ComputeForces(benchmark::State& state) {
     compute_forces(p, d.cell, ctx, pairs, walls, diss, nullptr);
     benchmark::ClobberMemory();
     state.PauseTiming();
-    std::copy(d.pairs.fs.begin(), d.pairs.fs.end(), pairs.fs.begin());
-    std::copy(d.pairs.touching.begin(), d.pairs.touching.end(), pairs.touching.begin());
-    if (Rolling) std::copy(d.pairs.mr.begin(), d.pairs.mr.end(), pairs.mr.begin());
+    pairs = d.pairs;  // the springs and slots of the saved state
+    if (!Rolling) pairs.set_rolling(false);
     state.ResumeTiming();
   }
   benchmark::DoNotOptimize(p.f.data());
@@ -221,7 +220,6 @@ void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams&
   const Index* pj = pl.j.data();
   const std::uint8_t* img = pl.image.data();
   std::uint8_t* touching = pl.touching.data();
-  Vec3* fs = pl.fs.data();
   real_t e_fric = 0;
   const std::size_t np = pl.size();
   const std::size_t n_owned = P.n_owned();
@@ -243,12 +241,14 @@ void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams&
         touching[q] = 0;
         const PairConstants c = pair_constants<false, false>(law, R[i], R[j], m[i], m[j]);
         const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-        e_fric += own_i * 0.5 * fs[q].squaredNorm() / c.ks;
-        fs[q].setZero();
+        e_fric += own_i * 0.5 * pl.spring_fs[pl.slot[q]].squaredNorm() / c.ks;
+        pl.give_slot(q);
       }
       continue;
     }
+    if (!touching[q]) pl.take_slot(q);
     touching[q] = 1;
+    Vec3& spring = pl.spring_fs[pl.slot[q]];
     const real_t dist = std::sqrt(r2);
     ContactKinematics k;
     k.n = d / dist;
@@ -259,12 +259,12 @@ void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams&
     k.vrel = v[j] - v[i] + edot.cwiseProduct(d) - (a2 * w[j] + a1 * w[i]).cross(k.n);
     const PairConstants c = pair_constants<false, false>(law, R[i], R[j], m[i], m[j]);
     ContactHistory h;
-    h.fs = fs[q];
+    h.fs = spring;
     ContactResult r;
     if constexpr (Mode == 1) r = contact_law<false, false>(law, c, k, h, dt);
     else if constexpr (Mode == 0) r = law_out_of_line(law, c, k, h, dt);
     else r = law_pointer(law, c, k, h, dt);
-    fs[q] = h.fs;
+    spring = h.fs;
     const Vec3 F = r.fn * k.n + r.fs;
     const Vec3 nxfs = k.n.cross(r.fs);
     f[j] += F;
@@ -277,29 +277,36 @@ void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams&
   diss.friction += e_fric;
 }
 
+// The shear spring of every list pair, wherever the list keeps it.
+std::vector<Vec3> shear_springs(const PairList& pl) {
+  std::vector<Vec3> s(pl.size());
+  for (std::size_t q = 0; q < pl.size(); ++q) s[q] = pl.shear_spring(q);
+  return s;
+}
+
 // bare_forces and compute_forces (features off) from the same state: bitwise the same result.
 void check_bare_equals_engine(const Dense& d) {
   const ContactLawParams law = variant_law(d.par.law, false, false);
   Particles p1 = d.p, p2 = d.p;
   PairList l1 = d.pairs, l2 = d.pairs;
-  l1.mr.clear(), l2.mr.clear();
+  l1.set_rolling(false), l2.set_rolling(false);
   WallContactList walls;  // none
   Dissipation d1, d2;
   const std::vector<Wall> no_walls;
   const ForceContext ctx{law, no_walls, Vec3::Zero(), d.par.dt};
   compute_forces(p1, d.cell, ctx, l1, walls, d1, nullptr);
   bare_forces<0>(p2, d.cell, law, d.par.dt, l2, d2);
-  const bool same = p1.f == p2.f && p1.t == p2.t && l1.fs == l2.fs && l1.touching == l2.touching &&
+  const bool same = p1.f == p2.f && p1.t == p2.t && shear_springs(l1) == shear_springs(l2) && l1.touching == l2.touching &&
                     d1.friction == d2.friction;
   std::fprintf(stderr, "bare_forces against compute_forces (mu_r = 0, no dashpots, no walls, no "
                        "measurement): %s\n", same ? "bitwise identical" : "DIFFERENT");
   if (!same) std::exit(1);
   Particles p3 = d.p;
   PairList l3 = d.pairs;
-  l3.mr.clear();
+  l3.set_rolling(false);
   Dissipation d3;
   bare_forces<1>(p3, d.cell, law, d.par.dt, l3, d3);
-  const bool same3 = p1.f == p3.f && p1.t == p3.t && l1.fs == l3.fs && d1.friction == d3.friction;
+  const bool same3 = p1.f == p3.f && p1.t == p3.t && shear_springs(l1) == shear_springs(l3) && d1.friction == d3.friction;
   std::fprintf(stderr, "bare_forces_inlined against compute_forces: %s\n",
                same3 ? "bitwise identical" : "different in the last bits (FMA contraction)");
 }
@@ -310,14 +317,14 @@ void BM_BareForces(benchmark::State& state) {
   const ContactLawParams law = variant_law(d.par.law, false, false);
   Particles p = d.p;
   PairList pairs = d.pairs;
-  pairs.mr.clear();
+  pairs.set_rolling(false);
   Dissipation diss;
   for (auto _ : state) {
     bare_forces<Mode>(p, d.cell, law, d.par.dt, pairs, diss);
     benchmark::ClobberMemory();
     state.PauseTiming();
-    std::copy(d.pairs.fs.begin(), d.pairs.fs.end(), pairs.fs.begin());
-    std::copy(d.pairs.touching.begin(), d.pairs.touching.end(), pairs.touching.begin());
+    pairs = d.pairs;
+    pairs.set_rolling(false);
     state.ResumeTiming();
   }
   benchmark::DoNotOptimize(p.f.data());

@@ -21,16 +21,69 @@ struct PairList {
   // branch vector d = x[j] + image_offset(image[p], L) - x[i].
   std::vector<Index> i, j;
   std::vector<std::uint8_t> image;
-  std::vector<std::uint8_t> touching;  // 1 while the spheres overlap (history may be non-zero)
-  std::vector<Vec3> fs;                // shear springs (N)
-  std::vector<Vec3> mr;                // rolling springs (N m); empty when mu_r = 0
+  std::vector<std::uint8_t> touching;  // 1 while the spheres overlap (the pair has springs)
+
+  // The springs of the touching pairs only (memory at large N: a list pair is 14 bytes, and
+  // only the ~45 % of pairs that touch carry the 48 bytes of springs). Touching pair q keeps
+  // its springs at slot[q] of the pools (slot[q] means nothing while q does not touch); a
+  // contact that closes takes a free slot (zeroed), one that opens gives its slot back. At a
+  // rebuild the slots are handed out afresh in list order, so the force loop reads the pools
+  // nearly in order. Which slot a contact has changes no result.
+  std::vector<Index> slot;
+  std::vector<Vec3> spring_fs;  // shear springs (N), by slot
+  std::vector<Vec3> spring_mr;  // rolling springs (N m), by slot; used only with rolling
+  std::vector<Index> free_slots;
+  bool rolling = false;         // whether spring_mr is kept (mu_r > 0)
+
+  // The springs of pair q (zero while it does not touch).
+  Vec3 shear_spring(std::size_t q) const {
+    return touching[q] ? spring_fs[slot[q]] : Vec3(Vec3::Zero());
+  }
+  Vec3 rolling_spring(std::size_t q) const {
+    return touching[q] && rolling ? spring_mr[slot[q]] : Vec3(Vec3::Zero());
+  }
+  // Gives pair q (not touching) a slot with zero springs; the caller sets touching[q].
+  void take_slot(std::size_t q) {
+    Index s;
+    if (!free_slots.empty()) {
+      s = free_slots.back();
+      free_slots.pop_back();
+      spring_fs[s].setZero();
+      if (rolling) spring_mr[s].setZero();
+    } else {
+      s = Index(spring_fs.size());
+      spring_fs.push_back(Vec3::Zero());
+      if (rolling) spring_mr.push_back(Vec3::Zero());
+    }
+    slot[q] = s;
+  }
+  // Pair q stops touching: its slot becomes free (the caller clears touching[q]).
+  void give_slot(std::size_t q) { free_slots.push_back(slot[q]); }
+  // Rolling springs kept or not from now on (a stage may switch mu_r on or off): switched on,
+  // every rolling spring starts at zero.
+  void set_rolling(bool on) {
+    rolling = on;
+    if (on) spring_mr.assign(spring_fs.size(), Vec3::Zero());
+    else std::vector<Vec3>().swap(spring_mr);
+  }
+  // After a rebuild: no pair touches yet, room for 'expected' touching pairs.
+  void reset_springs(std::size_t expected) {
+    touching.assign(size(), 0);
+    slot.assign(size(), 0);
+    spring_fs.clear();
+    spring_mr.clear();
+    free_slots.clear();
+    spring_fs.reserve(expected);
+    if (rolling) spring_mr.reserve(expected);
+  }
 
   // Work arrays of the force loop (core/forces.cpp), refilled by every call and meaningless
-  // between calls: the touching pairs of the step in list order (list index, bodies, branch
+  // between calls: the touching pairs of the step in list order (spring slot, bodies, branch
   // vector and its squared length), and the contacts that opened, each with the number of
   // touching pairs before it and the spring energy it lost [J].
   struct Work {
-    std::vector<Index> q, i, j;
+    std::vector<Index> s;
+    std::vector<Index> i, j;
     std::vector<real_t> dx, dy, dz, r2;
     struct Opening {
       std::size_t before;
@@ -38,15 +91,17 @@ struct PairList {
     };
     std::vector<Opening> openings;
     void resize(std::size_t n) {
-      if (q.size() >= n) return;
-      for (auto* v : {&q, &i, &j}) v->resize(n);
+      if (s.size() >= n) return;
+      s.resize(n);
+      for (auto* v : {&i, &j}) v->resize(n);
       for (auto* v : {&dx, &dy, &dz, &r2}) v->resize(n);
     }
   } work;
 
   std::size_t size() const { return i.size(); }
   void clear() {
-    i.clear(); j.clear(); image.clear(); touching.clear(); fs.clear(); mr.clear();
+    i.clear(); j.clear(); image.clear(); touching.clear(); slot.clear();
+    spring_fs.clear(); spring_mr.clear(); free_slots.clear();
   }
 };
 

@@ -11,7 +11,7 @@ void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
                              const std::function<void(const ContactRecord&)>& fn) {
   std::array<Vec3, 27> shift;
   for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
-  const bool rolling = law.rolling() && pairs.mr.size() == pairs.size();
+  const bool rolling = law.rolling() && pairs.rolling;
   for (std::size_t q = 0; q < pairs.size(); ++q) {
     const Index i = pairs.i[q], j = pairs.j[q];
     if (!pairs.touching[q] || std::size_t(i) >= p.n_owned()) continue;
@@ -29,11 +29,11 @@ void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
     const PairConstants k =
         pair_constants<true, false>(law, p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
     c.fn = k.kn * c.overlap;
-    c.ft = pairs.fs[q];
+    c.ft = pairs.shear_spring(q);
     const real_t cap = law.friction * c.fn;
     c.sliding = at_limit(c.ft.squaredNorm(), cap);  // the force loop's classification
     if (rolling) {
-      c.mr = pairs.mr[q];
+      c.mr = pairs.rolling_spring(q);
       c.rolling = at_limit(c.mr.squaredNorm(), law.rolling_friction * k.rbar * c.fn);
     } else {
       c.rolling = true;  // no rolling resistance: every contact rolls freely (spec section 5)

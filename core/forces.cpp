@@ -76,18 +76,16 @@ struct PairKernel {
   std::size_t next_before = kNone;  // its place (kNone: none left)
 
   // The contact of pair q (bodies i, j) opens after nc touching pairs of this block: the
-  // energy left in its springs is lost.
+  // energy left in its springs is lost, and its spring slot is given back.
   [[gnu::noinline]] void open_contact(std::size_t q, Index i, Index j, std::size_t nc) {
     const real_t* R = P.radius.data();
     const real_t* m = P.mass.data();
     const PairConstants c = pair_constants<Rolling, false>(ctx.law, R[i], R[j], m[i], m[j]);
     const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
-    PairList::Work::Opening o{nc, own_i * 0.5 * pl.fs[q].squaredNorm() / c.ks, 0.0};
-    pl.fs[q].setZero();
-    if constexpr (Rolling) {
-      o.e_rolling = own_i * 0.5 * pl.mr[q].squaredNorm() / c.kr;
-      pl.mr[q].setZero();
-    }
+    const Index s = pl.slot[q];
+    PairList::Work::Opening o{nc, own_i * 0.5 * pl.spring_fs[s].squaredNorm() / c.ks, 0.0};
+    if constexpr (Rolling) o.e_rolling = own_i * 0.5 * pl.spring_mr[s].squaredNorm() / c.kr;
+    pl.give_slot(q);
     pl.work.openings.push_back(o);
   }
 
@@ -107,7 +105,8 @@ struct PairKernel {
     // positions and radii of the pair kAhead places on. Changes no result (it paid 7 % of the
     // whole step on dense-13584 when the list was in id order, benchmarks/README.md).
     constexpr std::size_t kAhead = 8;
-    Index* wq = W.q.data();
+    Index* ws = W.s.data();
+    const Index* slot = pl.slot.data();
     Index* wi = W.i.data();
     Index* wj = W.j.data();
     real_t* wdx = W.dx.data();
@@ -135,11 +134,15 @@ struct PairKernel {
         std::uint32_t was;
         __builtin_memcpy(&was, touching + q, 4);
         const unsigned was_bits = (was & 1u) | ((was >> 7) & 2u) | ((was >> 14) & 4u) | ((was >> 21) & 8u);
-        if (was_bits & ~touch) [[unlikely]] {
+        if (was_bits != touch) [[unlikely]] {
           std::size_t before = nc;
           for (int l = 0; l < 4; ++l) {
-            if (touch >> l & 1u) ++before;
-            else if (was_bits >> l & 1u) open_contact(q + l, pi[q + l], pj[q + l], before);
+            if (touch >> l & 1u) {
+              ++before;
+              if (!(was_bits >> l & 1u)) pl.take_slot(q + l);  // a contact closes
+            } else if (was_bits >> l & 1u) {
+              open_contact(q + l, pi[q + l], pj[q + l], before);
+            }
           }
         }
         const std::uint32_t now = kTouchBytes[touch];
@@ -153,7 +156,7 @@ struct PairKernel {
           _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + nc),
                            _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(v), perm32)));
         };
-        pack_i(wq, _mm_add_epi32(_mm_set1_epi32(int(q)), _mm_setr_epi32(0, 1, 2, 3)));
+        pack_i(ws, _mm_loadu_si128(reinterpret_cast<const __m128i*>(slot + q)));
         pack_i(wi, _mm_loadu_si128(reinterpret_cast<const __m128i*>(pi + q)));
         pack_i(wj, _mm_loadu_si128(reinterpret_cast<const __m128i*>(pj + q)));
         pack_d(wdx, d.x);
@@ -180,14 +183,17 @@ struct PairKernel {
       // half the time): every pair is written to the next slot, which only a touching one
       // keeps.
       const bool touch = !(r2 >= sum_r * sum_r);
-      wq[nc] = Index(q);
+      if (touching[q] != std::uint8_t(touch)) [[unlikely]] {
+        if (touch) pl.take_slot(q);  // a contact closes
+        else open_contact(q, i, j, nc);
+      }
+      ws[nc] = slot[q];
       wi[nc] = i;
       wj[nc] = j;
       wdx[nc] = d[0];
       wdy[nc] = d[1];
       wdz[nc] = d[2];
       wr2[nc] = r2;
-      if (touching[q] > touch) [[unlikely]] open_contact(q, i, j, nc);
       touching[q] = touch;
       nc += touch;
     }
@@ -214,7 +220,7 @@ struct PairKernel {
     const PairList::Work& W = pl.work;
     const Index* ci = W.i.data() + c;
     const Index* cj = W.j.data() + c;
-    const Index* cq = W.q.data() + c;
+    const Index* cs = W.s.data() + c;
     const real_t* R = P.radius.data();
     const V3<T> d{load<T>(W.dx.data() + c), load<T>(W.dy.data() + c), load<T>(W.dz.data() + c)};
     const T r2 = load<T>(W.r2.data() + c);
@@ -256,11 +262,11 @@ struct PairKernel {
       pc.cs = law.damping_rate_s * meff + 2.0 * law.damping_ratio_s * simd::sqrt(meff * pc.ks);
     }
     ContactHistoryL<T> h;
-    h.fs = gather3<T>(pl.fs.data(), cq);
-    if constexpr (Rolling) h.mr = gather3<T>(pl.mr.data(), cq);
+    h.fs = gather3<T>(pl.spring_fs.data(), cs);
+    if constexpr (Rolling) h.mr = gather3<T>(pl.spring_mr.data(), cs);
     const ContactResultL<T> r = contact_law_l<Rolling, Viscous>(law, pc, k, h, dt);
-    scatter3(pl.fs.data(), cq, h.fs);
-    if constexpr (Rolling) scatter3(pl.mr.data(), cq, h.mr);
+    scatter3(pl.spring_fs.data(), cs, h.fs);
+    if constexpr (Rolling) scatter3(pl.spring_mr.data(), cs, h.mr);
 
     const V3<T> F = r.fn * k.n + r.fs;  // on j
     const V3<T> nxfs = cross(k.n, r.fs);
@@ -351,7 +357,7 @@ struct PairKernel {
         for (; c < nc; ++c) contacts<real_t>(c);
       // Carry contacts [c, nc) and the openings not booked yet to the front.
       for (std::size_t k = c; k < nc; ++k) {
-        W.q[k - c] = W.q[k], W.i[k - c] = W.i[k], W.j[k - c] = W.j[k];
+        W.s[k - c] = W.s[k], W.i[k - c] = W.i[k], W.j[k - c] = W.j[k];
         W.dx[k - c] = W.dx[k], W.dy[k - c] = W.dy[k], W.dz[k - c] = W.dz[k], W.r2[k - c] = W.r2[k];
       }
       W.openings.erase(W.openings.begin(), W.openings.begin() + std::ptrdiff_t(next_opening));

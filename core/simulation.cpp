@@ -205,10 +205,10 @@ void Simulation::set_law(const ContactLawParams& law) {
   const bool had_rolling = par_.rolling();
   par_.law = law;
   if (par_.rolling() && !had_rolling) {
-    pairs_.mr.assign(pairs_.size(), Vec3::Zero());
+    pairs_.set_rolling(true);
     walls_.mr.assign(walls_.size(), Vec3::Zero());
   } else if (!par_.rolling()) {
-    pairs_.mr.clear();
+    pairs_.set_rolling(false);
     walls_.mr.clear();
   }
 }
@@ -289,6 +289,8 @@ void Simulation::set_overlap_guard(real_t max_ratio) {
 void Simulation::rebuild() {
   if (guard_.empty()) check_cell_still_fits();
   const bool rolling = par_.rolling();
+  // The displacement reference is made anew at the end: free it for the rebuild's peak.
+  std::vector<Vec3>().swap(s_ref_);
   // 1. Keep the springs of touching contacts, keyed by global ids (local indices change).
   std::size_t touching = 0;
   for (std::uint8_t t : pairs_.touching) touching += t;
@@ -297,7 +299,7 @@ void Simulation::rebuild() {
   for (std::size_t q = 0; q < pairs_.size(); ++q)
     if (pairs_.touching[q])
       carry_.insert(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
-                    {pairs_.fs[q], rolling ? pairs_.mr[q] : Vec3::Zero()});
+                    {pairs_.shear_spring(q), rolling ? pairs_.rolling_spring(q) : Vec3::Zero()});
   for (std::size_t q = 0; q < walls_.size(); ++q)
     if (walls_.touching[q])
       carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
@@ -362,15 +364,17 @@ void Simulation::rebuild_lists() {
   // 3. New lists, with the kept springs attached.
   search_.build(p_, cell_, par_.skin, pairs_);
   const std::size_t np = pairs_.size();
-  pairs_.touching.assign(np, 0);
-  pairs_.fs.assign(np, Vec3::Zero());
-  if (rolling) pairs_.mr.assign(np, Vec3::Zero()); else pairs_.mr.clear();
+  // Springs for the touching pairs, in list order; room for contacts that close before the
+  // next rebuild (the pools grow if they are more).
+  pairs_.rolling = rolling;
+  pairs_.reset_springs(carry_.size() + carry_.size() / 16 + 64);
   if (carry_.size() != 0) {
     for (std::size_t q = 0; q < np; ++q)
       if (const ContactHistory* h = carry_.find(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]])) {
         pairs_.touching[q] = 1;
-        pairs_.fs[q] = h->fs;
-        if (rolling) pairs_.mr[q] = h->mr;
+        pairs_.take_slot(q);
+        pairs_.spring_fs[pairs_.slot[q]] = h->fs;
+        if (rolling) pairs_.spring_mr[pairs_.slot[q]] = h->mr;
       }
   }
   NeighborSearch::build_walls(p_, par_.walls, par_.skin, walls_);

@@ -193,7 +193,7 @@ class Simulation {
     for (std::size_t q = 0; q < pairs_.size(); ++q)
       if (pairs_.touching[q] && std::size_t(pairs_.i[q]) < p_.n_owned())
         fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
-           ContactHistory{pairs_.fs[q], rolling ? pairs_.mr[q] : Vec3::Zero()});
+           ContactHistory{pairs_.shear_spring(q), rolling ? pairs_.rolling_spring(q) : Vec3::Zero()});
     for (std::size_t q = 0; q < walls_.size(); ++q)
       if (walls_.touching[q])
         fn(p_.id[walls_.i[q]], GlobalId(-1 - walls_.wall[q]),
@@ -218,7 +218,7 @@ class Simulation {
         if (!pairs_.touching[q] || std::size_t(pairs_.i[q]) >= p_.n_owned()) continue;
         if (at.k++ >= first)
           fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
-             ContactHistory{pairs_.fs[q], rolling ? pairs_.mr[q] : Vec3::Zero()});
+             ContactHistory{pairs_.shear_spring(q), rolling ? pairs_.rolling_spring(q) : Vec3::Zero()});
       } else {
         const std::size_t w = q - np;
         if (!walls_.touching[w]) continue;

@@ -176,8 +176,8 @@ TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
     for (std::size_t c = 0; c < s.pairs().size(); ++c) {
       const auto i = s.pairs().i[c], j = s.pairs().j[c];
       if (std::size_t(i) < q.n_owned() && q.id[i] == 3 && q.id[j] == 7 && s.pairs().touching[c]) {
-        fs = s.pairs().fs[c];
-        mr = s.pairs().mr[c];
+        fs = s.pairs().shear_spring(c);
+        mr = s.pairs().rolling_spring(c);
         return 1;
       }
     }

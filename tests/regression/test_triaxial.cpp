@@ -351,7 +351,7 @@ Mat3 love_weber_sum(const Simulation& sim, const ContactLawParams& law, double& 
     contacts += 1;
     const real_t r = std::min(Ri, Rj);
     const real_t kn = std::numbers::pi * r * r * law.youngs_modulus / (Ri + Rj);
-    fb += (kn * (Ri + Rj - dist) * (d / dist) + pl.fs[q]) * d.transpose();
+    fb += (kn * (Ri + Rj - dist) * (d / dist) + pl.shear_spring(q)) * d.transpose();
   }
   return fb;
 }
@@ -381,7 +381,7 @@ TEST(Triaxial, ServoStressIsLoveWeberStress) {
     std::map<std::pair<GlobalId, GlobalId>, Vec3> spring;
     const PairList& pl = sim.pairs();
     for (std::size_t q = 0; q < pl.size(); ++q)
-      if (pl.touching[q]) spring[{P.id[pl.i[q]], P.id[pl.j[q]]}] = pl.fs[q];
+      if (pl.touching[q]) spring[{P.id[pl.i[q]], P.id[pl.j[q]]}] = pl.shear_spring(q);
     Mat3 fb = Mat3::Zero();
     std::int64_t contacts = 0;
     for (std::size_t a = 0; a < P.n_owned(); ++a)

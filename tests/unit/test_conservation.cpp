@@ -236,14 +236,14 @@ TEST(Conservation, ConstructionDoesNotAdvanceContactHistory) {
                                   {Wall{Vec3(0, 0, 0.5 - R + 1e-4), Vec3::UnitZ(), Vec3::Zero(), false, {}}});
   ASSERT_EQ(sim.pairs().size(), 1u);
   ASSERT_EQ(sim.wall_contacts().size(), 1u);
-  EXPECT_TRUE(sim.pairs().fs[0].isZero(0));
-  EXPECT_TRUE(sim.pairs().mr[0].isZero(0));
+  EXPECT_TRUE(sim.pairs().shear_spring(0).isZero(0));
+  EXPECT_TRUE(sim.pairs().rolling_spring(0).isZero(0));
   EXPECT_TRUE(sim.wall_contacts().fs[0].isZero(0));
   EXPECT_TRUE(sim.wall_contacts().mr[0].isZero(0));
   EXPECT_EQ(sim.dissipation().friction + sim.dissipation().rolling + sim.dissipation().viscous, 0.0);
   // One step later the shear spring holds exactly one increment -k_s v_t(t + dt/2) dt.
   sim.step();
-  EXPECT_GT(sim.pairs().fs[0].norm(), 0.0);
+  EXPECT_GT(sim.pairs().shear_spring(0).norm(), 0.0);
 }
 
 }  // namespace

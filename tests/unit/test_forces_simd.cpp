@@ -177,8 +177,14 @@ void run_case(const ContactLawParams& law, const char* label) {
   EXPECT_TRUE(same_bits(p1.t, p4.t)) << label;
   const PairList &l1 = s1.pairs(), &l4 = s4.pairs();
   EXPECT_TRUE(l1.i == l4.i && l1.j == l4.j && l1.touching == l4.touching) << label;
-  EXPECT_TRUE(same_bits(l1.fs, l4.fs)) << label;
-  EXPECT_TRUE(same_bits(l1.mr, l4.mr)) << label;
+  // The springs of every list pair, wherever the pools keep them.
+  auto springs = [](const PairList& l, bool rolling) {
+    std::vector<Vec3> s(l.size());
+    for (std::size_t q = 0; q < l.size(); ++q) s[q] = rolling ? l.rolling_spring(q) : l.shear_spring(q);
+    return s;
+  };
+  EXPECT_TRUE(same_bits(springs(l1, false), springs(l4, false))) << label;
+  EXPECT_TRUE(same_bits(springs(l1, true), springs(l4, true))) << label;
   const MacroState &m1 = s1.macro(), &m4 = s4.macro();
   EXPECT_EQ(m1.dissipated.friction, m4.dissipated.friction) << label;
   EXPECT_EQ(m1.dissipated.rolling, m4.dissipated.rolling) << label;
@@ -196,9 +202,10 @@ void run_case(const ContactLawParams& law, const char* label) {
   EXPECT_GT(s1.rebuild_count(), 1) << label;
   if (law.rolling()) {
     EXPECT_GT(m1.dissipated.rolling, 0.0) << label;
-    EXPECT_EQ(l1.mr.size(), l1.size()) << label;
+    EXPECT_TRUE(l1.rolling) << label;
+    EXPECT_EQ(l1.spring_mr.size(), l1.spring_fs.size()) << label;
   } else {
-    EXPECT_TRUE(l1.mr.empty()) << label;  // mu_r = 0: no rolling springs at all
+    EXPECT_TRUE(!l1.rolling && l1.spring_mr.empty()) << label;  // mu_r = 0: no rolling springs at all
   }
   if (law.viscous()) EXPECT_GT(m1.dissipated.viscous, 0.0) << label;
 }
@@ -220,6 +227,84 @@ TEST(ForcesSimd, RunBitwiseDirectStiffness) {
   ContactLawParams law = test::direct_law(2e5, 0.4, 0.05, 1.25);
   law.damping_rate_n = 50.0;
   run_case(law, "direct stiffness, rolling, mass-proportional dashpot");
+}
+
+// The springs live in pools by slot (core/contact_list.hpp): a slot given back is handed out
+// again with zero springs, and a pair that does not touch reads zero springs.
+TEST(ForcesSimd, SpringSlotIsReusedZeroed) {
+  PairList pl;
+  pl.i = {0, 0};
+  pl.j = {1, 2};
+  pl.image = {kNoImage, kNoImage};
+  pl.rolling = true;
+  pl.reset_springs(0);
+  pl.take_slot(0);
+  pl.touching[0] = 1;
+  pl.spring_fs[pl.slot[0]] = Vec3(1, 2, 3);
+  pl.spring_mr[pl.slot[0]] = Vec3(4, 5, 6);
+  EXPECT_EQ(pl.shear_spring(0), Vec3(1, 2, 3));
+  EXPECT_EQ(pl.rolling_spring(0), Vec3(4, 5, 6));
+  pl.give_slot(0);
+  pl.touching[0] = 0;
+  EXPECT_EQ(pl.shear_spring(0), Vec3::Zero());
+  pl.take_slot(1);
+  pl.touching[1] = 1;
+  EXPECT_EQ(pl.slot[1], 0);  // the slot of pair 0, taken again
+  EXPECT_EQ(pl.spring_fs.size(), 1u);
+  EXPECT_EQ(pl.shear_spring(1), Vec3::Zero());
+  EXPECT_EQ(pl.rolling_spring(1), Vec3::Zero());
+}
+
+// Over a run in which contacts keep closing and opening, with rebuilds, after every step: each
+// touching pair has its own slot, and the touching pairs' slots and the free slots are every
+// slot of the pools exactly once (no slot shared, none lost); right after a rebuild the pools
+// hold the touching pairs only.
+TEST(ForcesSimd, SpringSlotsFollowTheTouchingPairs) {
+  for (int lanes : {1, 4}) {
+    Simulation sim = dense_sim(law_of(true, true), lanes);
+    std::int64_t rebuilds = sim.rebuild_count(), reused = 0, opened_and_closed = 0;
+    std::size_t free_before = 0, most_pool = 0, pairs_then = 0, after_rebuild = 0;
+    for (int k = 1; k <= 400; ++k) {
+      sim.step(false);
+      const PairList& pl = sim.pairs();
+      const std::size_t n = pl.spring_fs.size();
+      ASSERT_EQ(pl.spring_mr.size(), n) << "lanes " << lanes << " step " << k;
+      std::vector<int> use(n, 0);
+      std::size_t touching = 0;
+      for (std::size_t q = 0; q < pl.size(); ++q) {
+        if (!pl.touching[q]) continue;
+        ++touching;
+        ASSERT_TRUE(pl.slot[q] >= 0 && std::size_t(pl.slot[q]) < n) << "step " << k;
+        ++use[std::size_t(pl.slot[q])];
+      }
+      for (Index s : pl.free_slots) {
+        ASSERT_TRUE(s >= 0 && std::size_t(s) < n) << "step " << k;
+        ++use[std::size_t(s)];
+      }
+      for (std::size_t s = 0; s < n; ++s)
+        ASSERT_EQ(use[s], 1) << "lanes " << lanes << " step " << k << " slot " << s;
+      if (sim.rebuild_count() != rebuilds) {
+        rebuilds = sim.rebuild_count();
+        // The rebuild handed out the slots afresh: the only free ones are those of the
+        // contacts that opened in this step's force loop, a few.
+        EXPECT_LE(pl.free_slots.size(), touching / 20) << "lanes " << lanes << " step " << k;
+        after_rebuild = std::max(after_rebuild, pl.free_slots.size());
+      } else {
+        if (pl.free_slots.size() < free_before) ++reused;
+        if (pl.free_slots.size() != free_before) ++opened_and_closed;
+      }
+      free_before = pl.free_slots.size();
+      if (n > most_pool) most_pool = n, pairs_then = pl.size();
+    }
+    std::printf("[spring slots] lanes %d: %lld rebuilds, free slots taken again in %lld steps, the "
+                "pools at most %zu slots for %zu list pairs, at most %zu free slots right after a rebuild\n",
+                lanes, (long long)sim.rebuild_count(), (long long)reused, most_pool, pairs_then,
+                after_rebuild);
+    EXPECT_GT(sim.rebuild_count(), 1);
+    EXPECT_GT(reused, 10) << "lanes " << lanes;  // the test saw slots given back and taken again
+    EXPECT_GT(opened_and_closed, 10) << "lanes " << lanes;
+    EXPECT_LT(most_pool, pairs_then) << "lanes " << lanes;  // springs for fewer than all pairs
+  }
 }
 
 }  // namespace

@@ -250,7 +250,7 @@ TEST(Neighbor, RebuildCarriesContactHistory) {
     const Particles& q = sim.particles();
     for (std::size_t k = 0; k < sim.pairs().size(); ++k)
       if (sim.pairs().touching[k])
-        h[{q.id[sim.pairs().i[k]], q.id[sim.pairs().j[k]]}] = {sim.pairs().fs[k], sim.pairs().mr[k]};
+        h[{q.id[sim.pairs().i[k]], q.id[sim.pairs().j[k]]}] = {sim.pairs().shear_spring(k), sim.pairs().rolling_spring(k)};
     return h;
   };
   const auto h0 = history();

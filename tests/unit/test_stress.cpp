@@ -128,9 +128,9 @@ TEST(Stress, LoveWeberWithShearForcesFromRawContacts) {
     const Vec3 d = sim.cell().minimum_image(q.x[j] - q.x[i]);
     const real_t un = q.radius[i] + q.radius[j] - d.norm();
     if (un <= 0) continue;
-    const Vec3 f = kn * un * d.normalized() + pl.fs[k];
+    const Vec3 f = kn * un * d.normalized() + pl.shear_spring(k);
     fb += f * d.transpose();
-    shear = std::max(shear, pl.fs[k].norm() / (kn * un));
+    shear = std::max(shear, pl.shear_spring(k).norm() / (kn * un));
   }
   const Mat3 sigma = fb / sim.cell().volume();
   const MacroState m = sim.macro();
@@ -183,7 +183,7 @@ TEST(Stress, AffineRelativeVelocityLoadsTheShearSpring) {
   const Vec3 d = q.x[b] - q.x[a];
   const Vec3 va = Vec3(e, -e, 0).cwiseProduct(d);
   const Vec3 expected = -kn * (va - va.dot(d.normalized()) * d.normalized()) * dt;
-  const Vec3 fs = sim.pairs().fs[0];
+  const Vec3 fs = sim.pairs().shear_spring(0);
   std::printf("[kinematics] affine shear increment: |f_s| = %.6e N, expected %.6e N, rel err %.2e\n",
               fs.norm(), expected.norm(), (fs - expected).norm() / expected.norm());
   EXPECT_LT((fs - expected).norm(), 1e-6 * expected.norm());
