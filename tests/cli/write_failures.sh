@@ -30,6 +30,9 @@ fail() { echo "FAIL: $*"; exit 1; }
 check_one() {  # check_one LABEL OUTDIR LOG RC
   local label=$1 out=$2 log=$3 rc=$4
   [ "$rc" -ne 124 ] || fail "$label: no exit within $timeout s (a hang)"
+  # The sanitizer build: a report in the failed run's log fails the test (the log is not shown).
+  ! grep -Eq "ERROR: (Address|Leak)Sanitizer|: runtime error: " "$log" ||
+    { grep -E -A30 "ERROR: (Address|Leak)Sanitizer|: runtime error: " "$log"; fail "$label: a sanitizer report"; }
   [ "$rc" -ne 0 ] || { tail -5 "$log"; fail "$label: exit 0 although the output could not be written"; }
   grep -Eq "fabrica: error.*(${out//\//\\/}|$(basename "$out")).*cannot" "$log" ||
     { tail -20 "$log"; fail "$label: no message naming a file of $out and the cause"; }
