@@ -7,13 +7,14 @@
 #                 whole output; needs mount (root): exit 77 (skipped) when mount is refused.
 #   KIND ulimit:  a file-size limit (ulimit -f, KB) of each size in $SIZES.
 #   KIND readonly: the output directory is read-only (a read-only tmpfs as root, chmod otherwise).
-# For each size: exit non-zero within $TIMEOUT s (default 120; 124 = a hang), stderr names a file
+# For each size: exit non-zero within $TIMEOUT s (default 120, times FABRICA_TEST_TIME_FACTOR
+# where the sanitizer build sets it; 124 = a hang), stderr names a file
 # of the output directory and "cannot"; if the run said it wrote a checkpoint, OUT/checkpoint.ckpt
 # is complete (fabrica checkpoint-info reads it, checksum included) and is the last one announced.
 set -u
 kind=$1 work=$2 scene=$3; shift 3
 fabrica=${FABRICA:-${@: -1}}  # the executable (the last word of CMD), for checkpoint-info
-timeout=${TIMEOUT:-120}
+timeout=${TIMEOUT:-$((120 * ${FABRICA_TEST_TIME_FACTOR:-1}))}
 # Mounts left by an earlier, interrupted run of this test go first.
 for m in "$work"/mnt-* "$work"/ro; do mountpoint -q "$m" 2>/dev/null && { umount "$m" || umount -l "$m"; }; done
 rm -rf "$work"; mkdir -p "$work"
