@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # kill_during_output.sh FABRICA SCENE OUT SECONDS [NP]: starts a run that writes a snapshot every
-# 50 steps, waits until run.xmf lists 3 flushed snapshots (at most 60 s), lets it run SECONDS
+# 50 steps, waits until run.xmf lists 3 flushed snapshots (at most 60 s, times
+# FABRICA_TEST_TIME_FACTOR where the sanitizer build sets it), lets it run SECONDS
 # more and kills it with SIGKILL (with NP > 1 the job is started under mpirun on NP ranks and
 # its ranks are killed too). Then `fabrica info` must read the file and list at least the 3
 # snapshots.
@@ -13,7 +14,7 @@ else
   "$fabrica" run "$scene" -o "$out" >/dev/null 2>&1 &
 fi
 pid=$!
-for _ in $(seq 1 600); do
+for _ in $(seq 1 $((600 * ${FABRICA_TEST_TIME_FACTOR:-1}))); do
   [ "$(grep -c '<Time ' "$out/run.xmf" 2>/dev/null)" -ge 3 ] 2>/dev/null && break
   kill -0 $pid 2>/dev/null || break
   sleep 0.1

@@ -27,7 +27,8 @@ pid=$!
 # The processes of the run: the launcher and its descendants (Open MPI puts each rank in a
 # process group of its own, so the ranks are found by parent).
 descendants() { local c; for c in $(pgrep -P "$1"); do descendants "$c"; echo "$c"; done; }
-for _ in $(seq 1 1200); do
+# At most 60 s (times FABRICA_TEST_TIME_FACTOR, set by the sanitizer build: tests/CMakeLists.txt).
+for _ in $(seq 1 $((1200 * ${FABRICA_TEST_TIME_FACTOR:-1}))); do
   grep -Eq -- "$pattern" "$work/killed.log" && break
   kill -0 $pid 2>/dev/null || break
   sleep 0.05

@@ -7,13 +7,14 @@
 #                 whole output; needs mount (root): exit 77 (skipped) when mount is refused.
 #   KIND ulimit:  a file-size limit (ulimit -f, KB) of each size in $SIZES.
 #   KIND readonly: the output directory is read-only (a read-only tmpfs as root, chmod otherwise).
-# For each size: exit non-zero within $TIMEOUT s (default 120; 124 = a hang), stderr names a file
+# For each size: exit non-zero within $TIMEOUT s (default 120, times FABRICA_TEST_TIME_FACTOR
+# where the sanitizer build sets it; 124 = a hang), stderr names a file
 # of the output directory and "cannot"; if the run said it wrote a checkpoint, OUT/checkpoint.ckpt
 # is complete (fabrica checkpoint-info reads it, checksum included) and is the last one announced.
 set -u
 kind=$1 work=$2 scene=$3; shift 3
 fabrica=${FABRICA:-${@: -1}}  # the executable (the last word of CMD), for checkpoint-info
-timeout=${TIMEOUT:-120}
+timeout=${TIMEOUT:-$((120 * ${FABRICA_TEST_TIME_FACTOR:-1}))}
 # Mounts left by an earlier, interrupted run of this test go first.
 for m in "$work"/mnt-* "$work"/ro; do mountpoint -q "$m" 2>/dev/null && { umount "$m" || umount -l "$m"; }; done
 rm -rf "$work"; mkdir -p "$work"
@@ -30,6 +31,9 @@ fail() { echo "FAIL: $*"; exit 1; }
 check_one() {  # check_one LABEL OUTDIR LOG RC
   local label=$1 out=$2 log=$3 rc=$4
   [ "$rc" -ne 124 ] || fail "$label: no exit within $timeout s (a hang)"
+  # The sanitizer build: a report in the failed run's log fails the test (the log is not shown).
+  ! grep -Eq "ERROR: (Address|Leak)Sanitizer|: runtime error: " "$log" ||
+    { grep -E -A30 "ERROR: (Address|Leak)Sanitizer|: runtime error: " "$log"; fail "$label: a sanitizer report"; }
   [ "$rc" -ne 0 ] || { tail -5 "$log"; fail "$label: exit 0 although the output could not be written"; }
   grep -Eq "fabrica: error.*(${out//\//\\/}|$(basename "$out")).*cannot" "$log" ||
     { tail -20 "$log"; fail "$label: no message naming a file of $out and the cause"; }
