@@ -2,8 +2,9 @@
 //
 //   mpirun -np P bench_scaling strong|weak [REPS=3] [STEPS=2000] [SCENE=dense-13584.toml] [CUT]
 //
-// strong: the scene's spheres (by default the 13,584 of dense-13584) on P ranks. weak: P copies of the packing stacked along its long
-// axis (13,584 spheres per rank; the Cartesian decomposition gives each rank one copy's worth).
+// strong: the scene's spheres (by default the 13,584 of dense-13584) on P ranks, set up as a run
+// sets them up (each rank reads only its share). weak: P copies of the packing stacked along its
+// long axis (13,584 spheres per rank; the Cartesian decomposition gives each rank one copy's worth).
 // Each repetition builds a fresh Simulation (outside the timer) and times the step loop; the
 // time is the slowest rank's. One rank runs the serial code (no MPI domain), as a user's
 // one-rank run does. Per phase: the slowest rank's seconds per step. Bytes: sent by all ranks
@@ -16,6 +17,7 @@
 #include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
 #include "io/scene.hpp"
+#include "io/distributed_setup.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
@@ -82,8 +84,13 @@ int main(int argc, char** argv) {
   }
   MpiDomainOptions options;
   options.balance_work = cut == "work";
-  Setup setup = replicate(make_setup(scene), mode == "weak" ? mpi.size() : 1);
-  const double n = double(setup.particles.n_owned());
+  // strong: the run's own set-up (make_run_setup: on several ranks each reads or makes only
+  // its share, as `mpirun fabrica run` does, so the peak memory per rank is a run's); weak: the
+  // whole packing on every rank, copied P times (13,584 spheres per rank by default).
+  Setup setup = mode == "weak" ? replicate(make_setup(scene), mpi.size())
+                               : make_run_setup(scene, comm, options);
+  const double n = setup.holding == Holding::Share ? sum_all(comm, double(setup.particles.n_owned()))
+                                                   : double(setup.particles.n_owned());
   std::vector<double> us;
   PhaseTimes ph;
   double bytes_per_step = 0, rebuilds = 0, pair_imbalance = 1;
@@ -93,7 +100,7 @@ int main(int argc, char** argv) {
     if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(comm, options);
     // The last repetition takes the particles over (no copy held: peak memory as in a run).
     Simulation sim(rep + 1 < reps ? Particles(setup.particles) : std::move(setup.particles),
-                   setup.cell, setup.params, domain.get());
+                   setup.cell, setup.params, domain.get(), setup.holding);
     sim.enable_phase_timers(true);
     const std::int64_t r0 = sim.rebuild_count();
     const DomainStats st0 = domain ? domain->stats() : DomainStats{};

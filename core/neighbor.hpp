@@ -42,13 +42,8 @@ class NeighborSearch {
   std::vector<Index> cell_start_, cell_items_; // counting-sort buffers
   std::vector<Index> tmp_i_, tmp_j_;
   std::vector<std::uint8_t> tmp_img_;
-  struct SortItem {
-    std::uint64_t key;  // place of i << 32 | place of j
-    std::uint32_t q;
-  };
-  std::vector<std::uint32_t> rank_;
+  std::vector<std::uint32_t> rank_;  // place of each particle in the space-filling-curve order
   std::size_t last_pairs_ = 0;  // pairs found by the previous build
-  std::vector<SortItem> sort_;
 };
 
 // Reference: every pair within R_i + R_j + skin by testing all N^2/2 pairs (minimum image),

@@ -291,15 +291,16 @@ void Simulation::rebuild() {
   const bool rolling = par_.rolling();
   // The displacement reference is made anew at the end: free it for the rebuild's peak.
   std::vector<Vec3>().swap(s_ref_);
-  // 1. Keep the springs of touching contacts, keyed by global ids (local indices change).
+  // 1. Keep the springs of touching contacts, keyed by global ids (local indices change): the
+  //    carry takes the list's spring pools over and keys the slots of the touching pairs.
   std::size_t touching = 0;
   for (std::uint8_t t : pairs_.touching) touching += t;
   for (std::uint8_t t : walls_.touching) touching += t;
-  carry_.reset(touching);
+  carry_.adopt_pools(std::move(pairs_.spring_fs), std::move(pairs_.spring_mr),
+                     rolling && pairs_.rolling, touching);
   for (std::size_t q = 0; q < pairs_.size(); ++q)
     if (pairs_.touching[q])
-      carry_.insert(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
-                    {pairs_.shear_spring(q), rolling ? pairs_.rolling_spring(q) : Vec3::Zero()});
+      carry_.insert_slot(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]], std::uint32_t(pairs_.slot[q]));
   for (std::size_t q = 0; q < walls_.size(); ++q)
     if (walls_.touching[q])
       carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
@@ -317,6 +318,53 @@ void Simulation::rebuild() {
   pairs_ = PairList();
   walls_ = WallContactList();
   rebuild_lists();
+}
+
+// The carried springs go to the new pair list, their slots renumbered in list order so that the
+// force loop reads the pools nearly in order: the carry's pools are permuted in place (no second
+// copy of the springs at the rebuild's peak) and become the list's; the slots no touching pair
+// takes (contacts that opened, the walls', those of particles gone to other ranks) are dropped.
+void Simulation::attach_springs() {
+  const bool rolling = par_.rolling();
+  const std::size_t np = pairs_.size();
+  const std::size_t m = carry_.pool_size();
+  const bool had_rolling = carry_.rolling();
+  pairs_.rolling = rolling;
+  pairs_.touching.assign(np, 0);
+  pairs_.slot.assign(np, 0);
+  pairs_.free_slots.clear();
+  std::vector<std::uint32_t> dest(m, HistoryMap::kNone);  // new slot of each carried slot
+  std::uint32_t used = 0;
+  if (carry_.size() != 0)
+    for (std::size_t q = 0; q < np; ++q)
+      if (const std::uint32_t s = carry_.find_slot(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]]);
+          s != HistoryMap::kNone) {
+        pairs_.touching[q] = 1;
+        pairs_.slot[q] = Index(used);
+        dest[s] = used++;
+      }
+  std::vector<Vec3>& fs = pairs_.spring_fs;
+  std::vector<Vec3>& mr = pairs_.spring_mr;
+  carry_.take_pools(fs, mr);
+  // The unused slots after the used ones, then the permutation applied by cycles: each swap
+  // puts one spring in its final place.
+  for (std::uint32_t s = 0, next = used; s < m; ++s)
+    if (dest[s] == HistoryMap::kNone) dest[s] = next++;
+  const bool move_mr = had_rolling && rolling;
+  for (std::size_t s = 0; s < m; ++s)
+    while (dest[s] != s) {
+      const std::uint32_t d = dest[s];
+      std::swap(fs[s], fs[d]);
+      if (move_mr) std::swap(mr[s], mr[d]);
+      std::swap(dest[s], dest[d]);
+    }
+  fs.resize(used);
+  if (rolling) mr.resize(used, Vec3::Zero());  // zero if rolling was off in the old list
+  else std::vector<Vec3>().swap(mr);
+  // Room for contacts that close before the next rebuild (the pools grow if they are more).
+  const std::size_t room = std::size_t(used) + used / 16 + 64;
+  fs.reserve(room);
+  if (rolling) mr.reserve(room);
 }
 
 void Simulation::check_cell_still_fits() {
@@ -361,34 +409,23 @@ void Simulation::rebuild_lists() {
     last_migrate_seconds_ = std::chrono::duration<double>(t1 - t0).count() +
                             std::chrono::duration<double>(clock::now() - t2).count();
 
-  // 3. New lists, with the kept springs attached.
-  search_.build(p_, cell_, par_.skin, pairs_);
-  const std::size_t np = pairs_.size();
-  // Springs for the touching pairs, in list order; room for contacts that close before the
-  // next rebuild (the pools grow if they are more).
-  pairs_.rolling = rolling;
-  pairs_.reset_springs(carry_.size() + carry_.size() / 16 + 64);
-  if (carry_.size() != 0) {
-    for (std::size_t q = 0; q < np; ++q)
-      if (const ContactHistory* h = carry_.find(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]])) {
-        pairs_.touching[q] = 1;
-        pairs_.take_slot(q);
-        pairs_.spring_fs[pairs_.slot[q]] = h->fs;
-        if (rolling) pairs_.spring_mr[pairs_.slot[q]] = h->mr;
-      }
-  }
+  // 3. New lists, with the kept springs attached. The walls' first: they copy their springs
+  //    out of the carry, whose pools then become the pairs'.
   NeighborSearch::build_walls(p_, par_.walls, par_.skin, walls_);
   const std::size_t nw = walls_.size();
   walls_.touching.assign(nw, 0);
   walls_.fs.assign(nw, Vec3::Zero());
   if (rolling) walls_.mr.assign(nw, Vec3::Zero()); else walls_.mr.clear();
   for (std::size_t q = 0; q < nw; ++q)
-    if (const ContactHistory* h = carry_.find(p_.id[walls_.i[q]], -1 - walls_.wall[q])) {
+    if (const std::uint32_t s = carry_.find_slot(p_.id[walls_.i[q]], -1 - walls_.wall[q]);
+        s != HistoryMap::kNone) {
+      const ContactHistory h = carry_.at(s);
       walls_.touching[q] = 1;
-      walls_.fs[q] = h->fs;
-      if (rolling) walls_.mr[q] = h->mr;
+      walls_.fs[q] = h.fs;
+      if (rolling) walls_.mr[q] = h.mr;
     }
-
+  search_.build(p_, cell_, par_.skin, pairs_);
+  attach_springs();
   carry_.release();  // attached: the springs live in the lists until the next rebuild
 
   // 4. Reference for the displacement criterion.

@@ -255,6 +255,8 @@ class Simulation {
   void account_step(const Vec3& strain_increment, const Vec3& stress_end);
   // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
   void rebuild_lists();
+  // Part of step 3: the carried springs into the new pair list (slots in list order).
+  void attach_springs();
   // Sets the driven particles' velocity and spin after a half-kick of dt_half; returns the work
   // of the force that holds them over it (local): -(f . v + t . w) dt_half, f and t the force
   // and torque of the half-kick (contacts and gravity), v and w the prescribed motion.
