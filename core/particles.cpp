@@ -13,6 +13,10 @@ void Particles::reserve(std::size_t n) {
   id.reserve(n);
 }
 
+void Particles::reserve_more(std::size_t n) {
+  if (size() + n > capacity()) reserve(size() + n + n / 8);
+}
+
 void Particles::resize(std::size_t n) {
   for (auto* a : {&x, &v, &w, &f, &t}) a->resize(n, Vec3::Zero());
   for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) a->resize(n, 0.0);

@@ -45,6 +45,11 @@ class Particles {
   std::size_t append_owned(std::size_t n);
   std::size_t append_ghosts(std::size_t n);
   void reserve(std::size_t n);
+  // Room for n more particles (ghosts about to arrive) in one reallocation, with an eighth of n
+  // to spare for the next rebuild; nothing if there is room. Appending without it grows each
+  // array by doubling: at 869,376 spheres on 2 ranks, 73 MB of spare capacity per rank.
+  void reserve_more(std::size_t n);
+  std::size_t capacity() const { return id.capacity(); }
   // Density scaling: every mass and moment of inertia (ghosts included) times f, inverses
   // recomputed.
   void scale_density(real_t f);

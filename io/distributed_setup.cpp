@@ -194,9 +194,11 @@ DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int r
       }
     }
   });
-  piece = {};
+  // Freed, not only emptied (a moved-from or cleared std::string may keep its buffer).
+  std::string().swap(piece.text);
+  std::vector<std::size_t>().swap(piece.starts);
   in = exchange_all(comm, to_dir);
-  to_dir = {};
+  std::vector<std::vector<char>>().swap(to_dir);
   // The directory: every id once, every velocity for an atom; the counts over all ranks.
   std::vector<AtomLine> atoms;
   std::vector<MotionLine> motions;

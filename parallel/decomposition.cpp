@@ -88,12 +88,16 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff)
   return d;
 }
 
-Decomposition Decomposition::by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work) {
+Decomposition Decomposition::by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work,
+                                     const CartesianCuts* current) {
   Decomposition d = grid(nranks, L, cutoff);
   for (int k = 0; k < 3; ++k) {
     if (int(plane_work[k].size()) != d.dims_[k])
       throw std::logic_error("Decomposition::by_work: one work value per bin plane expected");
-    d.cuts_[k] = balanced_runs(plane_work[k], d.grid_[k]);
+    if (current && int((*current)[k].size()) != d.grid_[k])
+      throw std::logic_error("Decomposition::by_work: the current runs are of another rank grid");
+    d.cuts_[k] = current ? balanced_runs(plane_work[k], d.grid_[k], (*current)[k])
+                         : balanced_runs(plane_work[k], d.grid_[k]);
   }
   d.own_by_cuts();
   d.finish(nranks);
@@ -118,41 +122,89 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff,
   return d;
 }
 
-std::vector<int> balanced_runs(std::span<const std::int64_t> w, int parts) {
+namespace {
+
+// The fewest runs of w, from plane s, none heavier than M (each at least one plane).
+int runs_needed(std::span<const std::int64_t> w, int s, std::int64_t M) {
+  const int n = int(w.size());
+  int runs = 0;
+  for (int i = 0; i < n;) {
+    std::int64_t sum = w[(s + i++) % n];
+    while (i < n && sum + w[(s + i) % n] <= M) sum += w[(s + i++) % n];
+    ++runs;
+  }
+  return runs;
+}
+
+// The lightest bound on the heaviest run over every start, and the lowest start that reaches it.
+std::pair<std::int64_t, int> lightest_bound(std::span<const std::int64_t> w, int parts) {
   const int n = int(w.size());
   if (parts < 1 || parts > n) throw std::logic_error("balanced_runs: need 1 <= parts <= planes");
   std::int64_t total = 0, heaviest = 0;
   for (std::int64_t x : w) total += x, heaviest = std::max(heaviest, x);
-  // The fewest runs, from plane s, none heavier than M (each at least one plane).
-  auto runs_needed = [&](int s, std::int64_t M) {
-    int runs = 0;
-    for (int i = 0; i < n;) {
-      std::int64_t sum = w[(s + i++) % n];
-      while (i < n && sum + w[(s + i) % n] <= M) sum += w[(s + i++) % n];
-      ++runs;
-    }
-    return runs;
-  };
   std::int64_t best_M = total + 1;
   int best_s = 0;
   for (int s = 0; s < n; ++s) {  // the lightest bound for this start (bisection on integers)
     std::int64_t lo = heaviest, hi = std::min(total, best_M - 1);
-    if (lo > hi || runs_needed(s, hi) > parts) continue;  // cannot beat the best so far
+    if (lo > hi || runs_needed(w, s, hi) > parts) continue;  // cannot beat the best so far
     while (lo < hi) {
       const std::int64_t mid = lo + (hi - lo) / 2;
-      if (runs_needed(s, mid) <= parts) hi = mid; else lo = mid + 1;
+      if (runs_needed(w, s, mid) <= parts) hi = mid; else lo = mid + 1;
     }
     best_M = lo, best_s = s;
   }
-  // Runs from best_s, each as long as best_M allows while leaving a plane for each later run.
+  return {best_M, best_s};
+}
+
+// Runs from s, each as long as M allows while leaving a plane for each later run; ascending.
+std::vector<int> runs_from(std::span<const std::int64_t> w, int parts, int s, std::int64_t M) {
+  const int n = int(w.size());
   std::vector<int> first;
   for (int i = 0, j = 0; j < parts; ++j) {
-    first.push_back((best_s + i) % n);
-    std::int64_t sum = w[(best_s + i++) % n];
-    while (n - i > parts - 1 - j && sum + w[(best_s + i) % n] <= best_M) sum += w[(best_s + i++) % n];
+    first.push_back((s + i) % n);
+    std::int64_t sum = w[(s + i++) % n];
+    while (n - i > parts - 1 - j && sum + w[(s + i) % n] <= M) sum += w[(s + i++) % n];
   }
   std::sort(first.begin(), first.end());
   return first;
+}
+
+// The weight of the planes whose run differs between two splits (run j from first[j] to
+// first[j + 1]; the planes before first[0] belong to the last run).
+std::int64_t moved_weight(std::span<const std::int64_t> w, std::span<const int> a, std::span<const int> b) {
+  std::int64_t moved = 0;
+  std::size_t ja = a.size() - 1, jb = b.size() - 1;
+  for (int i = 0; i < int(w.size()); ++i) {
+    for (std::size_t j = 0; j < a.size(); ++j)
+      if (a[j] == i) ja = j;
+    for (std::size_t j = 0; j < b.size(); ++j)
+      if (b[j] == i) jb = j;
+    if (ja != jb) moved += w[i];
+  }
+  return moved;
+}
+
+}  // namespace
+
+std::vector<int> balanced_runs(std::span<const std::int64_t> w, int parts) {
+  const auto [M, s] = lightest_bound(w, parts);
+  return runs_from(w, parts, s, M);
+}
+
+std::vector<int> balanced_runs(std::span<const std::int64_t> w, int parts, std::span<const int> current) {
+  if (int(current.size()) != parts) throw std::logic_error("balanced_runs: one current run per part expected");
+  const int n = int(w.size());
+  const std::int64_t M = lightest_bound(w, parts).first;
+  const std::int64_t allowed = M + M / 100;
+  std::vector<int> best;
+  std::int64_t best_moved = 0;
+  for (int s = 0; s < n; ++s) {
+    if (runs_needed(w, s, allowed) > parts) continue;
+    std::vector<int> first = runs_from(w, parts, s, allowed);
+    const std::int64_t moved = moved_weight(w, current, first);
+    if (best.empty() || moved < best_moved) best = std::move(first), best_moved = moved;
+  }
+  return best;
 }
 
 namespace {

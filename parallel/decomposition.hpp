@@ -45,6 +45,14 @@ using PlaneWork = std::array<std::vector<std::int64_t>, 3>;
 // Returns the first plane of each run, ascending. Exact (integer weights): the same on every
 // rank.
 std::vector<int> balanced_runs(std::span<const std::int64_t> w, int parts);
+// The same, near the runs 'current' (first planes, ascending, one per part): among the splits
+// whose heaviest run is at most 1 % (rounded down) above the lightest possible, the one that
+// moves the least weight from one run to another (ties: the one from the lowest start). Balancing
+// the runs of a running decomposition this way moves the particles of the few planes the load
+// asks for, not a relabelled half of every subdomain: on a uniform packing many splits are
+// about as light, and the lightest can start at any plane (869,376 spheres on 8 ranks: 72 %
+// of each rank's particles moved at the first cut check, 32 MB in flight per rank).
+std::vector<int> balanced_runs(std::span<const std::int64_t> w, int parts, std::span<const int> current);
 
 class Decomposition {
  public:
@@ -53,8 +61,10 @@ class Decomposition {
   static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff);
   // The same grid of ranks, its runs along each axis placed by the work of the bin planes
   // (balanced_runs of plane_work[k], which holds dims()[k] values); throws std::logic_error if
-  // the sizes do not match this cell's bins.
-  static Decomposition by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work);
+  // the sizes do not match this cell's bins. Given the runs of the decomposition in use (on the
+  // same bins), the runs are placed near them (balanced_runs with 'current').
+  static Decomposition by_work(int nranks, const Vec3& L, real_t cutoff, const PlaneWork& plane_work,
+                               const CartesianCuts* current = nullptr);
   // The same grid of ranks with the given runs (a decomposition saved in a checkpoint); throws
   // std::runtime_error if they do not fit this cell's bins and rank grid.
   static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff, const CartesianCuts& cuts);

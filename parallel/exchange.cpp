@@ -5,25 +5,32 @@
 namespace fabrica {
 
 std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std::vector<char>>& out) {
-  int size = 1;
+  constexpr int kTag = 7131;
+  int size = 1, rank = 0;
   MPI_Comm_size(comm, &size);
+  MPI_Comm_rank(comm, &rank);
   std::vector<long long> scount(size), rcount(size);
   for (int r = 0; r < size; ++r) scount[r] = static_cast<long long>(out[r].size());
   MPI_Alltoall(scount.data(), 1, MPI_LONG_LONG, rcount.data(), 1, MPI_LONG_LONG, comm);
-  std::vector<int> sc(size), sd(size), rc(size), rd(size);
-  long long stot = 0, rtot = 0;
-  for (int r = 0; r < size; ++r) {
-    if (stot + scount[r] > INT32_MAX || rtot + rcount[r] > INT32_MAX)
-      throw std::runtime_error("exchange_all: more than 2 GiB in one exchange");
-    sc[r] = int(scount[r]), sd[r] = int(stot), stot += scount[r];
-    rc[r] = int(rcount[r]), rd[r] = int(rtot), rtot += rcount[r];
-  }
-  std::vector<char> sbuf(stot), rbuf(rtot);
-  for (int r = 0; r < size; ++r) std::copy(out[r].begin(), out[r].end(), sbuf.begin() + sd[r]);
-  MPI_Alltoallv(sbuf.data(), sc.data(), sd.data(), MPI_BYTE, rbuf.data(), rc.data(), rd.data(),
-                MPI_BYTE, comm);
+  // The bytes point to point, from out[r] straight into in[r]: no packed copy of all that is
+  // sent or received (memory at large N: a set-up's directory exchange moves every particle).
   std::vector<std::vector<char>> in(size);
-  for (int r = 0; r < size; ++r) in[r].assign(rbuf.begin() + rd[r], rbuf.begin() + rd[r] + rc[r]);
+  std::vector<MPI_Request> req;
+  req.reserve(2 * std::size_t(size));
+  for (int r = 0; r < size; ++r)  // checked before any request is posted
+    if (scount[r] > INT32_MAX || rcount[r] > INT32_MAX)
+      throw std::runtime_error("exchange_all: more than 2 GiB between two ranks in one exchange");
+  for (int r = 0; r < size; ++r) {
+    if (r == rank || rcount[r] == 0) continue;
+    in[r].resize(std::size_t(rcount[r]));
+    MPI_Irecv(in[r].data(), int(rcount[r]), MPI_BYTE, r, kTag, comm, &req.emplace_back());
+  }
+  for (int r = 0; r < size; ++r) {
+    if (r == rank || scount[r] == 0) continue;
+    MPI_Isend(out[r].data(), int(scount[r]), MPI_BYTE, r, kTag, comm, &req.emplace_back());
+  }
+  in[rank] = out[rank];
+  MPI_Waitall(int(req.size()), req.data(), MPI_STATUSES_IGNORE);
   return in;
 }
 

@@ -8,7 +8,8 @@
 namespace fabrica {
 
 // Sends out[r] to every rank r and returns what each rank sent to this one (in[r]).
-// Collective over comm (one MPI_Alltoall of sizes, one MPI_Alltoallv of bytes).
+// Collective over comm (one MPI_Alltoall of sizes, then the bytes point to point with the ranks
+// that send or receive any).
 // Before: out.size() == comm size. After: in.size() == comm size.
 std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std::vector<char>>& out);
 

@@ -107,7 +107,7 @@ void MpiDomain::balance_cuts(const Particles& p, const PeriodicCell& cell,
   // The runs the current work gives, on the bins of the current decomposition (made for
   // decomposed_for_, so the same bins).
   Decomposition next = Decomposition::by_work(size_, decomposed_for_, cutoff_,
-                                              global_plane_work(p, cell, *dec_, work));
+                                              global_plane_work(p, cell, *dec_, work), &dec_->cuts());
   // Each rank's work with the current runs and with the new ones, summed exactly (integers):
   // every rank takes the same decision.
   std::vector<std::int64_t> load(2 * std::size_t(size_), 0);
@@ -444,6 +444,9 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
   const std::size_t full = bytes_per_particle(Message::Full);
   ghost_recv_first_.assign(size_, 0);
   ghost_recv_count_.assign(size_, 0);
+  std::size_t arriving = 0;
+  for (const auto& b : in) arriving += b.size() / full;
+  p.reserve_more(arriving);
   for (std::size_t k = 0; k < partners_.size(); ++k) {
     const int r = partners_[k];
     const std::size_t n = in[k].size() / full;

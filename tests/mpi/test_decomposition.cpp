@@ -314,6 +314,38 @@ TEST(Decomposition, BalancedRunsAreTheLightestPeriodicSplit) {
   EXPECT_EQ(cases, 2000);
 }
 
+// balanced_runs near the current runs: on even planes the runs in use stay where they are (the
+// plain answer would start at plane 0); an uneven split moves one plane, not the labels; and over
+// 2,000 random weight lists the heaviest run is within 1 % of the lightest possible (exhaustion),
+// and a second balancing of the same load moves nothing.
+TEST(Decomposition, BalancedRunsStayNearTheCurrentOnes) {
+  const std::vector<std::int64_t> even(20, 1000);
+  EXPECT_EQ(balanced_runs(even, 2), (std::vector<int>{0, 10}));
+  EXPECT_EQ(balanced_runs(even, 2, std::vector<int>{3, 13}), (std::vector<int>{3, 13}));
+  EXPECT_EQ(balanced_runs(even, 4, std::vector<int>{2, 7, 12, 17}), (std::vector<int>{2, 7, 12, 17}));
+  // 8 even planes cut 3 + 5: the balance moves plane 3 (a relabelled {3, 7} would move 6 planes).
+  EXPECT_EQ(balanced_runs(std::vector<std::int64_t>(8, 1), 2, std::vector<int>{0, 3}), (std::vector<int>{0, 4}));
+  EXPECT_THROW(balanced_runs(even, 2, std::vector<int>{3}), std::logic_error);
+  Random rng(11);
+  for (int t = 0; t < 2000; ++t) {
+    const int n = 3 + int(rng.uniform() * 8), parts = 1 + int(rng.uniform() * std::min(4, n));
+    std::vector<std::int64_t> w(n);
+    for (auto& x : w) x = std::int64_t(rng.uniform() * 2001);
+    std::vector<int> current;  // any ascending runs
+    for (int i = 0; i < n && int(current.size()) < parts; ++i)
+      if (rng.uniform() * (n - i) < parts - int(current.size())) current.push_back(i);
+    ASSERT_EQ(int(current.size()), parts);
+    const std::vector<int> first = balanced_runs(w, parts, current);
+    ASSERT_EQ(int(first.size()), parts);
+    for (int j = 1; j < parts; ++j) ASSERT_LT(first[j - 1], first[j]);
+    ASSERT_GE(first[0], 0);
+    ASSERT_LT(first.back(), n);
+    const std::int64_t best = brute_best(w, parts);
+    ASSERT_LE(heaviest_run(w, first), best + best / 100) << "case " << t;
+    ASSERT_EQ(balanced_runs(w, parts, first), first) << "case " << t;
+  }
+}
+
 // The Cartesian runs placed by the work on the dense packing: over 1000 steps, the ranks' list
 // pairs (the force loop's work, ghost pairs counted on both ranks) are closer to even than with
 // runs of equal length (within 3 % of the mean on 2 ranks), the trajectory is still the serial one bit for bit, and a domain made
