@@ -10,7 +10,7 @@ namespace fabrica {
 
 StageResult TriaxialRun::resume(const StageCursor& at) {
   set_account(at);  // the contact law and damping are the simulation's, restored with it
-  if (at.stage == kShear) return run(shear_stage(scene_), kShear, &at);
+  if (at.stage == kShear) return run(shear_stage(scene_, sim_.params().law.rolling_friction), kShear, &at);
   const StageSpec st = at.stage == kConsolidation ? consolidation_stage(scene_)
                                                    : equilibration_stage(scene_, sim_.params().law.rolling_friction);
   return run(st, at.stage, &at);

@@ -33,7 +33,7 @@ class TriaxialRun : public StageRun {
   StageResult equilibrate(real_t rolling_friction) {
     return run(equilibration_stage(scene_, rolling_friction), kEquilibration);
   }
-  StageResult shear() { return run(shear_stage(scene_), kShear); }
+  StageResult shear(real_t rolling_friction) { return run(shear_stage(scene_, rolling_friction), kShear); }
   // Continues the stage a checkpoint was taken in (the simulation restored from it).
   StageResult resume(const StageCursor& at);
 };

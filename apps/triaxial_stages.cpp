@@ -32,9 +32,17 @@ StageSpec equilibration_stage(const Scene& scene, real_t rolling_friction) {
   return st;
 }
 
-StageSpec shear_stage(const Scene& scene) {
+real_t equilibration_rolling_friction(const Scene& scene, real_t case_rolling_friction) {
+  return scene.triaxial.equilibration == TriaxialSpec::Equilibration::Case ? case_rolling_friction : 0;
+}
+
+StageSpec shear_stage(const Scene& scene, real_t rolling_friction) {
   const TriaxialSpec& tx = scene.triaxial;
   StageSpec st;
+  if (tx.equilibration != TriaxialSpec::Equilibration::Case) {  // switched here, not before
+    st.friction = scene.law.friction;
+    st.rolling_friction = rolling_friction;
+  }
   st.name = "shear";
   st.where = "[triaxial]";
   st.mode = {AxisMode::StrainRate, AxisMode::Stress, AxisMode::Stress};

@@ -215,8 +215,10 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
       equil_ = saved;
       sh = run.resume(at_);
     } else {
-      equil_ = resuming ? run.resume(at_) : run.equilibrate(tc.rolling_friction);
-      sh = run.shear();
+      if (resuming) equil_ = run.resume(at_);
+      else if (scene_.triaxial.equilibration != TriaxialSpec::Equilibration::None)
+        equil_ = run.equilibrate(equilibration_rolling_friction(scene_, tc.rolling_friction));
+      sh = run.shear(tc.rolling_friction);
     }
   } catch (const BlowUpError& err) {  // every rank is here (the diagnosis is collective)
     blowup(err);
@@ -229,11 +231,17 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   const real_t qp_end = p_end > 0 ? sh.state.q / p_end : 0;
   const real_t energy_error = std::max(e.max_energy_error, sh.max_energy_error);
   if (log_)
-    *log_ << fmt::format("case {}: equilibrated in {} steps; sheared to eps1 = {:.3f} in {} steps "
+    *log_ << fmt::format("case {}: {}; sheared to eps1 = {:.3f} in {} steps "
                          "({:.1f} s): peak q/p {:.4f} at eps1 = {:.4f}, end q/p {:.4f}, eps_v {:.4f}, "
                          "lateral stress error <= {:.2f} %, energy balance error <= {:.3f} %, "
                          "inertial number {:.2e}\n",
-                         tc.name, e.steps, sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
+                         tc.name,
+                         scene_.triaxial.equilibration == TriaxialSpec::Equilibration::None
+                             ? fmt::format("not re-equilibrated (void ratio {:.4f})", cons_.state.void_ratio)
+                             : fmt::format("equilibrated in {} steps (mu_r = {}, void ratio {:.4f})", e.steps,
+                                           equilibration_rolling_friction(scene_, tc.rolling_friction),
+                                           e.state.void_ratio),
+                         sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
                          qp_end, sh.strain.sum(), 100 * sh.max_lateral_error, 100 * energy_error, inertial);
   if (log_ && scene_.fabric.enabled)
     *log_ << fmt::format("case {}: fabric analysis {:.2f} s ({:.2f} % of the case's {:.1f} s)\n",

@@ -217,7 +217,7 @@ ShearResult shear(const Scene& base, const Simulation& equilibrated, const Triax
   TriaxialRun run(sc, sim, d_mean, density * s.density_scaling, &series, nullptr, &parent);
   const auto t0 = clock_type::now();
   const double c0 = cpu_seconds();
-  const StageResult r = run.shear();
+  const StageResult r = run.shear(sim.params().law.rolling_friction);
   ShearResult out;
   out.seconds = since(t0);
   out.cpu = cpu_seconds() - c0;

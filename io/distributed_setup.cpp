@@ -417,11 +417,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
       if (worst.ratio > sc.max_initial_overlap) throw InputError(overlap_message(sc, worst));
     });
   }
-  if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
-  s.params.law = sc.law;
-  s.params.skin = sc.skin;
-  s.params.gravity = sc.gravity;
-  s.params.local_damping = sc.local_damping;
+  apply_scene_run(sc, s);
   double dt = s.particles.n_owned() ? critical_time_step(s.particles, sc.law, false, rmin, rmax) : 1e300;
   if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp); each rank checks its spheres
     agree(comm, [&] {

@@ -11,10 +11,10 @@ class InputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// A value as the messages show it: 6 significant digits.
-inline std::string number_text(double v) {
+// A value as the messages show it: 6 significant digits unless told.
+inline std::string number_text(double v, int digits = 6) {
   std::ostringstream s;
-  s.precision(6);
+  s.precision(digits);
   s << v;
   return s.str();
 }

@@ -1,5 +1,6 @@
 #include "io/scene.hpp"
 
+#include "io/errors.hpp"
 #include "io/fault.hpp"
 #include "io/stage_parse.hpp"
 
@@ -18,13 +19,6 @@
 
 namespace fabrica {
 namespace {
-
-std::string fmt_num(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
 
 // Reads one table, remembering which keys were used so that unknown keys can be refused.
 class Section {
@@ -46,7 +40,7 @@ class Section {
     if (!n) return std::nullopt;
     std::optional<double> v = n->value<double>();
     if (!v || n->is_boolean()) fail(key, node_text(*n), "must be a number");
-    if (!std::isfinite(*v)) fail(key, fmt_num(*v), "must be a finite number");
+    if (!std::isfinite(*v)) fail(key, number_text(*v, 10), "must be a finite number");
     return *v;
   }
   real_t number(const std::string& key, real_t def) { return number(key).value_or(def); }
@@ -106,7 +100,7 @@ class Section {
   }
 
   static std::string node_text(const toml::node& n) {
-    if (n.is_floating_point() || n.is_integer()) return fmt_num(*n.value<double>());
+    if (n.is_floating_point() || n.is_integer()) return number_text(*n.value<double>(), 10);
     if (const toml::array* a = n.as_array()) {  // on one line: [0, 0, 1]
       std::string t = "[";
       for (std::size_t k = 0; k < a->size(); ++k) t += (k ? ", " : "") + node_text(*a->get(k));
@@ -124,7 +118,7 @@ class Section {
 };
 
 void require(Section& s, const std::string& key, real_t v, bool ok, const std::string& why) {
-  if (!ok) s.fail(key, fmt_num(v), why);
+  if (!ok) s.fail(key, number_text(v, 10), why);
 }
 
 // ---- Restitution and walls (issue 13; docs/scene.md "Restitution" and "Walls") -------------
@@ -140,7 +134,7 @@ void parse_restitution(Section& s, ContactLawParams& law) {
     const auto e = s.number(k.e);
     if (!e) continue;
     if (s.has(k.ratio) || s.has(k.rate))
-      s.fail(k.e, fmt_num(*e), std::string("give ") + k.e + " or " + (s.has(k.ratio) ? k.ratio : k.rate) + ", not both");
+      s.fail(k.e, number_text(*e, 10), std::string("give ") + k.e + " or " + (s.has(k.ratio) ? k.ratio : k.rate) + ", not both");
     require(s, k.e, *e, *e > 0 && *e <= 1, "must lie in (0, 1] (a coefficient of restitution)");
     *k.beta = k.normal ? damping_ratio_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
     *k.eta = 0;
@@ -151,7 +145,7 @@ void parse_restitution(Section& s, ContactLawParams& law) {
 void parse_wall_law(Section& W, WallSpec& w) {
   ContactLawParams& law = w.law;
   const auto E = W.number("youngs_modulus"), kn = W.number("normal_stiffness");
-  if (E && kn) W.fail("normal_stiffness", fmt_num(*kn), "give either youngs_modulus or normal_stiffness, not both");
+  if (E && kn) W.fail("normal_stiffness", number_text(*kn, 10), "give either youngs_modulus or normal_stiffness, not both");
   if (E) {
     require(W, "youngs_modulus", *E, *E > 0, "must be positive");
     law.stiffness_mode = NormalStiffnessMode::Deformability;
@@ -267,7 +261,7 @@ void parse_driven(const toml::node* node, const std::string& path, Scene& sc) {
     d.spin = D.vec3("spin").value_or(Vec3::Zero());
     if (!(d.velocity.isZero() && d.spin.isZero()) && sc.local_damping > 0)
       D.fail(D.has("velocity") ? "velocity" : "spin", Section::node_text(*t->get(D.has("velocity") ? "velocity" : "spin")),
-             "a moving driven particle is not damped, but [run] local_damping = " + fmt_num(sc.local_damping) +
+             "a moving driven particle is not damped, but [run] local_damping = " + number_text(sc.local_damping, 10) +
              " would book its damping as dissipated; use local_damping = 0 or hold them fixed");
     D.reject_unknown();
     for (std::size_t j = 0; j < sc.driven.size(); ++j) {  // each particle in one set at most
@@ -348,7 +342,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(P, "d_min", g.d_min, g.d_min >= kMinDiameter && g.d_min <= kMaxDiameter,
           "must be positive and lie in [1e-09, 1000] m (a sphere diameter in metres)");
   g.d_max = P.number("d_max", g.d_max);
-  require(P, "d_max", g.d_max, g.d_max >= g.d_min, "must be >= d_min = " + fmt_num(g.d_min));
+  require(P, "d_max", g.d_max, g.d_max >= g.d_min, "must be >= d_min = " + number_text(g.d_min, 10));
   require(P, "d_max", g.d_max, g.d_max <= kMaxDiameter, "must be at most 1000 m (a sphere diameter in metres)");
   if (auto s = P.integer("seed")) {
     if (*s < 0) P.fail("seed", std::to_string(*s), "must be >= 0");
@@ -388,7 +382,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   const auto E = K.number("youngs_modulus");
   const auto kn = K.number("normal_stiffness");
   if (E && kn)
-    K.fail("normal_stiffness", fmt_num(*kn), "give either youngs_modulus or normal_stiffness, not both");
+    K.fail("normal_stiffness", number_text(*kn, 10), "give either youngs_modulus or normal_stiffness, not both");
   if (kn) {
     require(K, "normal_stiffness", *kn, *kn > 0, "must be positive");
     law.stiffness_mode = NormalStiffnessMode::Direct;
@@ -405,8 +399,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(K, "rolling_friction", law.rolling_friction, law.rolling_friction >= 0, "must be >= 0");
   const auto bn = K.number("damping_ratio_normal"), bs = K.number("damping_ratio_shear");
   const auto en = K.number("damping_rate_normal"), es = K.number("damping_rate_shear");
-  if (bn && en) K.fail("damping_rate_normal", fmt_num(*en), "give damping_ratio_normal or damping_rate_normal, not both");
-  if (bs && es) K.fail("damping_rate_shear", fmt_num(*es), "give damping_ratio_shear or damping_rate_shear, not both");
+  if (bn && en) K.fail("damping_rate_normal", number_text(*en, 10), "give damping_ratio_normal or damping_rate_normal, not both");
+  if (bs && es) K.fail("damping_rate_shear", number_text(*es, 10), "give damping_ratio_shear or damping_rate_shear, not both");
   law.damping_ratio_n = bn.value_or(0);
   require(K, "damping_ratio_normal", law.damping_ratio_n, law.damping_ratio_n >= 0 && law.damping_ratio_n < 1, "must lie in [0, 1)");
   law.damping_ratio_s = bs.value_or(0);
@@ -439,7 +433,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
           "must be positive");
   if (auto dt = R.number("time_step")) {
     if (R.has("time_step_fraction"))
-      R.fail("time_step", fmt_num(*dt), "give time_step or time_step_fraction, not both");
+      R.fail("time_step", number_text(*dt, 10), "give time_step or time_step_fraction, not both");
     require(R, "time_step", *dt, *dt > 0, "must be positive");
     sc.time_step = *dt;
   }
@@ -486,6 +480,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   positive("confining_pressure", tx.confining_pressure);
   tx.consolidation_friction = T.number("consolidation_friction", tx.consolidation_friction);
   require(T, "consolidation_friction", tx.consolidation_friction, tx.consolidation_friction >= 0, "must be >= 0");
+  const std::string eq = T.string("equilibration").value_or("case");
+  if (eq != "case" && eq != "common" && eq != "none")
+    T.fail("equilibration", "\"" + eq + "\"", "must be \"case\", \"common\" or \"none\"");
+  tx.equilibration = eq == "common" ? TriaxialSpec::Equilibration::Common
+                     : eq == "none" ? TriaxialSpec::Equilibration::None
+                                    : TriaxialSpec::Equilibration::Case;
   const bool gains_given = T.has("servo_gain") || T.has("servo_integral_gain");
   const std::string servo = T.string("servo").value_or(gains_given ? "gains" : "stiffness");
   if (servo != "stiffness" && servo != "gains")

@@ -95,6 +95,14 @@ std::string overlap_message(const Scene& sc, const OverlapReport& ov) {
          "; fix the specimen (a bad generation or data file) or raise the limit";
 }
 
+void apply_scene_run(const Scene& sc, Setup& s) {
+  if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
+  s.params.law = sc.law;
+  s.params.skin = sc.skin;
+  s.params.gravity = sc.gravity;
+  s.params.local_damping = sc.local_damping;
+}
+
 Setup make_setup(const Scene& sc) {
   Setup s;
   if (sc.source == ParticleSource::File) {
@@ -168,11 +176,7 @@ Setup make_setup(const Scene& sc) {
     s.particles.x[a] = s.cell.wrap(s.particles.x[a]);
   const OverlapReport ov = largest_overlap(s.particles, s.cell);
   if (ov.ratio > sc.max_initial_overlap) throw InputError(overlap_message(sc, ov));
-  if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
-  s.params.law = sc.law;
-  s.params.skin = sc.skin;
-  s.params.gravity = sc.gravity;
-  s.params.local_damping = sc.local_damping;
+  apply_scene_run(sc, s);
   s.critical_dt = critical_time_step(s.particles, sc.law, false);
   if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp)
     s.params.walls = scene_walls(sc, s.cell);

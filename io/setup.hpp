@@ -45,6 +45,10 @@ PeriodicCell region_cell(const Scene& scene, RegionCut& cut, real_t solid_volume
 // The InputError of an initial overlap above [run] max_initial_overlap.
 std::string overlap_message(const Scene& scene, const OverlapReport& ov);
 
+// [run] density_scaling applied to the particles, and the contact law, skin, gravity and local
+// damping of the scene copied into the parameters (make_setup and make_distributed_setup).
+void apply_scene_run(const Scene& scene, Setup& s);
+
 // The time step the scene asks for, validated against the estimate (used again when the
 // contact parameters change between stages).
 real_t scene_time_step(const Scene& scene, real_t critical_dt);

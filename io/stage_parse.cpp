@@ -10,15 +10,8 @@
 namespace fabrica {
 namespace {
 
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
-
 std::string text(const toml::node& n) {
-  if (n.is_floating_point() || n.is_integer()) return num(*n.value<double>());
+  if (n.is_floating_point() || n.is_integer()) return number_text(*n.value<double>(), 10);
   std::ostringstream s;
   n.visit([&](auto&& x) { s << x; });
   return s.str();
@@ -45,7 +38,7 @@ class Table {
     if (!n) return std::nullopt;
     const std::optional<double> v = n->value<double>();
     if (!v || n->is_boolean()) fail(key, text(*n), "must be a number");
-    if (!std::isfinite(*v)) fail(key, num(*v), "must be a finite number");
+    if (!std::isfinite(*v)) fail(key, number_text(*v, 10), "must be a finite number");
     return *v;
   }
   std::optional<std::int64_t> integer(const std::string& key) {
@@ -74,7 +67,7 @@ class Table {
   }
   // A number that must satisfy 'ok'.
   real_t checked(const std::string& key, real_t v, bool ok, const std::string& why) const {
-    if (!ok) fail(key, num(v), why);
+    if (!ok) fail(key, number_text(v, 10), why);
     return v;
   }
   void reject_unknown() const {
@@ -161,7 +154,7 @@ void parse_end(Table& s, const std::string& file, StageSpec& st, bool cyclic) {
       st.path != StagePath::CyclicStrain && st.path != StagePath::CyclicStress) {
     const real_t drive = -st.rate[0];  // compression positive
     if (drive == 0 || drive * *st.end.strain < 0)
-      E.fail("strain", num(*st.end.strain),
+      E.fail("strain", number_text(*st.end.strain, 10),
              std::string("axis 1 is driven ") + (drive > 0 ? "in compression (eps_1 grows)" : drive < 0 ? "in extension (eps_1 falls)" : "at a zero rate") +
                  ": this strain is never reached");
   }
@@ -227,7 +220,7 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
       if (ty == 8) s.checked("amplitude", amp, amp < 0.5, "must lie in (0, 0.5) (an amplitude of eps_1)");
       if (ty == 9)
         s.checked("amplitude", amp, amp < st.pressure,
-                  "must lie below pressure = " + num(st.pressure) + " Pa (q = -amplitude needs s11 = pressure - amplitude > 0)");
+                  "must lie below pressure = " + number_text(st.pressure, 10) + " Pa (q = -amplitude needs s11 = pressure - amplitude > 0)");
       st.amplitude = amp;
       const std::optional<std::int64_t> n = s.integer("cycles");
       if (!n) s.fail("cycles", "(missing)", "a cyclic stage needs the number of cycles");
@@ -279,7 +272,7 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
   for (int k = 0; k < 3; ++k)
     if (st.mode[k] == AxisMode::StrainRate && std::abs(st.rate[k]) > sv.max_strain_rate)
       s.fail(ty == 0 ? "control.axis_" + std::to_string(k + 1) + ".strain_rate" : std::string("axial_strain_rate"),
-             num(std::abs(st.rate[k])), "exceeds max_strain_rate = " + num(sv.max_strain_rate) + " 1/s");
+             number_text(std::abs(st.rate[k]), 10), "exceeds max_strain_rate = " + number_text(sv.max_strain_rate, 10) + " 1/s");
   s.reject_unknown();
   return st;
 }

@@ -78,7 +78,7 @@ Outcome run(const std::string& text, const std::string& label) {
   Outcome o;
   o.cons = r.consolidate();
   o.eq = r.equilibrate(0.0);
-  o.sh = r.shear();
+  o.sh = r.shear(0.0);
   o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const TriaxialSpec& tx = scene.triaxial;
   const MacroState& m = o.cons.state;

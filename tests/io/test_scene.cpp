@@ -229,6 +229,13 @@ TEST(Scene, ServoModeAndItsKeys) {
   EXPECT_EQ(r.triaxial.servo_relaxation, 0.3);
   EXPECT_EQ(r.triaxial.servo_interval, 4);
   expect_error("[triaxial]\nservo = \"pid\"\n", {"[triaxial]", "servo", "pid", "stiffness"});
+  EXPECT_EQ(d.triaxial.equilibration, TriaxialSpec::Equilibration::Case);
+  EXPECT_EQ(parse_scene("[triaxial]\nequilibration = \"common\"\n", "s.toml").triaxial.equilibration,
+            TriaxialSpec::Equilibration::Common);
+  EXPECT_EQ(parse_scene("[triaxial]\nequilibration = \"none\"\n", "s.toml").triaxial.equilibration,
+            TriaxialSpec::Equilibration::None);
+  expect_error("[triaxial]\nequilibration = \"shared\"\n",
+               {"[triaxial]", "equilibration", "\"shared\"", "\"case\", \"common\" or \"none\""});
   expect_error("[triaxial]\nservo = \"stiffness\"\nservo_gain = 4.0\n", {"servo_gain", "gains"});
   expect_error("[triaxial]\nservo_gain = 4.0\nservo_relaxation = 0.3\n", {"servo_relaxation", "stiffness"});
   expect_error("[triaxial]\nservo_relaxation = 0.7\n", {"servo_relaxation", "0.7", "(0, 0.5]"});

@@ -256,7 +256,7 @@ struct Study {
         write_fabric_headers(fs, int(scene.fabric.rose_bins));
         b->run->set_fabric_output(&fs);
         b->eq = b->run->equilibrate(b->mu_r);
-        b->sh = b->run->shear();
+        b->sh = b->run->shear(b->mu_r);
         b->series = with_header(rows.str());
         b->fabric = fabric.str();
         b->sff = sff.str();
