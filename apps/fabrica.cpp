@@ -51,21 +51,26 @@ constexpr const char* kSeriesHeader =
 
 // With walls ([[wall]]) or driven particles ([[driven]]), the series has more columns: the wall
 // contacts (counted apart from the particle contacts), the energy input, the walls' and the
-// drive's work, and each wall's force.
+// drive's work, and each wall's force and position (the coordinate of its plane along its axis:
+// a moving or servo wall's travel).
 std::string series_header(std::size_t walls, bool driven) {
   if (walls == 0 && !driven) return kSeriesHeader;
   std::string h(kSeriesHeader);
   h.pop_back();
   h += ",wall_contacts,energy_input,wall_work,drive_work";
   for (std::size_t w = 1; w <= walls; ++w)
-    h += fmt::format(",wall{0}_fx,wall{0}_fy,wall{0}_fz", w);
+    h += fmt::format(",wall{0}_fx,wall{0}_fy,wall{0}_fz,wall{0}_position", w);
   return h + "\n";
 }
 std::vector<double> wall_columns(const Simulation& sim, const MacroState& m) {
   std::vector<double> v;
   if (sim.params().walls.empty() && sim.params().driven.empty()) return v;
   v = {double(m.wall_contacts), m.energy_input, m.wall_work, m.drive_work};
-  for (const Vec3& f : m.wall_force) v.insert(v.end(), {f[0], f[1], f[2]});
+  const std::vector<Wall>& walls = sim.params().walls;
+  for (std::size_t k = 0; k < walls.size(); ++k) {  // the plane's coordinate along its axis
+    const Vec3 f = k < m.wall_force.size() ? m.wall_force[k] : Vec3::Zero();
+    v.insert(v.end(), {f[0], f[1], f[2], walls[k].point.dot(walls[k].normal.cwiseAbs())});
+  }
   return v;
 }
 

@@ -105,17 +105,24 @@ struct PairList {
   }
 };
 
-// A plane, moving at a constant velocity (zero: fixed). Its contacts use the scene's contact
-// law, or its own when own_law is set (Rbar = R of the sphere, k_n = pi R E for the
-// deformability form, m_eff = m of the sphere).
+// A plane, moving at a constant velocity (zero: fixed) or servo-controlled along its normal
+// (core/wall_servo.hpp). Its contacts use the scene's contact law, or its own when own_law is
+// set (Rbar = R of the sphere, k_n = pi R E for the deformability form, m_eff = m of the sphere).
 struct Wall {
   Vec3 point = Vec3::Zero();        // a point of the plane (m), advanced by velocity * dt each step
   Vec3 normal = Vec3::UnitZ();      // unit normal pointing into the granular domain
-  Vec3 velocity = Vec3::Zero();     // m/s
+  Vec3 velocity = Vec3::Zero();     // m/s (a servo wall: its normal part is the servo's)
   bool own_law = false;
   ContactLawParams law;             // used when own_law
+  // Servo control, when servo_pressure > 0: after every step the normal part of the velocity is
+  // set so that the spheres' push on the wall approaches servo_pressure times the cell's
+  // cross-section across the wall's axis (core/wall_servo.hpp).
+  real_t servo_pressure = 0;        // Pa
+  real_t servo_relaxation = 0.5;    // fraction of the force error one step corrects, (0, 1)
+  real_t servo_max_speed = 0;       // m/s, the cap on the servo's speed (> 0 with a servo)
 
-  bool moving() const { return !velocity.isZero(); }
+  bool servo() const { return servo_pressure > 0; }
+  bool moving() const { return servo() || !velocity.isZero(); }
 };
 
 struct WallContactList {

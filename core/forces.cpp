@@ -441,6 +441,13 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     P.f[i] -= F;
     P.t[i] -= r.mr + a1 * k.n.cross(r.fs);
     power -= F.dot(W.velocity);
+    if (ctx.wall_load) {  // elastic push (the servo's own speed not fed back); a non-finite
+      const real_t push = c.kn * k.un;  // value is left to the guards
+      if (std::isfinite(push)) {
+        ctx.wall_load->add(2 * std::size_t(wl.wall[q]), push);
+        ctx.wall_load->add(2 * std::size_t(wl.wall[q]) + 1, c.kn);
+      }
+    }
     diss.friction += r.e_friction;
     diss.rolling += r.e_rolling;
     diss.viscous += r.e_viscous;

@@ -5,6 +5,7 @@
 #pragma once
 #include "core/cell.hpp"
 #include "core/contact_list.hpp"
+#include "core/exact_sum.hpp"
 #include "core/particles.hpp"
 
 #include <cstdint>
@@ -62,6 +63,10 @@ struct ForceContext {
   real_t dt;
   OverlapAlarm* alarm = nullptr;  // if set, receives the largest overlap beyond the limit
   int lanes = 4;  // contacts the pair loop evaluates at once: 4 (SIMD) or 1; the same bits
+  // If set (servo walls, core/wall_servo.hpp): per wall k, slot 2k += the elastic part of the
+  // spheres' push on it, k_n u_n [N], and slot 2k + 1 += k_n [N/m], over this rank's touching
+  // contacts; exact sums, so that the servo moves the wall the same on any number of ranks.
+  ExactSums* wall_load = nullptr;
 };
 
 // Sets f = m g and t = 0, then adds every contact. 'sums' may be null (no measurement).

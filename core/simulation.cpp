@@ -1,6 +1,7 @@
 #include "core/simulation.hpp"
 
 #include "core/integrator.hpp"
+#include "core/wall_servo.hpp"
 
 #include <algorithm>
 #include <array>
@@ -145,8 +146,12 @@ void Simulation::step(bool measure) {
 
 void Simulation::compute(bool measure, real_t dt) {
   overlap_ = OverlapAlarm{};
-  const ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_, par_.kernel_lanes};
   const bool moving = dt > 0 && par_.moving_walls();
+  // Servo walls (core/wall_servo.hpp): the push and contact stiffness of each wall, exact sums.
+  const bool servo = dt > 0 && servo_wall_count(par_.walls) > 0;
+  ExactSums load(servo ? 2 * par_.walls.size() : 0);
+  ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_, par_.kernel_lanes};
+  ctx.wall_load = servo ? &load : nullptr;
   real_t power = 0;
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,
                  moving ? &power : nullptr);
@@ -154,6 +159,14 @@ void Simulation::compute(bool measure, real_t dt) {
     double pw = power;
     domain_->sum_all(std::span<double>(&pw, 1));
     wall_work_ += pw * dt;
+  }
+  if (servo) {  // the walls' velocities for the next step, the same on every rank and rank count
+    load.normalize();
+    domain_->sum_all(load.words());
+    load.normalize();
+    wall_load_.resize(load.slots());
+    for (std::size_t k = 0; k < load.slots(); ++k) wall_load_[k] = load.value(k);
+    update_servo_walls(par_.walls, wall_load_, cell_, dt);
   }
   if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, dt);
 }

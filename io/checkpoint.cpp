@@ -272,6 +272,8 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
     g.vec3("wall.point", w.point).vec3("wall.normal", w.normal).vec3("wall.velocity", w.velocity);
     g.u8("wall.own_law", w.own_law ? 1 : 0);
     if (w.own_law) write_law(g, w.law);
+    g.f64("wall.servo_pressure", w.servo_pressure).f64("wall.servo_relaxation", w.servo_relaxation);
+    g.f64("wall.servo_max_speed", w.servo_max_speed);  // format 6
   }
   g.u64("driven", par.driven.size());  // the sets of driven particles (format 4)
   for (const DrivenSet& d : par.driven) {
@@ -607,6 +609,9 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
     w.velocity = g.vec3("wall.velocity");
     w.own_law = g.u8("wall.own_law") != 0;
     if (w.own_law) w.law = read_law(g);
+    w.servo_pressure = g.f64("wall.servo_pressure");
+    w.servo_relaxation = g.f64("wall.servo_relaxation");
+    w.servo_max_speed = g.f64("wall.servo_max_speed");
     par.walls.push_back(w);
   }
   const auto nd = g.u64("driven");

@@ -435,6 +435,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
   MPI_Allreduce(MPI_IN_PLACE, &dt, 1, MPI_DOUBLE, MPI_MIN, comm);
   s.critical_dt = dt;
   agree(comm, [&] { s.params.dt = scene_time_step(sc, s.critical_dt); });
+  set_servo_speed_caps(s.params.walls, rmin, s.params.dt);
   s.holding = Holding::Share;
   return s;
 }

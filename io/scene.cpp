@@ -208,6 +208,23 @@ void parse_walls(const toml::node* node, const std::string& path, Scene& sc) {
     w.point = *point;
     w.normal = normal->normalized();
     w.velocity = W.vec3("velocity").value_or(Vec3::Zero());
+    if (const auto P = W.number("pressure")) {  // a servo wall (docs/scene.md, "Servo walls")
+      require(W, "pressure", *P, *P > 0, "must be positive (Pa: the push the servo holds on the wall)");
+      w.pressure = *P;
+      if (w.velocity.dot(w.normal) != 0)
+        W.fail("velocity", Section::node_text(*t->get("velocity")),
+               "has a part along the normal, which the servo of pressure sets; give only its part in the "
+               "wall's plane (a drag) or no velocity");
+      w.servo_relaxation = W.number("servo_relaxation", w.servo_relaxation);
+      require(W, "servo_relaxation", w.servo_relaxation, w.servo_relaxation > 0 && w.servo_relaxation < 1,
+              "must lie in (0, 1) (the fraction of the force error one step corrects)");
+      w.max_speed = W.number("max_speed", 0.0);
+      require(W, "max_speed", w.max_speed, w.max_speed > 0 || !W.has("max_speed"), "must be positive (m/s)");
+    } else {
+      for (const char* key : {"servo_relaxation", "max_speed"})
+        if (W.has(key))
+          W.fail(key, Section::node_text(*t->get(key)), "is a setting of the servo: give pressure too");
+    }
     parse_wall_law(W, w);
     W.reject_unknown();
     sc.walls.push_back(w);

@@ -117,6 +117,11 @@ struct WallSpec {
   Vec3 point = Vec3::Zero();     // m
   Vec3 normal = Vec3::UnitZ();   // unit (normalised from the input), into the granular domain
   Vec3 velocity = Vec3::Zero();  // m/s
+  // Servo control (pressure > 0, core/wall_servo.hpp): the wall moves along its normal to keep
+  // the spheres' push on it at pressure x the cell's cross-section.
+  real_t pressure = 0;           // Pa
+  real_t servo_relaxation = 0.5; // fraction of the force error one step corrects, (0, 1)
+  real_t max_speed = 0;          // m/s; 0: 1e-3 of the smallest radius per time step
   bool own_law = false;          // some [contact] key given in the wall's table
   ContactLawParams law;          // the scene's law with the wall's keys
 };

@@ -189,6 +189,7 @@ Setup make_setup(const Scene& sc) {
     s.params.driven = sc.driven;
   }
   s.params.dt = scene_time_step(sc, s.critical_dt);
+  set_servo_speed_caps(s.params.walls, s.particles.min_radius(), s.params.dt);
   return s;
 }
 

@@ -1,6 +1,7 @@
 #include "io/wall_setup.hpp"
 
 #include "core/timestep.hpp"
+#include "io/errors.hpp"
 
 #include <algorithm>
 #include <limits>
@@ -9,12 +10,6 @@
 namespace fabrica {
 namespace {
 
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
 std::string vec(const Vec3& v) {
   std::ostringstream s;
   s.precision(6);
@@ -36,9 +31,13 @@ std::vector<Wall> scene_walls(const Scene& sc, const PeriodicCell& cell) {
     const int a = axis_of(s.normal);
     if (s.point[a] < 0 || s.point[a] > L[a])
       throw InputError(where(sc, k) + "point = " + vec(s.point) + ": its plane (coordinate " +
-                       std::to_string(a + 1) + " = " + num(s.point[a]) + ") lies outside the cell [0, " +
-                       num(L[a]) + "] m");
-    walls.push_back(Wall{s.point, s.normal, s.velocity, s.own_law, s.law});
+                       std::to_string(a + 1) + " = " + number_text(s.point[a]) + ") lies outside the cell [0, " +
+                       number_text(L[a]) + "] m");
+    Wall w{s.point, s.normal, s.velocity, s.own_law, s.law};
+    w.servo_pressure = s.pressure;
+    w.servo_relaxation = s.servo_relaxation;
+    w.servo_max_speed = s.max_speed;  // 0 until set_servo_speed_caps (the time step unknown here)
+    walls.push_back(w);
   }
   // Facing walls of one axis: a floor (normal +e) below a ceiling (normal -e), closer than L.
   for (std::size_t i = 0; i < walls.size(); ++i)
@@ -53,11 +52,16 @@ std::vector<Wall> scene_walls(const Scene& sc, const PeriodicCell& cell) {
       if (gap >= L[a])
         throw InputError(where(sc, j) + "point = " + vec(walls[j].point) + ": with [wall #" +
                          std::to_string(i + 1) + "] it spans the whole cell along axis " +
-                         std::to_string(a + 1) + " (" + num(gap) + " m of " + num(L[a]) +
+                         std::to_string(a + 1) + " (" + number_text(gap) + " m of " + number_text(L[a]) +
                          " m); the cell is periodic along every axis: make it longer than the distance "
                          "between the walls");
     }
   return walls;
+}
+
+void set_servo_speed_caps(std::vector<Wall>& walls, real_t rmin, real_t dt) {
+  for (Wall& w : walls)
+    if (w.servo() && w.servo_max_speed == 0) w.servo_max_speed = kServoStepFraction * rmin / dt;
 }
 
 void check_spheres_against_walls(const Scene& sc, const std::vector<Wall>& walls, const Particles& p) {
@@ -68,12 +72,12 @@ void check_spheres_against_walls(const Scene& sc, const std::vector<Wall>& walls
       if (d <= 0)
         throw InputError(where(sc, k) + "point = " + vec(walls[k].point) + ", normal = " +
                          vec(walls[k].normal) + ": particle " + std::to_string(p.id[i]) + " of " + from +
-                         " starts beyond the wall (its centre " + num(-d) + " m behind the plane)");
+                         " starts beyond the wall (its centre " + number_text(-d) + " m behind the plane)");
       if (R - d > sc.max_initial_overlap * R)
         throw InputError(where(sc, k) + "point = " + vec(walls[k].point) + ": particle " +
                          std::to_string(p.id[i]) + " of " + from + " overlaps the wall by " +
-                         num((R - d) / R) + " of its radius, above " + sc.path +
-                         ": [run] max_initial_overlap = " + num(sc.max_initial_overlap));
+                         number_text((R - d) / R) + " of its radius, above " + sc.path +
+                         ": [run] max_initial_overlap = " + number_text(sc.max_initial_overlap));
     }
 }
 

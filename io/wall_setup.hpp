@@ -18,6 +18,13 @@ namespace fabrica {
 // the two walls would touch through the periodic boundary).
 std::vector<Wall> scene_walls(const Scene& scene, const PeriodicCell& cell);
 
+// A servo wall without [[wall]] max_speed moves at most this fraction of the smallest sphere
+// radius per time step.
+inline constexpr real_t kServoStepFraction = 1e-3;
+// The speed cap of each servo wall without max_speed: kServoStepFraction rmin / dt (rmin: of all
+// particles; dt: the run's time step).
+void set_servo_speed_caps(std::vector<Wall>& walls, real_t rmin, real_t dt);
+
 // Throws InputError if a sphere of 'p' (owned ones) starts with its centre on or behind a
 // wall, or overlapping it by more than [run] max_initial_overlap of its radius.
 void check_spheres_against_walls(const Scene& scene, const std::vector<Wall>& walls,

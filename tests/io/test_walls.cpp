@@ -5,6 +5,7 @@
 #include "core/measures.hpp"
 #include "core/restitution.hpp"
 #include "core/simulation.hpp"
+#include "core/wall_servo.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
 
@@ -303,6 +304,67 @@ TEST(Walls, MovingWallPushesSphere) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Servo walls ([[wall]] pressure, core/wall_servo.hpp).
+
+TEST(ServoWalls, SpeedLaw) {
+  Wall w;
+  w.servo_pressure = 1000;  // Pa
+  w.servo_relaxation = 0.5;
+  w.servo_max_speed = 0.1;  // m/s
+  const real_t A = 0.01, dt = 1e-4;  // target push 10 N
+  // u = relaxation (P A - F) / (K dt): 0.5 x 5 N / (1e6 N/m x 1e-4 s) = 0.025 m/s into the spheres.
+  EXPECT_DOUBLE_EQ(servo_speed(w, 5.0, 1e6, A, dt), 0.025);
+  EXPECT_DOUBLE_EQ(servo_speed(w, 20.0, 1e6, A, dt), -0.05);  // pushed too hard: backs off
+  EXPECT_DOUBLE_EQ(servo_speed(w, 5.0, 1e4, A, dt), 0.1);     // 2.5 m/s capped
+  EXPECT_DOUBLE_EQ(servo_speed(w, 0.0, 0.0, A, dt), 0.1);     // no contact: approaches at the cap
+  EXPECT_DOUBLE_EQ(servo_speed(w, 10.0, 1e6, A, dt), 0.0);    // on target
+  // The update keeps the drag in the wall's plane and replaces the normal part.
+  std::vector<Wall> walls{w};
+  walls[0].normal = Vec3(0, 0, -1);
+  walls[0].velocity = Vec3(0.3, 0, 7);
+  const double load[2] = {5.0, 1e6};
+  update_servo_walls(walls, load, PeriodicCell(Vec3(0.1, 0.1, 0.2)), dt);  // A = 0.01 m^2
+  EXPECT_DOUBLE_EQ(walls[0].velocity.x(), 0.3);
+  EXPECT_DOUBLE_EQ(walls[0].velocity.z(), -0.025);
+}
+
+// A sphere on a floor under gravity, pressed by a servo lid: at rest the lid carries P A, the
+// floor P A + m g, and the lid sits at 2 R - (P A) / k_n - (P A + m g) / k_n above the floor
+// (linear law, k_n given). Force to 1e-6, position to 1e-3 of the overlaps; the energy account
+// (the lid's work with the forces at each step's end, the dashpots' impact) is second order in
+// dt: books / input - 1 = 2.4e-3, 6.2e-4, 1.6e-4 at dt = T / 50, T / 100, T / 200 (T the
+// contact's half period), so 5e-4 at T / 200.
+TEST(ServoWalls, SpherePressedOnFloorByServoLid) {
+  const real_t R = 0.01, rho = 2650, m = rho * 4.0 / 3 * kPi * R * R * R, kn = 1e5;
+  const Vec3 L(0.1, 0.1, 0.2);
+  const real_t A = L[0] * L[1], F = 10 * m * kG, P = F / A;
+  const real_t T = kPi * std::sqrt(m / kn);
+  std::ostringstream t;
+  t.precision(17);
+  t << "[contact]\nnormal_stiffness = " << kn << "\ndamping_ratio_normal = 0.5\nfriction = 0.5\n"
+    << "[run]\ntime_step = " << T / 200 << "\nskin = 0.002\ngravity = [0, 0, " << -kG << "]\n"
+    << "[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n"
+    << "[[wall]]\npoint = [0, 0, " << 2 * R + 0.0005 << "]\nnormal = [0, 0, -1]\npressure = " << P << "\n";
+  const Scene sc = scene_with("servo", t.str(), {{R, rho, Vec3(0.05, 0.05, R)}}, L);
+  Simulation sim = simulation_of(sc);
+  ASSERT_TRUE(sim.params().walls[1].servo());
+  EXPECT_DOUBLE_EQ(sim.params().walls[1].servo_max_speed, 1e-3 * R / (T / 200));  // the default cap
+  for (int s = 0; s < 80000; ++s) sim.step();
+  sim.step(true);
+  const MacroState& mc = sim.macro();
+  const real_t lid = sim.params().walls[1].point.z();
+  const real_t exact = 2 * R - F / kn - (F + m * kG) / kn;
+  std::printf("[servo lid] lid force %.9e N (target %.9e), floor %.9e N (exact %.9e), lid at %.9e m "
+              "(exact %.9e), kinetic %.3e J, books / input %.8f\n",
+              mc.wall_force[1].z(), F, -mc.wall_force[0].z(), F + m * kG, lid, exact, mc.kinetic,
+              energy_books(mc) / mc.energy_input);
+  EXPECT_NEAR(mc.wall_force[1].z() / F, 1.0, 1e-6);
+  EXPECT_NEAR(-mc.wall_force[0].z() / (F + m * kG), 1.0, 1e-6);
+  EXPECT_NEAR(lid, exact, 1e-3 * F / kn);
+  EXPECT_NEAR(energy_books(mc) / mc.energy_input, 1.0, 5e-4);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Driven particles ([[driven]]).
 
 struct Pass {
@@ -406,6 +468,15 @@ TEST(Walls, BadInputIsRefused) {
   expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 1, 1]\n", "[wall #1] normal = [0, 1, 1]: must be parallel to a cell axis");
   expect_refused("[[wall]]\nnormal = [0, 0, 1]\n", "[wall #1] point = (missing)");
   expect_refused("[triaxial]\n[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n", "[[wall]] with [triaxial]");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = -5\n", "[wall #1] pressure = -5: must be positive");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = 5\nvelocity = [0.1, 0, 0.2]\n",
+                 "[wall #1] velocity = [0.1, 0, 0.2]: has a part along the normal");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = 5\nservo_relaxation = 1\n",
+                 "[wall #1] servo_relaxation = 1: must lie in (0, 1)");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = 5\nmax_speed = 0\n",
+                 "[wall #1] max_speed = 0: must be positive");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\nmax_speed = 0.1\n",
+                 "[wall #1] max_speed = 0.1: is a setting of the servo: give pressure too");
   expect_refused("[contact]\nrestitution_normal = 0\n", "[contact] restitution_normal = 0: must lie in (0, 1]");
   expect_refused("[contact]\nrestitution_normal = 1.2\n", "[contact] restitution_normal = 1.2: must lie in (0, 1]");
   expect_refused("[contact]\nrestitution_normal = 0.5\ndamping_ratio_normal = 0.1\n",
