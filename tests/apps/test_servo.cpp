@@ -3,7 +3,7 @@
 // below [triaxial] unbalanced_tolerance), then the lateral stresses held within 1 % of the
 // target over every row of a short shear (eps_1 = 0.01, a row every 100 steps). Specimens of
 // the study's gradation (10-60 mm), loose (consolidated with mu_s = 1) and dense (mu_s = 0),
-// E = 1e7 and 1e10 Pa, k_n = 1e5 and 1e8 N/m, 100 to 1000 spheres; and the case of issue 13:
+// E = 1e7 and 1e10 Pa, k_n = 1e5, 1e8 and 1e9 N/m, 100 to 1000 spheres; and the case of issue 13:
 // a 108-sphere FCC lattice at k_n = 1e8 N/m, where the old servo's default fixed gains made p
 // alternate between 31 and 149 kPa and the run end as a "numerical blow-up": the stiffness
 // servo consolidates it, and the same fixed gains now stop with what they saw.
@@ -132,6 +132,14 @@ TEST(Servo, CellTooSmallForTheGradationStops) {
 TEST(Servo, SoftSpringsDense) { run(scene_text(100, "normal_stiffness = 1e5", 0.1, "", 0.02), "k_n 1e5, 100 dense"); }
 TEST(Servo, SoftSpringsLoose) { run(scene_text(100, "normal_stiffness = 1e5", 1.0, "", 0.02), "k_n 1e5, 100 loose"); }
 TEST(Servo, StiffSpringsDense) { run(scene_text(200, "normal_stiffness = 1e8", 0.1, "", 0.04, 0.45), "k_n 1e8, 200 dense"); }
+// k_n = 1e9 N/m: the time step falls as sqrt(m / k_n) while the rearrangements of a packing
+// take a time set by the masses and the pressure, not the stiffness, so the steps to rest grow
+// as sqrt(k_n): 721,098 here (600,000 were not enough). The loose 100 spheres of 10-20 mm come
+// to rest too, after 2,935,698 steps, but then hold the lateral stress in shear only within
+// 3.2 % (docs/triaxial.md, "The servo": open).
+TEST(Servo, VeryStiffSpringsDense) {
+  run(scene_text(200, "normal_stiffness = 1e9", 0.1, "", 0.04, 0.45, 4000000), "k_n 1e9, 200 dense");
+}
 TEST(Servo, ThousandSpheres) { run(scene_text(1000, "youngs_modulus = 1e8", 1.0), "E 1e8, 1000 loose"); }
 
 // The issue's lattice: 108 spheres (3 x 3 x 3 FCC cells), R = 10 mm, k_n = k_s = 1e8 N/m, nearest
