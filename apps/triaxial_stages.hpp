@@ -1,10 +1,10 @@
 // [triaxial] as stages (docs/triaxial.md, "As stages"): the study's protocol is
 //   consolidation   isotropic at confining_pressure, mu_s = consolidation_friction, mu_r = 0,
 //                   local damping preparation_damping; ends at rest; fabric at its end;
-//   equilibration   the same stress, mu_s of [contact] and the case's mu_r; ends at rest
-//                   ([triaxial] equilibration = "common": mu_r = 0 for every case, the case's
-//                   mu_r from the start of the shear; "none": no such stage, mu_s and mu_r
-//                   switched at the start of the shear);
+//   equilibration   the same stress, mu_s of [contact] and mu_r = 0 for every case, the case's
+//                   mu_r from the start of the shear ([triaxial] equilibration = "common", the
+//                   default); "case": the case's mu_r here; "none": no such stage, mu_s and mu_r
+//                   switched at the start of the shear;
 //   shear           axis 1 compressed at axial_strain_rate, axes 2, 3 at confining_pressure,
 //                   local damping shear_damping, strains measured from its start; ends at
 //                   eps_1 = axial_strain; fabric at its rows; peak q/p and lateral error.

@@ -497,7 +497,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   positive("confining_pressure", tx.confining_pressure);
   tx.consolidation_friction = T.number("consolidation_friction", tx.consolidation_friction);
   require(T, "consolidation_friction", tx.consolidation_friction, tx.consolidation_friction >= 0, "must be >= 0");
-  const std::string eq = T.string("equilibration").value_or("case");
+  const std::string eq = T.string("equilibration").value_or("common");
   if (eq != "case" && eq != "common" && eq != "none")
     T.fail("equilibration", "\"" + eq + "\"", "must be \"case\", \"common\" or \"none\"");
   tx.equilibration = eq == "common" ? TriaxialSpec::Equilibration::Common

@@ -60,12 +60,12 @@ struct TriaxialSpec {
   real_t confining_pressure = 200e3;    // Pa
   real_t consolidation_friction = 1.0;  // mu_s while consolidating (mu_r = 0 then)
   // What each case is sheared from (docs/triaxial.md, "Equilibration protocols"):
-  //   Case:   re-equilibrated at [contact] friction and the case's mu_r (the default);
+  //   Case:   re-equilibrated at [contact] friction and the case's mu_r;
   //   Common: re-equilibrated at [contact] friction and mu_r = 0, the same state for every
-  //           case; the case's mu_r from the start of the shear;
+  //           case; the case's mu_r from the start of the shear (the default: the study's text);
   //   None:   no re-equilibration: the consolidated state, mu_s and mu_r switched at the start
   //           of the shear.
-  enum class Equilibration { Case, Common, None } equilibration = Equilibration::Case;
+  enum class Equilibration { Case, Common, None } equilibration = Equilibration::Common;
   ServoMode servo = ServoMode::Stiffness;
   // servo = "stiffness": each servo interval corrects this fraction of the stress error, with
   // the gain derived from the specimen's stiffness (re-measured at every servo update), and the

@@ -229,7 +229,9 @@ TEST(Scene, ServoModeAndItsKeys) {
   EXPECT_EQ(r.triaxial.servo_relaxation, 0.3);
   EXPECT_EQ(r.triaxial.servo_interval, 4);
   expect_error("[triaxial]\nservo = \"pid\"\n", {"[triaxial]", "servo", "pid", "stiffness"});
-  EXPECT_EQ(d.triaxial.equilibration, TriaxialSpec::Equilibration::Case);
+  EXPECT_EQ(d.triaxial.equilibration, TriaxialSpec::Equilibration::Common);
+  EXPECT_EQ(parse_scene("[triaxial]\nequilibration = \"case\"\n", "s.toml").triaxial.equilibration,
+            TriaxialSpec::Equilibration::Case);
   EXPECT_EQ(parse_scene("[triaxial]\nequilibration = \"common\"\n", "s.toml").triaxial.equilibration,
             TriaxialSpec::Equilibration::Common);
   EXPECT_EQ(parse_scene("[triaxial]\nequilibration = \"none\"\n", "s.toml").triaxial.equilibration,

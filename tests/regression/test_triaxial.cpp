@@ -190,6 +190,9 @@ struct Specimen {
   std::vector<std::unique_ptr<Branch>> branches;
 };
 
+// The acceptance tests of docs/triaxial.md run the "case" protocol (each case re-equilibrated
+// at its own mu_r: equilibrate(mu_r) below), whatever the scene's [triaxial] equilibration; the
+// three protocols are compared in tests/cli/check_equilibration.py.
 struct Study {
   Scene scene;
   Setup setup;
