@@ -149,9 +149,12 @@ void Simulation::compute(bool measure, real_t dt) {
   const bool moving = dt > 0 && par_.moving_walls();
   // Servo walls (core/wall_servo.hpp): the push and contact stiffness of each wall, exact sums.
   const bool servo = dt > 0 && servo_wall_count(par_.walls) > 0;
-  ExactSums load(servo ? 2 * par_.walls.size() : 0);
+  if (servo) {  // kept between steps: no allocation per step
+    if (wall_sums_.slots() != 2 * par_.walls.size()) wall_sums_ = ExactSums(2 * par_.walls.size());
+    std::fill(wall_sums_.words().begin(), wall_sums_.words().end(), 0);
+  }
   ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_, par_.kernel_lanes};
-  ctx.wall_load = servo ? &load : nullptr;
+  ctx.wall_load = servo ? &wall_sums_ : nullptr;
   real_t power = 0;
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,
                  moving ? &power : nullptr);
@@ -161,11 +164,11 @@ void Simulation::compute(bool measure, real_t dt) {
     wall_work_ += pw * dt;
   }
   if (servo) {  // the walls' velocities for the next step, the same on every rank and rank count
-    load.normalize();
-    domain_->sum_all(load.words());
-    load.normalize();
-    wall_load_.resize(load.slots());
-    for (std::size_t k = 0; k < load.slots(); ++k) wall_load_[k] = load.value(k);
+    wall_sums_.normalize();
+    domain_->sum_all(wall_sums_.words());
+    wall_sums_.normalize();
+    wall_load_.resize(wall_sums_.slots());
+    for (std::size_t k = 0; k < wall_sums_.slots(); ++k) wall_load_[k] = wall_sums_.value(k);
     update_servo_walls(par_.walls, wall_load_, cell_, dt);
   }
   if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, dt);

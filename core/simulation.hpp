@@ -287,7 +287,8 @@ class Simulation {
   real_t volume_prev_ = 0;              // cell volume then [m^3]
   bool stress_known_ = false;           // the last step (or the construction) knows it
   real_t gravity_work_local_ = 0;       // work of gravity on the owned particles [J]
-  std::vector<double> wall_load_;       // servo walls: push and stiffness per wall (the last step)
+  ExactSums wall_sums_;                 // servo walls: the exact sums of push and stiffness per wall
+  std::vector<double> wall_load_;       // their values (the last step)
   real_t wall_work_ = 0;                // work of the moving walls [J] (global: reduced each step)
   real_t drive_work_ = 0;               // work of the drive [J] (global: reduced each step)
   std::vector<std::pair<Index, std::int32_t>> driven_;  // owned driven particles and their set
