@@ -18,14 +18,14 @@ real_t round6(real_t x) {
   const real_t scale = std::pow(10.0, 5 - std::floor(std::log10(std::abs(x))));
   return std::round(x * scale) / scale;
 }
-}  // namespace
 
-Mat3 specimen_stiffness(Simulation& sim) {
+// The sums of M and C (servo.hpp) over this rank's touching contacts, with or without dashpots.
+template <bool Viscous>
+void add_response(const Simulation& sim, double* m) {
   const Particles& P = sim.particles();
   const PairList& pl = sim.pairs();
   const ContactLawParams& law = sim.params().law;
   const Vec3& L = sim.cell().lengths();
-  double m[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   for (std::size_t q = 0; q < pl.size(); ++q) {
     if (!pl.touching[q] || std::size_t(pl.i[q]) >= P.n_owned()) continue;
     const Index i = pl.i[q], j = pl.j[q];
@@ -33,17 +33,32 @@ Mat3 specimen_stiffness(Simulation& sim) {
     const real_t d2 = d.squaredNorm();
     if (d2 == 0) continue;
     const Vec3 n = d / std::sqrt(d2);
-    const PairConstants c = pair_constants<false, false>(law, P.radius[i], P.radius[j], P.mass[i], P.mass[j]);
+    const PairConstants c = pair_constants<false, Viscous>(law, P.radius[i], P.radius[j], P.mass[i], P.mass[j]);
     for (int k = 0; k < 3; ++k)
-      for (int l = 0; l < 3; ++l)
-        m[3 * k + l] += d2 * n[k] * n[l] * ((c.kn - c.ks) * n[k] * n[l] + (k == l ? c.ks : 0.0));
+      for (int l = 0; l < 3; ++l) {
+        const real_t w = d2 * n[k] * n[l];
+        m[3 * k + l] += w * ((c.kn - c.ks) * n[k] * n[l] + (k == l ? c.ks : 0.0));
+        if constexpr (Viscous) m[9 + 3 * k + l] += w * ((c.cn - c.cs) * n[k] * n[l] + (k == l ? c.cs : 0.0));
+      }
   }
-  sim.domain().sum_all(std::span<double>(m, 9));
+}
+}  // namespace
+
+SpecimenResponse specimen_response(Simulation& sim) {
+  double m[18] = {};
+  if (sim.params().law.viscous())
+    add_response<true>(sim, m);
+  else
+    add_response<false>(sim, m);
+  sim.domain().sum_all(std::span<double>(m, 18));
   const real_t V = sim.cell().volume();
-  Mat3 M;
+  SpecimenResponse r;
   for (int k = 0; k < 3; ++k)
-    for (int l = 0; l < 3; ++l) M(k, l) = m[3 * k + l] / V;
-  return M;
+    for (int l = 0; l < 3; ++l) {
+      r.stiffness(k, l) = m[3 * k + l] / V;
+      r.viscosity(k, l) = m[9 + 3 * k + l] / V;
+    }
+  return r;
 }
 
 Servo::Servo(const ServoSettings& s, real_t interval, std::array<bool, 3> axes, Vec3 fixed, Vec3 target)
@@ -51,16 +66,20 @@ Servo::Servo(const ServoSettings& s, real_t interval, std::array<bool, 3> axes, 
       relax_(s.relaxation), irelax_(s.integral_relaxation), interval_(interval), axes_(axes),
       fixed_(fixed) {}
 
-Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
+Vec3 Servo::update(const Mat3& stress, real_t elapsed, const SpecimenResponse& R) {
   Vec3 r = fixed_;
   for (int k = 0; k < 3; ++k) {
     if (!axes_[k]) continue;
     const real_t target = target_[k];
-    real_t S = 0;  // the stiffness against the servo's own strain: every controlled axis moves
+    // The stiffness and viscosity against the servo's own strain: every controlled axis moves.
+    real_t S = 0, C = 0;
     for (int l = 0; l < 3; ++l)
-      if (axes_[l]) S += M(k, l);
+      if (axes_[l]) S += R.stiffness(k, l), C += R.viscosity(k, l);
     S = round6(S);
-    if (mode_ == ServoMode::Stiffness || !M.isZero()) stiffness_[k] = S;  // the last one seen
+    C = round6(C);
+    if (mode_ == ServoMode::Stiffness || !R.empty()) stiffness_[k] = S, viscosity_[k] = C;  // the last seen
+    // Pa s: the stress a unit rate moves within one interval (elastic + viscous).
+    const real_t resist = S * interval_ + C;
     // The error is read to 1e-6: the reduced stress differs between rank counts in the last
     // bits (summation order), and a dense packing amplifies any difference in the imposed
     // strain rate to O(1) within ~1000 steps; rounded, the servo acts identically on any number
@@ -79,7 +98,7 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
       r[k] = std::clamp(std::fma(ki_, integral_[k], pe), -cap_, cap_);
       // Over-correction: a loop gain above 2 with the error alternating in sign, above 5 %,
       // at 20 updates in a row (the issue-13 lattice: p between 31 and 149 kPa for ever).
-      const real_t loop = kp_ * interval_ * S / target;
+      const real_t loop = kp_ * resist / target;
       flips_[k] = loop > 2 && std::abs(e) > 0.05 && e * last_error_[k] < 0 ? flips_[k] + 1 : 0;
       last_error_[k] = e;
       if (flips_[k] >= 20)
@@ -92,12 +111,12 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
             k + 1, e, kp_, S, interval_, loop, 2 * target / (interval_ * S)));
       continue;
     }
-    if (S <= 0) {  // no contact resists: approach at the cap
+    if (resist <= 0) {  // no contact resists: approach at the cap
       gain_[k] = INFINITY;
       r[k] = e > 0 ? cap_ : (e < 0 ? -cap_ : 0.0);
       continue;
     }
-    const real_t g = target / (S * interval_);  // 1/s: the rate that moves sigma by 'target' in T
+    const real_t g = target / resist;  // 1/s: the rate that moves sigma by 'target' in T
     gain_[k] = relax_ * g;
     const real_t trial = g * (relax_ * e + irelax_ * (integral_[k] + e));
     if (std::abs(trial) < cap_) integral_[k] += e;  // anti-windup
@@ -106,7 +125,7 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const Mat3& M) {
   return r;
 }
 
-bool Servo::needs_stiffness(const Mat3& stress) const {
+bool Servo::needs_response(const Mat3& stress) const {
   if (mode_ == ServoMode::Stiffness) return true;
   for (int k = 0; k < 3; ++k) {
     if (!axes_[k]) continue;
@@ -117,8 +136,11 @@ bool Servo::needs_stiffness(const Mat3& stress) const {
 }
 
 std::string Servo::describe() const {
-  return fmt::format("gain ({:.4g}, {:.4g}, {:.4g}) 1/s, stiffness ({:.4g}, {:.4g}, {:.4g}) Pa",
-                     gain_[0], gain_[1], gain_[2], stiffness_[0], stiffness_[1], stiffness_[2]);
+  std::string s = fmt::format("gain ({:.4g}, {:.4g}, {:.4g}) 1/s, stiffness ({:.4g}, {:.4g}, {:.4g}) Pa",
+                              gain_[0], gain_[1], gain_[2], stiffness_[0], stiffness_[1], stiffness_[2]);
+  if (!viscosity_.isZero())
+    s += fmt::format(", viscosity ({:.4g}, {:.4g}, {:.4g}) Pa s", viscosity_[0], viscosity_[1], viscosity_[2]);
+  return s;
 }
 
 }  // namespace fabrica

@@ -52,9 +52,9 @@ void StageControl::follow_path(const Mat3& stress, const Vec3& eps) {
   }
 }
 
-Vec3 StageControl::update(const Mat3& stress, const Vec3& eps, real_t elapsed, const Mat3& M) {
+Vec3 StageControl::update(const Mat3& stress, const Vec3& eps, real_t elapsed, const SpecimenResponse& R) {
   follow_path(stress, eps);
-  Vec3 r = servo_.update(stress, elapsed, M);
+  Vec3 r = servo_.update(stress, elapsed, R);
   if (st_.path == StagePath::CyclicStrain || st_.path == StagePath::CyclicStress)
     r[0] = -direction_ * std::abs(st_.rate[0]);
   return r;

@@ -28,11 +28,11 @@ class StageControl {
  public:
   // 'interval': seconds between two updates (servo interval x time step).
   StageControl(const StageSpec& st, real_t interval);
-  // Whether update() reads the specimen stiffness (collective: every rank asks alike).
-  bool needs_stiffness(const Mat3& stress) const { return servo_.needs_stiffness(stress); }
+  // Whether update() reads the specimen's response (collective: every rank asks alike).
+  bool needs_response(const Mat3& stress) const { return servo_.needs_response(stress); }
   // The rates after measurement 'stress' with the stage's strains 'eps', 'elapsed' s after the
-  // previous one, for the specimen stiffness M. Throws ServoDivergence (apps/servo.hpp).
-  Vec3 update(const Mat3& stress, const Vec3& eps, real_t elapsed, const Mat3& M);
+  // previous one, for the specimen's response R. Throws ServoDivergence (apps/servo.hpp).
+  Vec3 update(const Mat3& stress, const Vec3& eps, real_t elapsed, const SpecimenResponse& R);
   // The stress targets of the last update (those of the stress axes; 0 elsewhere).
   Vec3 targets() const;
   const std::array<bool, 3>& stress_axes() const { return axes_; }

@@ -99,9 +99,9 @@ void StageRun::apply_contact(const StageSpec& st) {
 Vec3 StageRun::update(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps,
                       real_t elapsed) {
   // Collective when needed: every rank takes the same decision from the reduced stress.
-  const Mat3 M = c.needs_stiffness(m.stress) ? specimen_stiffness(sim_) : Mat3::Zero();
+  const SpecimenResponse R = c.needs_response(m.stress) ? specimen_response(sim_) : SpecimenResponse{};
   try {
-    return c.update(m.stress, eps, elapsed, M);
+    return c.update(m.stress, eps, elapsed, R);
   } catch (const ServoDivergence& e) {  // the same on every rank (reduced values only)
     const Vec3 t = c.targets();
     throw CollectiveError(fmt::format("{}: {} the {} stage stopped at step {}: {} (p = {:.6g} Pa, "
