@@ -16,7 +16,7 @@ Needs h5py and numpy (Debian's python3-h5py, python3-numpy; use /usr/bin/python3
 Every error (missing, damaged or foreign file, unknown case or step) is a
 :class:`FabricaFileError` whose message names the file and the object.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -57,6 +57,10 @@ class SnapshotInfo:
     strain: np.ndarray        #: (3,) eps_i = ln(l_i0 / l_i), compression positive
     particles: int
     contacts: int
+    #: (W, 3) m and (W, 3): each wall's point of the plane at this step and its unit normal
+    #: (empty (0, 3) without walls)
+    wall_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    wall_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 @dataclass
@@ -199,7 +203,9 @@ class RunFile:
         return SnapshotInfo(case=case, step=int(a["step"]), time=float(a["time"]),
                             cell_lengths=np.asarray(a["cell_lengths"], dtype=np.float64),
                             strain=np.asarray(a["strain"], dtype=np.float64),
-                            particles=int(a["particles"]), contacts=int(a["contacts"]))
+                            particles=int(a["particles"]), contacts=int(a["contacts"]),
+                            wall_points=np.asarray(a.get("wall_points", []), dtype=np.float64).reshape(-1, 3),
+                            wall_normals=np.asarray(a.get("wall_normals", []), dtype=np.float64).reshape(-1, 3))
 
     def snapshots(self, case=None):
         """Every snapshot (:class:`SnapshotInfo`) of ``case``, or of every case (cases in name

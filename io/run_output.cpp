@@ -357,8 +357,17 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   g.set_attr("strain", std::span<const double>(ed, 3));
   g.set_attr("particles", std::int64_t(np));
   g.set_attr("contacts", std::int64_t(nc));
-  // Of the contacts' rows, those with a wall (id2 < 0).
-  if (!sim.params().walls.empty()) g.set_attr("wall_contacts", writer.wall_contacts());
+  // Of the contacts' rows, those with a wall (id2 < 0); and where the walls are at this step
+  // (a moving or servo-controlled wall has moved since the scene): each wall's point and unit
+  // normal, wall k at 3k .. 3k + 2 (the same on every rank).
+  if (const std::vector<Wall>& walls = sim.params().walls; !walls.empty()) {
+    g.set_attr("wall_contacts", writer.wall_contacts());
+    std::vector<double> points, normals;
+    for (const Wall& w : walls)
+      for (int k = 0; k < 3; ++k) points.push_back(w.point[k]), normals.push_back(w.normal[k]);
+    g.set_attr("wall_points", std::span<const double>(points));
+    g.set_attr("wall_normals", std::span<const double>(normals));
+  }
 
   double bytes = writer.write(g);
   const std::int64_t need = std::max(std::int64_t(np), 2 * std::int64_t(nc));

@@ -9,8 +9,8 @@ wall2_fz equals LID_PRESSURE x the cross-section and the floor carries it as wel
 (|books - input| / input < 2e-2, books = kinetic + elastic + dissipated: the account of the
 dashpots' impacts is first order in dt, 0.9 % at time_step_fraction 0.25 here, 2.8 / 1.0 / 0.5 %
 at 0.25 / 0.1 / 0.05 with local damping 0.3); the wall contacts are counted apart
-(wall_contacts, at least one sphere on the floor); with h5py, the wall contacts of the last
-snapshot of run.h5 and of its contacts' XDMF sidecar (below)."""
+(wall_contacts, at least one sphere on the floor); with h5py, the wall contacts and the walls'
+positions of the last snapshot of run.h5 and its contacts' XDMF sidecar (below)."""
 import csv, math, sys
 
 data, out = sys.argv[1], sys.argv[2]
@@ -82,6 +82,20 @@ with h5py.File(out + '/run.h5', 'r') as f:
     ok = ok and abs(fn_walls / -fz - 1) < rest and c['strong'][:][wall].sum() == 0
     walls_touched = [0] if lid_pressure is None else [0, 1]
     ok = ok and sorted(set((-1 - c['id2'][:][wall]).tolist())) == walls_touched and rows == len(c['id2'])
+    # Where the walls are at the snapshot's step (attributes wall_points, wall_normals): each
+    # wall's point . |normal| equals the series' wallk_position of the row at that step (to the
+    # CSV's 10 digits), and the normals are the scene's unit normals (+z floor, -z lid).
+    points = snap.attrs['wall_points'].reshape(-1, 3)
+    normals = snap.attrs['wall_normals'].reshape(-1, 3)
+    step = int(snap.attrs['step'])
+    at = [r for r in csv.DictReader(open(out + '/series.csv')) if int(r['step']) == step]
+    n_walls = 1 if lid_pressure is None else 2
+    want_normals = [[0, 0, 1], [0, 0, -1]][:n_walls]
+    print(f"run.h5 {snap.name}: wall points {points.tolist()}, normals {normals.tolist()}; series row at "
+          f"step {step}: {[at[0][f'wall{k + 1}_position'] for k in range(n_walls)] if at else 'none'}")
+    ok = ok and len(at) == 1 and points.shape == (n_walls, 3) and normals.tolist() == want_normals
+    ok = ok and all(abs(points[k] @ abs(normals[k]) - float(at[0][f'wall{k + 1}_position']))
+                    <= 1e-9 * max(1.0, abs(points[k] @ abs(normals[k]))) for k in range(n_walls))
 xmf = open(out + '/run_contacts.xmf').read()
 m = re.findall(r'NumberOfElements="(\d+)"', xmf)
 print(f"run_contacts.xmf: line cells per snapshot {m[-1:]}")
