@@ -105,10 +105,12 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const SpecimenResponse& R
         throw ServoDivergence(fmt::format(
             "the servo cannot converge on axis {}: the stress error alternated in sign at the last "
             "20 updates (now {:.3g}); servo_gain = {:.6g} 1/s against a specimen stiffness of "
-            "{:.6g} Pa over a servo interval of {:.6g} s is a loop gain of {:.3g} (above 2 each "
+            "{:.6g} Pa over a servo interval of {:.6g} s{} is a loop gain of {:.3g} (above 2 each "
             "correction overshoots by more than the error it corrects); use servo = \"stiffness\" "
             "(the default without servo_gain) or a servo_gain below {:.6g} 1/s",
-            k + 1, e, kp_, S, interval_, loop, 2 * target / (interval_ * S)));
+            k + 1, e, kp_, S, interval_,
+            C > 0 ? fmt::format(" and a viscosity of {:.6g} Pa s", C) : std::string(), loop,
+            2 * target / resist));
       continue;
     }
     if (resist <= 0) {  // no contact resists: approach at the cap
