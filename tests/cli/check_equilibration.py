@@ -3,7 +3,7 @@
 (docs/triaxial.md, "Equilibration protocols") on a sweep over mu_r = 0 and 0.2, compared with one
 another and with what each promises:
 
-- "case" (the default): the mu_r = 0.2 case is re-equilibrated with rolling resistance
+- "case": the mu_r = 0.2 case is re-equilibrated with rolling resistance
   (e_rolling > 0 in its equilibration rows);
 - "common": both cases' equilibration rows are identical, character for character, to the "case"
   run's mu_r = 0 case (re-equilibrated at mu_r = 0, without rolling energy); the mu_r = 0 case's
