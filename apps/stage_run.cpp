@@ -1,6 +1,7 @@
 #include "apps/stage_run.hpp"
 
 #include "apps/stage_end.hpp"
+#include "apps/stage_record.hpp"
 #include "core/contact_snapshot.hpp"
 #include "core/fabric.hpp"
 #include "io/run_output.hpp"
@@ -73,11 +74,14 @@ void StageRun::row(const StageSpec& st, const MacroState& m, const Vec3& eps) {
       return h.str();
     }();
     output_->series_row(case_, header, st.name, sim_.step_count(), values);
+    if (record_) record_->h5_row(st.name, sim_.step_count(), values, std::size(values));
   }
   if (!series_) return;
-  *series_ << st.name << ',' << sim_.step_count();
-  for (real_t v : values) *series_ << fmt::format(",{:.10g}", v);
-  *series_ << '\n';
+  std::string line = fmt::format("{},{}", st.name, sim_.step_count());
+  for (real_t v : values) line += fmt::format(",{:.10g}", v);
+  line += '\n';
+  *series_ << line;
+  if (record_) record_->series << line;
 }
 
 void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
@@ -87,6 +91,7 @@ void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
   const FabricOptions opt{scene_.fabric.strong_ratio, int(scene_.fabric.rose_bins)};
   const FabricResult r = analyse_fabric(records, sim_.cell().volume(), opt, sim_.domain());
   if (fabric_out_) write_fabric_rows(*fabric_out_, st.name, sim_.step_count(), eps[0], r);
+  if (fabric_out_ && record_) write_fabric_rows(record_->fabric(), st.name, sim_.step_count(), eps[0], r);
   fabric_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -17,6 +17,7 @@
 namespace fabrica {
 
 class RunOutput;
+class StageRecord;
 
 struct StageResult {
   std::int64_t steps = 0;
@@ -82,6 +83,9 @@ class StageRun {
     output_ = out;
     case_ = std::move(case_name);
   }
+  // While set, every series, fabric and HDF5 series row is also kept in 'r' (to be written
+  // again for another case: apps/stage_record.hpp); null stops it.
+  void record(StageRecord* r) { record_ = r; }
 
  protected:
   const Scene& scene_;
@@ -112,6 +116,7 @@ class StageRun {
   double fabric_seconds_ = 0;
   RunOutput* output_ = nullptr;
   std::string case_;
+  StageRecord* record_ = nullptr;
 };
 
 void write_series_header(std::ostream& out);

@@ -182,10 +182,17 @@ void TriaxialSweep::consolidate(TriaxialRun& prep) {
 void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   const TriaxialCase& tc = cases_[i];
   const bool resuming = restart_ && std::int32_t(i) == start_case_;
+  const bool equilibrate = !resuming && scene_.triaxial.equilibration != TriaxialSpec::Equilibration::None;
+  // "common": every case's re-equilibration is the same; the first one is kept for the others.
+  const bool replay = equilibrate && shared_;
+  const bool keep = equilibrate && !shared_ && i + 1 < cases_.size() &&
+                    scene_.triaxial.equilibration == TriaxialSpec::Equilibration::Common;
   const auto t1 = clock::now();
-  std::unique_ptr<Domain> d2 = domain_ ? domain_->clone() : nullptr;
-  std::unique_ptr<Simulation> simp = resuming ? std::make_unique<Simulation>(std::move(*case_snapshot_), d2.get())
-                                              : std::make_unique<Simulation>(*prepared_, d2.get());
+  const Domain* from = replay ? shared_->domain.get() : domain_.get();
+  std::unique_ptr<Domain> d2 = from ? from->clone() : nullptr;
+  std::unique_ptr<Simulation> simp =
+      resuming ? std::make_unique<Simulation>(std::move(*case_snapshot_), d2.get())
+               : std::make_unique<Simulation>(replay ? *shared_->sim : *prepared_, d2.get());
   Simulation& sim = *simp;
   SeriesFile series(mpi_.comm(), (out_ / tc.name / "series.csv").string(), header_, 1,
                     resuming ? restart_step_ : -1);
@@ -210,14 +217,36 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   StageResult sh;
   const StageResult saved = equil_;
   equil_ = StageResult{};
+  std::string shared_from;  // the case whose re-equilibration this one shares
+  if (replay) {  // what the re-equilibration wrote, and its end state's account
+    shared_from = shared_->source_case;
+    run.set_account(shared_->account);
+    equil_ = shared_->result;
+    shared_->record.replay(series.stream(), fabric->streams(), output_, header_, shared_->source_case, tc.name);
+    check_rows();
+    if (i + 1 == cases_.size()) shared_.reset();  // the last case: its copy is made
+  }
   try {
     if (resuming && at_.stage == kShear) {
       equil_ = saved;
       sh = run.resume(at_);
     } else {
       if (resuming) equil_ = run.resume(at_);
-      else if (scene_.triaxial.equilibration != TriaxialSpec::Equilibration::None)
+      else if (equilibrate && !replay) {
+        auto kept = keep ? std::make_unique<SharedEquilibration>() : nullptr;
+        if (kept) run.record(&kept->record), kept->record.first_step = sim.step_count();
         equil_ = run.equilibrate(equilibration_rolling_friction(scene_, tc.rolling_friction));
+        run.record(nullptr);
+        if (kept) {
+          kept->source_case = tc.name;
+          kept->record.last_step = sim.step_count();
+          kept->domain = d2 ? d2->clone() : nullptr;
+          kept->sim = std::make_unique<Simulation>(sim, kept->domain.get());
+          kept->account = run.account();
+          kept->result = equil_;
+          shared_ = std::move(kept);
+        }
+      }
       sh = run.shear(tc.rolling_friction);
     }
   } catch (const BlowUpError& err) {  // every rank is here (the diagnosis is collective)
@@ -238,9 +267,11 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
                          tc.name,
                          scene_.triaxial.equilibration == TriaxialSpec::Equilibration::None
                              ? fmt::format("not re-equilibrated (void ratio {:.4f})", cons_.state.void_ratio)
-                             : fmt::format("equilibrated in {} steps (mu_r = {}, void ratio {:.4f})", e.steps,
+                             : fmt::format("equilibrated in {} steps (mu_r = {}, void ratio {:.4f}){}", e.steps,
                                            equilibration_rolling_friction(scene_, tc.rolling_friction),
-                                           e.state.void_ratio),
+                                           e.state.void_ratio,
+                                           shared_from.empty() ? std::string()
+                                                               : fmt::format(", the re-equilibration of case {}", shared_from)),
                          sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
                          qp_end, sh.strain.sum(), 100 * sh.max_lateral_error, 100 * energy_error, inertial);
   if (log_ && scene_.fabric.enabled)

@@ -1,7 +1,8 @@
 // The whole triaxial test of a scene with [triaxial] (docs/triaxial.md): one consolidation,
 // then for each case of the sweep (or the single [contact] rolling_friction) a branch of the
 // consolidated state that is re-equilibrated and sheared (apps/triaxial_stages.hpp, run by
-// StageRun). Writes OUT/consolidation.csv, OUT/<case>/series.csv, the fabric files and
+// StageRun); under equilibration = "common" the re-equilibration runs once and the cases branch
+// off its end state. Writes OUT/consolidation.csv, OUT/<case>/series.csv, the fabric files and
 // OUT/summary.csv (rank 0), with 'output' the same series and the snapshots into run.h5 (cases
 // "consolidation" and each case's name), and checkpoints ([run] checkpoint_every /
 // checkpoint_seconds) that a restart continues from in any stage of any case.
@@ -9,6 +10,7 @@
 #include "apps/app_checkpoint.hpp"
 #include "apps/fabric_files.hpp"
 #include "apps/series_file.hpp"
+#include "apps/stage_record.hpp"
 #include "apps/triaxial.hpp"
 #include "io/setup.hpp"
 
@@ -63,6 +65,20 @@ class TriaxialSweep {
   std::string summary_rows_;
   std::optional<SimulationSnapshot> case_snapshot_;
   std::unique_ptr<Simulation> prepared_;  // the consolidation's simulation; the cases branch off it
+  // Under equilibration = "common", the re-equilibrated state every case shears from: the first
+  // case that runs the re-equilibration from its start keeps its end state, its account and
+  // what it wrote, and every later case starts from a copy (the same trajectory, bit for bit,
+  // as a repeated re-equilibration; not kept for the last case, nor across a restart, after
+  // which the next case re-equilibrates and keeps it again).
+  struct SharedEquilibration {
+    std::string source_case;  // whose snapshots the later cases link to
+    std::unique_ptr<Domain> domain;
+    std::unique_ptr<Simulation> sim;
+    StageCursor account;      // the run's strain reference and energy put in, at its end
+    StageResult result;
+    StageRecord record;
+  };
+  std::unique_ptr<SharedEquilibration> shared_;
   std::string header_;
   std::optional<SeriesFile> cons_series_;
   std::optional<FabricFiles> cons_fabric_;

@@ -235,6 +235,13 @@ void Group::remove(const std::string& rel) const {
   check(H5Ldelete(id(), rel.c_str(), H5P_DEFAULT), "removing " + rel);
 }
 
+void Group::link(const std::string& rel, const std::string& target) const {
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
+  H5Pset_create_intermediate_group(lcpl.get(), 1);
+  check(H5Lcreate_hard(id(), target.c_str(), id(), rel.c_str(), lcpl.get(), H5P_DEFAULT),
+        "linking " + rel + " to " + target);
+}
+
 Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols,
                               hsize_t chunk_rows) const {
   // Every dataset with data is chunked and carries HDF5's Fletcher-32 checksum of each chunk,

@@ -107,6 +107,9 @@ class Group : public Object {
   bool exists(const std::string& rel) const;
   std::vector<std::string> children() const;  // names of the links, in name order
   void remove(const std::string& rel) const;  // unlinks 'rel' (H5Ldelete; collective under MPI-IO)
+  // A second name 'rel' (intermediate groups created) for the object at the absolute path
+  // 'target' of the same file (H5Lcreate_hard: the object is stored once; collective under MPI-IO).
+  void link(const std::string& rel, const std::string& target) const;
 
   // A dataset of 'rows' x 'cols' elements (cols = 0: one-dimensional). With chunk_rows > 0 it is
   // chunked and extendible along the rows (for appending).

@@ -394,6 +394,25 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   flush();
 }
 
+void RunOutput::link_snapshots(const std::string& source_case, const std::string& case_name,
+                               std::int64_t first_step, std::int64_t last_step) {
+  const auto t0 = clock_type::now();
+  mark_failure([&] {
+    std::vector<XmfEntry> linked;
+    for (const XmfEntry& x : xmf_)
+      if (x.case_name == source_case && x.step > first_step && x.step <= last_step) {
+        const std::string gp = layout::snapshot_path(case_name, x.step);
+        if (file_.exists(gp)) continue;  // same answer on every rank
+        file_.link(gp, "/" + layout::snapshot_path(source_case, x.step));
+        linked.push_back(x);
+        linked.back().case_name = case_name;
+      }
+    xmf_.insert(xmf_.end(), linked.begin(), linked.end());
+  });
+  seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+  flush();
+}
+
 void RunOutput::flush() {
   mark_failure([&] { flush_all(); });
 }

@@ -58,6 +58,11 @@ class RunOutput {
   // The particles and contacts of 'sim' now, with the strain eps_i = ln(l_i0 / l_i). A second
   // snapshot of the same case and step is skipped (e.g. the end of a stage on a cadence step).
   void snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
+  // The snapshots of 'source_case' with a step in (first_step, last_step] also become snapshots
+  // of 'case_name' (the same steps), as HDF5 hard links: stored once, read through either path.
+  // For a stage that two cases share (apps/stage_record.hpp).
+  void link_snapshots(const std::string& source_case, const std::string& case_name,
+                      std::int64_t first_step, std::int64_t last_step);
 
   // A restart from a checkpoint taken at 'step' in case cases[current] ('cases': every case of
   // the run in the order it writes them): removes the series rows with a step after 'step' and
