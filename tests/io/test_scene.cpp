@@ -370,6 +370,8 @@ TEST(Scene, ExampleScenesAreValid) {
   EXPECT_EQ(paper.generate.count, 13584);
   EXPECT_EQ(paper.generate.placement, GenerateSpec::Placement::Sequential);
   EXPECT_EQ(paper.triaxial.rolling_friction_cases.size(), 6u);
+  EXPECT_EQ(paper.time_step_fraction, 0.5);  // the time-to-solution settings (docs/triaxial.md)
+  EXPECT_EQ(paper.skin, 0.003);
   const Scene large = load_scene(dir + "large.toml");
   EXPECT_EQ(large.generate.count, 200000);
   EXPECT_EQ(large.generate.placement, GenerateSpec::Placement::Regions);
