@@ -56,10 +56,119 @@ Grid make_grid(const Vec3& L, real_t edge) {
 
 }  // namespace
 
+// The class-b spheres of one grid in cell order, with their positions and radii copied in that
+// order, so that the scan of a cell reads memory in sequence.
+struct NeighborSearch::CellCopies {
+  std::vector<Index> start, item;  // counting sort: cell c holds item[start[c] .. start[c + 1])
+  std::vector<real_t> x, y, z, r;  // position and radius of item[q]
+};
+
+namespace {
+
+// Room for at least `need` candidate pairs (grown by an eighth at a time past the first guess,
+// so that the buffers do not double past need at large N).
+void make_room(std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::uint8_t>& timg,
+               std::size_t need) {
+  if (need <= ti.size()) return;
+  const std::size_t size = std::max(need, ti.size() + ti.size() / 8 + 1024);
+  ti.resize(size);
+  tj.resize(size);
+  timg.resize(size);
+}
+
+// Scans the 27 cells around every sphere a of class `ca` in the grid of class `cb` and appends
+// the pairs within R_a + R_b + skin as (a, b, image of b), unoriented. Branch-free: every
+// candidate is written to the next slot and the count advances by the test, so the ~80 % of
+// candidates that fail do not cost a mispredicted branch. With at least 3 cells on every axis
+// each of the 27 cells is a distinct cell seen through one periodic image, known from the
+// offset (the three cells of a row are scanned as one range where they are consecutive); on a smaller grid the image is found per candidate (minimum image) and repeated cells
+// are scanned once. Both give the nearest image of b, the same bits as d = x_b - x_a + s L.
+template <bool kImagePerCandidate>
+std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, bool same_class,
+                      const Grid& g, const Vec3& L, real_t skin,
+                      const NeighborSearch::CellCopies& cb, std::size_t m,
+                      std::vector<Index>& ti, std::vector<Index>& tj,
+                      std::vector<std::uint8_t>& timg) {
+  const Index n_owned = Index(p.n_owned());
+  for (Index a : members_a) {
+    const Vec3 xa = p.x[a];
+    const real_t ra = p.radius[a];
+    const bool a_ghost = a >= n_owned;
+    int c[3];
+    for (int k = 0; k < 3; ++k) c[k] = std::min(g.n[k] - 1, std::max(0, int(xa[k] * g.inv_h[k])));
+    int cells[3][3], shift[3][3], count[3];
+    for (int k = 0; k < 3; ++k) {
+      if constexpr (kImagePerCandidate) {
+        count[k] = g.around(k, c[k], cells[k]);
+        for (int o = 0; o < 3; ++o) shift[k][o] = 0;
+      } else {
+        count[k] = 3;
+        for (int o = 0; o < 3; ++o) {
+          int v = c[k] + o - 1, s = 0;
+          if (v < 0) v += g.n[k], s = -1;          // b lies near L: its image at x_b - L
+          else if (v >= g.n[k]) v -= g.n[k], s = 1;  // b lies near 0: its image at x_b + L
+          cells[k][o] = v;
+          shift[k][o] = s;
+        }
+      }
+    }
+    // The candidates cb.item[q0 .. q1), seen through the periodic image (s0, s1, s2).
+    auto scan = [&](std::size_t q0, std::size_t q1, int s0, int s1, int s2) {
+      make_room(ti, tj, timg, m + (q1 - q0));
+      const real_t sh0 = s0 * L[0], sh1 = s1 * L[1], sh2 = s2 * L[2];
+      const std::uint8_t code = std::uint8_t(image_code(s0, s1, s2));
+      Index* __restrict out_i = ti.data();
+      Index* __restrict out_j = tj.data();
+      std::uint8_t* __restrict out_img = timg.data();
+      for (std::size_t q = q0; q < q1; ++q) {
+        const Index b = cb.item[q];
+        real_t d0 = cb.x[q] - xa[0], d1 = cb.y[q] - xa[1], d2 = cb.z[q] - xa[2];
+        std::uint8_t img = code;
+        if constexpr (kImagePerCandidate) {
+          const int t0 = -int(std::nearbyint(d0 / L[0]));
+          const int t1 = -int(std::nearbyint(d1 / L[1]));
+          const int t2 = -int(std::nearbyint(d2 / L[2]));
+          d0 += t0 * L[0], d1 += t1 * L[1], d2 += t2 * L[2];
+          img = std::uint8_t(image_code(t0, t1, t2));
+        } else {
+          d0 += sh0, d1 += sh1, d2 += sh2;
+        }
+        const real_t cut = ra + cb.r[q] + skin;
+        const real_t r2 = d0 * d0 + d1 * d1 + d2 * d2;
+        const bool keep = !(r2 >= cut * cut) & !(same_class & (b <= a)) &
+                          !(a_ghost & (b >= n_owned));
+        out_i[m] = a;
+        out_j[m] = b;
+        out_img[m] = img;
+        m += keep;
+      }
+    };
+    // Away from the x ends of the grid the three cells of a row are consecutive in the cell
+    // order: one scan of their items (9 scans per sphere instead of 27).
+    const bool row_in_one = !kImagePerCandidate && c[0] >= 1 && c[0] + 1 < g.n[0];
+    for (int iz = 0; iz < count[2]; ++iz)
+      for (int iy = 0; iy < count[1]; ++iy) {
+        const int row = g.n[0] * (cells[1][iy] + g.n[1] * cells[2][iz]);
+        if (row_in_one) {
+          const std::size_t q0 = cb.start[row + c[0] - 1], q1 = cb.start[row + c[0] + 2];
+          if (q0 != q1) scan(q0, q1, 0, shift[1][iy], shift[2][iz]);
+          continue;
+        }
+        for (int ix = 0; ix < count[0]; ++ix) {
+          const int cc = row + cells[0][ix];
+          const std::size_t q0 = cb.start[cc], q1 = cb.start[cc + 1];
+          if (q0 != q1) scan(q0, q1, shift[0][ix], shift[1][iy], shift[2][iz]);
+        }
+      }
+  }
+  return m;
+}
+
+}  // namespace
+
 void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t skin,
                            PairList& out) {
   const std::size_t n = p.size();
-  const std::size_t n_owned = p.n_owned();
   out.i.clear();
   out.j.clear();
   out.image.clear();
@@ -80,61 +189,52 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
   }
 
   // Room for about as many pairs as last time, so that the buffers do not double past need.
-  const std::size_t guess = last_pairs_ + last_pairs_ / 16;
-  tmp_i_.reserve(guess);
-  tmp_j_.reserve(guess);
-  tmp_img_.reserve(guess);
+  std::size_t m = 0;
+  make_room(tmp_i_, tmp_j_, tmp_img_, last_pairs_ + last_pairs_ / 16);
   const Vec3& L = cell.lengths();
-  for (int cb = 0; cb < nclass; ++cb) {
-    if (members[cb].empty()) continue;
-    for (int ca = 0; ca <= cb; ++ca) {
-      if (members[ca].empty()) continue;
-      const Grid g = make_grid(L, cls_rmax[ca] + cls_rmax[cb] + skin);
+  CellCopies cb;
+  for (int b_class = 0; b_class < nclass; ++b_class) {
+    const std::vector<Index>& mb = members[b_class];
+    if (mb.empty()) continue;
+    for (int a_class = 0; a_class <= b_class; ++a_class) {
+      if (members[a_class].empty()) continue;
+      const Grid g = make_grid(L, cls_rmax[a_class] + cls_rmax[b_class] + skin);
       const int ncell = g.n[0] * g.n[1] * g.n[2];
-      // Counting sort of class-b spheres into cells.
-      cell_start_.assign(ncell + 1, 0);
-      for (Index b : members[cb]) ++cell_start_[g.index(p.x[b]) + 1];
-      for (int c = 0; c < ncell; ++c) cell_start_[c + 1] += cell_start_[c];
-      cell_items_.resize(members[cb].size());
+      // Counting sort of class-b spheres into cells, with their positions and radii.
+      cb.start.assign(ncell + 1, 0);
+      for (Index b : mb) ++cb.start[g.index(p.x[b]) + 1];
+      for (int c = 0; c < ncell; ++c) cb.start[c + 1] += cb.start[c];
+      cb.item.resize(mb.size());
+      cb.x.resize(mb.size());
+      cb.y.resize(mb.size());
+      cb.z.resize(mb.size());
+      cb.r.resize(mb.size());
       {
-        std::vector<Index> fill(cell_start_.begin(), cell_start_.end() - 1);
-        for (Index b : members[cb]) cell_items_[fill[g.index(p.x[b])]++] = b;
+        std::vector<Index> fill(cb.start.begin(), cb.start.end() - 1);
+        for (Index b : mb) {
+          const Index q = fill[g.index(p.x[b])]++;
+          cb.item[q] = b;
+          cb.x[q] = p.x[b][0];
+          cb.y[q] = p.x[b][1];
+          cb.z[q] = p.x[b][2];
+          cb.r[q] = p.radius[b];
+        }
       }
-      for (Index a : members[ca]) {
-        const Vec3 xa = p.x[a];
-        const real_t ra = p.radius[a];
-        int c[3];
-        for (int k = 0; k < 3; ++k)
-          c[k] = std::min(g.n[k] - 1, std::max(0, int(xa[k] * g.inv_h[k])));
-        int ax[3], ay[3], az[3];
-        const int mx = g.around(0, c[0], ax), my = g.around(1, c[1], ay), mz = g.around(2, c[2], az);
-        for (int iz = 0; iz < mz; ++iz)
-          for (int iy = 0; iy < my; ++iy)
-            for (int ix = 0; ix < mx; ++ix) {
-              const int cc = ax[ix] + g.n[0] * (ay[iy] + g.n[1] * az[iz]);
-              for (Index q = cell_start_[cc]; q < cell_start_[cc + 1]; ++q) {
-                const Index b = cell_items_[q];
-                if (ca == cb && b <= a) continue;
-                if (std::size_t(a) >= n_owned && std::size_t(b) >= n_owned) continue;
-                Vec3 d = p.x[b] - xa;
-                int s[3];
-                for (int k = 0; k < 3; ++k) {
-                  s[k] = -int(std::nearbyint(d[k] / L[k]));
-                  d[k] += s[k] * L[k];
-                }
-                const real_t cut = ra + p.radius[b] + skin;
-                if (d.squaredNorm() >= cut * cut) continue;
-                if (p.id[a] < p.id[b]) {
-                  tmp_i_.push_back(a), tmp_j_.push_back(b);
-                  tmp_img_.push_back(std::uint8_t(image_code(s[0], s[1], s[2])));
-                } else {
-                  tmp_i_.push_back(b), tmp_j_.push_back(a);
-                  tmp_img_.push_back(std::uint8_t(image_code(-s[0], -s[1], -s[2])));
-                }
-              }
-            }
-      }
+      const bool same = a_class == b_class;
+      if (g.n[0] >= 3 && g.n[1] >= 3 && g.n[2] >= 3)
+        m = scan_grid<false>(p, members[a_class], same, g, L, skin, cb, m, tmp_i_, tmp_j_, tmp_img_);
+      else
+        m = scan_grid<true>(p, members[a_class], same, g, L, skin, cb, m, tmp_i_, tmp_j_, tmp_img_);
     }
+  }
+  cb = CellCopies();  // free before the sort (memory at large N)
+  // Orient each pair from the lower to the higher global id (the image then seen from i).
+  for (std::size_t q = 0; q < m; ++q) {
+    const Index a = tmp_i_[q], b = tmp_j_[q];
+    const bool swap = p.id[a] > p.id[b];
+    tmp_i_[q] = swap ? b : a;
+    tmp_j_[q] = swap ? a : b;
+    tmp_img_[q] = swap ? std::uint8_t(26 - tmp_img_[q]) : tmp_img_[q];
   }
 
   // Order the pairs along the space-filling curve (core/space_order.hpp): by the place of body
@@ -144,9 +244,7 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
   // trajectories, are bitwise the same on any number of ranks. And it follows space, so the
   // force loop walks memory nearly in order at any specimen size.
   space_ranks(p, n, L, rank_);
-  const std::size_t m = tmp_i_.size();
   std::vector<int>().swap(cls_);  // the class grids are done with: free before the sort
-  std::vector<Index>().swap(cell_items_);
   // A counting sort by the place of i (the places are 0 .. n-1), then each run of one i
   // ordered by the place of j: the (place i, place j) order without a sort buffer per pair
   // (memory at large N: 4 bytes per particle instead of 16 per pair). Every pair is listed

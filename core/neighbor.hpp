@@ -37,9 +37,11 @@ class NeighborSearch {
   // locality.
   std::vector<Index> spatial_order(const Particles& p, const PeriodicCell& cell) const;
 
+  struct CellCopies;  // one grid's spheres in cell order (neighbor.cpp)
+
  private:
   std::vector<int> cls_;                       // size class of each particle
-  std::vector<Index> cell_start_, cell_items_; // counting-sort buffers
+  std::vector<Index> cell_start_;              // counting-sort buffer of the pair order
   std::vector<Index> tmp_i_, tmp_j_;
   std::vector<std::uint8_t> tmp_img_;
   std::vector<std::uint32_t> rank_;  // place of each particle in the space-filling-curve order
