@@ -378,6 +378,9 @@ TEST(Scene, ExampleScenesAreValid) {
   EXPECT_TRUE(large.triaxial.enabled);
   EXPECT_EQ(large.triaxial.rolling_friction_cases, std::vector<real_t>{0.1});
   EXPECT_EQ(large.checkpoint_seconds, 600.0);
+  EXPECT_EQ(large.time_step_fraction, 0.5);  // the paper scene's settings (docs/large.md)
+  EXPECT_EQ(large.skin, 0.003);
+  EXPECT_EQ(large.law.youngs_modulus, paper.law.youngs_modulus);
 }
 
 // Walls and driven particles do not follow a deforming cell: refused with [[stage]].
