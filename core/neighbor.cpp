@@ -81,8 +81,9 @@ void make_room(std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::
 // candidate is written to the next slot and the count advances by the test, so the ~80 % of
 // candidates that fail do not cost a mispredicted branch. With at least 3 cells on every axis
 // each of the 27 cells is a distinct cell seen through one periodic image, known from the
-// offset (the three cells of a row are scanned as one range where they are consecutive); on a smaller grid the image is found per candidate (minimum image) and repeated cells
-// are scanned once. Both give the nearest image of b, the same bits as d = x_b - x_a + s L.
+// offset (the three cells of a row are scanned as one range where they are consecutive); on a
+// smaller grid the image is found per candidate (minimum image) and repeated cells are scanned
+// once. Both give the nearest image of b, the same bits as d = x_b - x_a + s L.
 template <bool kImagePerCandidate>
 std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, bool same_class,
                       const Grid& g, const Vec3& L, real_t skin,
