@@ -118,6 +118,21 @@ int main(int argc, char** argv) {
     ph.force += max_all(comm, t.force) / (reps * steps);
     ph.reduce += max_all(comm, t.reduce) / (reps * steps);
     rebuilds += double(sim.rebuild_count() - r0) / reps;
+    if (rep + 1 == reps) {  // every rank's own phases of the last repetition (us per step)
+      double touching = 0;
+      for (std::uint8_t b : sim.pairs().touching) touching += b;
+      const double own[10] = {t.integrate, t.ghost, t.check, t.rebuild, t.migrate, t.force, t.reduce,
+                              double(sim.particles().n_owned()), double(sim.pairs().size()), touching};
+      std::vector<double> all(10 * std::size_t(mpi.size()));
+      MPI_Gather(own, 10, MPI_DOUBLE, all.data(), 10, MPI_DOUBLE, 0, comm);
+      for (int r = 0; mpi.rank() == 0 && r < mpi.size(); ++r) {
+        const double* a = &all[10 * std::size_t(r)];
+        const double f = 1e6 / steps;
+        std::printf("rank %d phases (us per step): integrate %.1f, ghost %.1f, check %.1f, rebuild %.1f, "
+                    "migrate %.1f, force %.1f, reduce %.1f; owned %.0f, list pairs %.0f, touching %.0f\n", r,
+                    a[0] * f, a[1] * f, a[2] * f, a[3] * f, a[4] * f, a[5] * f, a[6] * f, a[7], a[8], a[9]);
+      }
+    }
     if (domain) {
       const DomainStats& st = domain->stats();
       const double b = double(st.bytes_forward - st0.bytes_forward) +

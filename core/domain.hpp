@@ -40,7 +40,17 @@ class Domain {
   virtual ~Domain() = default;
 
   // Before: owned particles' x, v, w are current. After: every ghost has its owner's x, v, w.
-  virtual void update_ghosts(Particles& p) = 0;
+  void update_ghosts(Particles& p) {
+    begin_ghost_update(p);
+    end_ghost_update(p);
+  }
+
+  // The same in two halves, so that work which reads no ghost (and writes no x, v, w) can run
+  // while the messages travel: begin sends the owned particles' x, v, w; end receives them
+  // into the ghosts. Other hooks may be called in between (their collectives let the messages
+  // progress), but not adopt, redistribute or build_ghosts.
+  virtual void begin_ghost_update(Particles& p) = 0;
+  virtual void end_ghost_update(Particles& p) = 0;
 
   // The largest value over all ranks (every rank calls it once per step).
   virtual real_t max_all(real_t local) = 0;

@@ -4,7 +4,8 @@ namespace fabrica {
 
 // One process holds every particle: there is nothing to exchange, and a reduction over one
 // rank is the value itself.
-void SerialDomain::update_ghosts(Particles&) {}
+void SerialDomain::begin_ghost_update(Particles&) {}
+void SerialDomain::end_ghost_update(Particles&) {}
 real_t SerialDomain::max_all(real_t local) { return local; }
 void SerialDomain::max_all(std::span<double>) {}
 void SerialDomain::sum_all(std::span<double>) {}

@@ -107,11 +107,15 @@ void Simulation::step(bool measure) {
   drift_and_deform(p_, cell_, dt);
   for (Wall& w : par_.walls) w.point += w.velocity * dt;
   clk.lap(&PhaseTimes::integrate);
-  domain_->update_ghosts(p_);
+  // The ghosts' update travels while the rebuild check, which reads owned particles only, runs
+  // (its reduction lets the messages progress).
+  domain_->begin_ghost_update(p_);
   clk.lap(&PhaseTimes::ghost);
   const bool rebuild_now = needs_rebuild();
   rebuilt_last_ = false;  // set by rebuild_lists()
   clk.lap(&PhaseTimes::check);
+  domain_->end_ghost_update(p_);
+  clk.lap(&PhaseTimes::ghost);
   if (rebuild_now) {
     rebuild();
     clk.lap(&PhaseTimes::rebuild);

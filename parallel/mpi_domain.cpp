@@ -478,18 +478,23 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
   }
 }
 
-void MpiDomain::update_ghosts(Particles& p) {
+// The forward messages are field by field (all x, then all v, then all w): each field of the
+// received ghosts, which are contiguous, is one copy.
+void MpiDomain::begin_ghost_update(Particles& p) {
   for (std::size_t k = 0; k < forward_.send_ranks.size(); ++k) {
     auto& buf = forward_.send_buf[k];
     buf.clear();
-    pack(p, ghost_send_idx_[forward_.send_ranks[k]], Message::Forward, buf);
+    pack_fields(p, ghost_send_idx_[forward_.send_ranks[k]], Message::Forward, buf);
   }
   forward_.start(comm_, kForwardTag);
+}
+
+void MpiDomain::end_ghost_update(Particles& p) {
   forward_.wait();
   for (std::size_t k = 0; k < forward_.recv_ranks.size(); ++k) {
     const int r = forward_.recv_ranks[k];
-    unpack(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward,
-           forward_.recv_buf[k].data());
+    unpack_fields(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward,
+                  forward_.recv_buf[k].data());
   }
   stats_.bytes_forward += std::int64_t(forward_.bytes_sent());
   ++stats_.forward_updates;

@@ -50,7 +50,8 @@ class MpiDomain final : public Domain {
  public:
   MpiDomain(MPI_Comm comm, MpiDomainOptions opt = {});
 
-  void update_ghosts(Particles& p) override;
+  void begin_ghost_update(Particles& p) override;
+  void end_ghost_update(Particles& p) override;
   real_t max_all(real_t local) override;
   void max_all(std::span<double> values) override;
   void sum_all(std::span<double> values) override;

@@ -77,4 +77,32 @@ inline const char* unpack(Particles& p, std::size_t first, std::size_t n, Messag
   return in;
 }
 
+// The same messages field by field: every particle's first property, then every particle's
+// second, ... (the forward update: each field of a contiguous range of ghosts is one copy).
+inline void pack_fields(const Particles& p, const std::vector<Index>& idx, Message m,
+                        std::vector<char>& buf) {
+  const std::size_t start = buf.size();
+  buf.resize(start + idx.size() * bytes_per_particle(m));
+  char* out = buf.data() + start;
+  for_each_property(p, [&](const char*, const auto& vec, Travel t) {
+    if (!carries(m, t)) return;
+    constexpr std::size_t size = sizeof(typename std::decay_t<decltype(vec)>::value_type);
+    for (Index a : idx) {
+      std::memcpy(out, &vec[a], size);
+      out += size;
+    }
+  });
+}
+
+inline const char* unpack_fields(Particles& p, std::size_t first, std::size_t n, Message m,
+                                 const char* in) {
+  for_each_property(p, [&](const char*, auto& vec, Travel t) {
+    if (!carries(m, t) || n == 0) return;
+    const std::size_t bytes = n * sizeof(vec[0]);
+    std::memcpy(static_cast<void*>(&vec[first]), in, bytes);
+    in += bytes;
+  });
+  return in;
+}
+
 }  // namespace fabrica
