@@ -52,6 +52,11 @@ struct PairList {
       if (rolling) spring_mr[s].setZero();
     } else {
       s = Index(spring_fs.size());
+      if (spring_fs.size() == spring_fs.capacity()) {  // an eighth more, not double (memory)
+        const std::size_t room = spring_fs.size() + spring_fs.size() / 8 + 64;
+        spring_fs.reserve(room);
+        if (rolling) spring_mr.reserve(room);
+      }
       spring_fs.push_back(Vec3::Zero());
       if (rolling) spring_mr.push_back(Vec3::Zero());
     }

@@ -44,7 +44,14 @@ void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
 
 std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell,
                                            const ContactLawParams& law, const PairList& pairs) {
+  // Room for the touching pairs of owned bodies at once: grown by doubling, the records took up
+  // to three times their size at the moment of a copy (53 MB for 17 MB of records at 108,672
+  // spheres, the peak of a triaxial run).
+  std::size_t n = 0;
+  for (std::size_t q = 0; q < pairs.size(); ++q)
+    n += pairs.touching[q] && std::size_t(pairs.i[q]) < p.n_owned();
   std::vector<ContactRecord> out;
+  out.reserve(n);
   for_each_contact_record(p, cell, law, pairs, [&](const ContactRecord& c) { out.push_back(c); });
   return out;
 }
