@@ -24,7 +24,7 @@ for rep in $(seq 1 "$REPS"); do
       args=("$mode" 1 "$STEPS")
       [ "$np" = 2 ] && [ "$cut" != scene ] && args+=("$scene" "$cut")
       out=$(mpirun --oversubscribe -np "$np" "$bin" "${args[@]}")
-      grep -E '^(balance|phases|RESULT)' <<<"$out"
+      grep -E '^(balance|phases|rank|RESULT)' <<<"$out"
       line=$(grep '^RESULT' <<<"$out")
       us=$(sed -E 's/.*us_per_particle_step_median=([0-9.]+).*/\1/' <<<"$line")
       key=$mode,$np
