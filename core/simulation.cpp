@@ -108,7 +108,7 @@ void Simulation::step(bool measure) {
   for (Wall& w : par_.walls) w.point += w.velocity * dt;
   clk.lap(&PhaseTimes::integrate);
   // The ghosts' update travels while the rebuild check, which reads owned particles only, runs
-  // (its reduction lets the messages progress).
+  // (the messages can progress during its reduction).
   domain_->begin_ghost_update(p_);
   clk.lap(&PhaseTimes::ghost);
   const bool rebuild_now = needs_rebuild();
