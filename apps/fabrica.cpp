@@ -189,6 +189,14 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   fmt::print("peak memory per rank: {:.1f} MB at most (rank {}), {:.1f} MB on average, {:.1f} MB at "
              "least, over {} rank(s)\n",
              mem.max / 1e6, mem.max_rank, mem.mean / 1e6, mem.min / 1e6, mpi.size());
+  fmt::print("private peak memory per rank (less {:.1f} MB of shared libraries and mapped files): "
+             "{:.1f} MB at most (rank {}), {:.1f} MB on average",
+             mem.shared_max / 1e6, mem.private_max / 1e6, mem.private_max_rank, mem.private_mean / 1e6);
+  if (mem.ghosts_max > 0)
+    fmt::print("; ghosts at most {} on a rank ({:.1f} % of its {} owned then)", mem.ghosts_max,
+               100.0 * double(mem.ghosts_max) / double(std::max<std::int64_t>(mem.owned_at_ghosts_max, 1)),
+               mem.owned_at_ghosts_max);
+  fmt::print("\n");
   return rc;
 }
 

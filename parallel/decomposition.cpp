@@ -10,17 +10,26 @@
 
 namespace fabrica {
 
-std::array<int, 3> Decomposition::bin_dims(const Vec3& L, real_t cutoff) {
-  // Bins no smaller than half the cutoff, and no more than kMaxBins of them: a fine grid adds
-  // nothing to the balance of a large cell of small particles but costs METIS time. Made
-  // kSlack wider than needed, so that a decomposition stays valid (fits()) while an axis of
-  // the cell shrinks by up to 1 - 1/kSlack = 20 %: a new decomposition, which migrates with one
-  // all-to-all, is then rare in a triaxial test instead of every bin's worth of strain.
+std::array<int, 3> Decomposition::bin_dims(const Vec3& L, real_t cutoff, DecompositionKind kind) {
+  // Bins made kSlack wider than needed, so that a decomposition stays valid (fits()) while an
+  // axis of the cell shrinks by up to 1 - 1/kSlack = 20 %: a new decomposition, which migrates
+  // with one all-to-all, is then rare in a triaxial test instead of every bin's worth of
+  // strain. METIS's bins are no more than kMaxBins: its map is a table per bin on every rank,
+  // and a fine grid adds nothing to the balance of a large cell but costs METIS time.
   constexpr double kMaxBins = 32768;
   constexpr double kSlack = 1.25;
-  const real_t edge = std::max(kSlack * cutoff / kReach, std::cbrt(L.prod() / kMaxBins));
+  real_t edge = kSlack * cutoff / kReach;
+  if (kind == DecompositionKind::Metis) edge = std::max(edge, std::cbrt(L.prod() / kMaxBins));
   std::array<int, 3> d;
   for (int k = 0; k < 3; ++k) d[k] = std::max(1, int(std::floor(L[k] / edge)));
+  return d;
+}
+
+Decomposition Decomposition::shape(DecompositionKind kind, const Vec3& L, real_t cutoff) {
+  Decomposition d;
+  d.dims_ = bin_dims(L, cutoff, kind);
+  for (int k = 0; k < 3; ++k) d.cuts_[k] = {0};
+  d.own_by_cuts();
   return d;
 }
 
@@ -33,7 +42,7 @@ bool Decomposition::fits(const Vec3& L, real_t cutoff) const {
 Decomposition Decomposition::grid(int nranks, const Vec3& L, real_t cutoff) {
   Decomposition d;
   d.kind_ = DecompositionKind::Cartesian;
-  d.dims_ = bin_dims(L, cutoff);
+  d.dims_ = bin_dims(L, cutoff, DecompositionKind::Cartesian);
   // The factorisation P1 P2 P3 = nranks with Pk <= bins along k that minimises the largest
   // face area of a subdomain (ghost volume), for this cell's aspect ratio.
   double best = std::numeric_limits<double>::infinity();
@@ -63,20 +72,46 @@ Decomposition Decomposition::grid(int nranks, const Vec3& L, real_t cutoff) {
 }
 
 void Decomposition::own_by_cuts() {
-  std::array<std::vector<int>, 3> run;  // per axis: the run of each bin plane
+  // Per axis: the run of each plane, and its class: the plane's run with the distinct runs
+  // within kReach of it (periodic); planes of one class have the same neighbour ranks along
+  // this axis.
+  std::array<std::vector<std::vector<int>>, 3> classes;  // per axis: {own run, near runs...}
   for (int k = 0; k < 3; ++k) {
     const int n = dims_[k], P = grid_[k];
-    run[k].assign(n, 0);
+    run_[k].assign(n, 0);
     for (int j = 0; j < P; ++j) {
       const int first = cuts_[k][j], end = j + 1 < P ? cuts_[k][j + 1] : cuts_[k][0] + n;
-      for (int x = first; x < end; ++x) run[k][x % n] = j;
+      for (int x = first; x < end; ++x) run_[k][x % n] = j;
     }
+    near_[k].assign(n, 0);
+    for (int x = 0; x < n; ++x) {
+      std::vector<int> key{run_[k][x]};
+      for (int o = -kReach; o <= kReach; ++o) key.push_back(run_[k][((x + o) % n + n) % n]);
+      std::sort(key.begin() + 1, key.end());
+      key.erase(std::unique(key.begin() + 1, key.end()), key.end());
+      auto at = std::find(classes[k].begin(), classes[k].end(), key);
+      near_[k][x] = int(at - classes[k].begin());
+      if (at == classes[k].end()) classes[k].push_back(std::move(key));
+    }
+    near_count_[k] = int(classes[k].size());
   }
-  owner_.resize(bins());
-  for (int z = 0; z < dims_[2]; ++z)
-    for (int y = 0; y < dims_[1]; ++y)
-      for (int x = 0; x < dims_[0]; ++x)
-        owner_[x + dims_[0] * (y + dims_[1] * z)] = run[0][x] + grid_[0] * (run[1][y] + grid_[1] * run[2][z]);
+  // Per combination of classes: the ranks of the product of the three axes' near runs, less
+  // the bin's own.
+  adj_ranks_.assign(std::size_t(near_count_[0]) * near_count_[1] * near_count_[2], {});
+  for (int c2 = 0; c2 < near_count_[2]; ++c2)
+    for (int c1 = 0; c1 < near_count_[1]; ++c1)
+      for (int c0 = 0; c0 < near_count_[0]; ++c0) {
+        const std::vector<int>&a = classes[0][c0], &b = classes[1][c1], &c = classes[2][c2];
+        const int own = a[0] + grid_[0] * (b[0] + grid_[1] * c[0]);
+        std::vector<int>& out = adj_ranks_[c0 + near_count_[0] * (c1 + near_count_[1] * c2)];
+        for (std::size_t i2 = 1; i2 < c.size(); ++i2)
+          for (std::size_t i1 = 1; i1 < b.size(); ++i1)
+            for (std::size_t i0 = 1; i0 < a.size(); ++i0) {
+              const int r = a[i0] + grid_[0] * (b[i1] + grid_[1] * c[i2]);
+              if (r != own) out.push_back(r);
+            }
+        std::sort(out.begin(), out.end());
+      }
 }
 
 Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff) {
@@ -84,7 +119,6 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff)
   for (int k = 0; k < 3; ++k)  // equal runs: bin x in run floor(x P / n)
     for (int j = 0; j < d.grid_[k]; ++j) d.cuts_[k].push_back((j * d.dims_[k] + d.grid_[k] - 1) / d.grid_[k]);
   d.own_by_cuts();
-  d.finish(nranks);
   return d;
 }
 
@@ -100,7 +134,6 @@ Decomposition Decomposition::by_work(int nranks, const Vec3& L, real_t cutoff, c
                          : balanced_runs(plane_work[k], d.grid_[k]);
   }
   d.own_by_cuts();
-  d.finish(nranks);
   return d;
 }
 
@@ -118,7 +151,6 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff,
   }
   d.cuts_ = cuts;
   d.own_by_cuts();
-  d.finish(nranks);
   return d;
 }
 
@@ -238,7 +270,7 @@ Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff,
                                    const std::vector<double>& bin_work, MPI_Comm comm) {
   Decomposition d;
   d.kind_ = DecompositionKind::Metis;
-  d.dims_ = bin_dims(L, cutoff);
+  d.dims_ = bin_dims(L, cutoff, DecompositionKind::Metis);
   const int nb = d.bins();
   if (int(bin_work.size()) != nb) throw std::logic_error("metis: one work value per bin expected");
   if (nb < nranks)
@@ -267,21 +299,37 @@ Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff,
     for (int b = 0; b < nb; ++b) d.owner_[b] = int(part[b]);
   }
   MPI_Bcast(d.owner_.data(), nb, MPI_INT, 0, comm);
-  d.finish(nranks);
+  d.finish();
   return d;
 }
 
 std::vector<int> Decomposition::partners(int rank) const {
   std::vector<int> out;
-  for (int b = 0; b < bins(); ++b)
-    if (owner_[b] == rank) out.insert(out.end(), adj_ranks_[b].begin(), adj_ranks_[b].end());
+  if (kind_ == DecompositionKind::Metis) {
+    for (int b = 0; b < bins(); ++b)
+      if (owner_[b] == rank) out.insert(out.end(), adj_ranks_[b].begin(), adj_ranks_[b].end());
+  } else {  // the classes of the planes of the rank's run along each axis, combined
+    const int mine[3] = {rank % grid_[0], rank / grid_[0] % grid_[1], rank / (grid_[0] * grid_[1])};
+    std::array<std::vector<int>, 3> cls;
+    for (int k = 0; k < 3; ++k) {
+      for (int x = 0; x < dims_[k]; ++x)
+        if (run_[k][x] == mine[k]) cls[k].push_back(near_[k][x]);
+      std::sort(cls[k].begin(), cls[k].end());
+      cls[k].erase(std::unique(cls[k].begin(), cls[k].end()), cls[k].end());
+    }
+    for (int c2 : cls[2])
+      for (int c1 : cls[1])
+        for (int c0 : cls[0]) {
+          const std::vector<int>& v = adj_ranks_[c0 + near_count_[0] * (c1 + near_count_[1] * c2)];
+          out.insert(out.end(), v.begin(), v.end());
+        }
+  }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
 }
 
-void Decomposition::finish(int nranks) {
-  (void)nranks;
+void Decomposition::finish() {
   const int nb = bins();
   adj_ranks_.assign(nb, {});
   for (int b = 0; b < nb; ++b) {

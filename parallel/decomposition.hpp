@@ -11,9 +11,13 @@
 //     minimises the largest subdomain surface for this cell's aspect) and own blocks of bins:
 //     along each axis the bins are cut into Pk runs of consecutive (periodic) bin planes, of
 //     equal length, or - given the work of each bin - placed so that the heaviest slab of the
-//     axis is as light as whole bin planes allow (balanced_runs);
+//     axis is as light as whole bin planes allow (balanced_runs). Everything it holds is per
+//     bin plane or per rank (a bin's owner from the run of each of its coordinates, its
+//     neighbour ranks from the runs within reach of each), not per bin: the bins are as fine
+//     as the cutoff allows at any specimen size, and the balance is as fine as they are;
 //   - METIS: the bin graph (26-neighbour edges), weighted by the work in each bin, is
-//     partitioned by METIS_PartGraphKway; bins then need not form boxes.
+//     partitioned by METIS_PartGraphKway; bins then need not form boxes. Its map is a table per
+//     bin, on every rank, so its bins are coarsened to at most 32,768 (docs/large.md).
 // The map is computed identically on every rank (METIS on rank 0, then broadcast).
 #pragma once
 #include "core/types.hpp"
@@ -71,8 +75,11 @@ class Decomposition {
   // METIS decomposition with one weight per bin (size dims product, in bin order).
   static Decomposition metis(int nranks, const Vec3& L, real_t cutoff,
                              const std::vector<double>& bin_work, MPI_Comm comm);
-  // The bins for a cell and cutoff (the same for both kinds): edges >= cutoff / kReach.
-  static std::array<int, 3> bin_dims(const Vec3& L, real_t cutoff);
+  // The bins of a kind of decomposition for a cell and cutoff: edges >= cutoff / kReach (and for
+  // METIS at most 32,768 bins).
+  static std::array<int, 3> bin_dims(const Vec3& L, real_t cutoff, DecompositionKind kind);
+  // One rank owning every bin of 'kind' for this cell: its bins, to sum work over.
+  static Decomposition shape(DecompositionKind kind, const Vec3& L, real_t cutoff);
 
   DecompositionKind kind() const { return kind_; }
   const std::array<int, 3>& dims() const { return dims_; }
@@ -89,9 +96,22 @@ class Decomposition {
     }
     return c[0] + dims_[0] * (c[1] + dims_[1] * c[2]);
   }
-  int owner(int bin) const { return owner_[bin]; }
-  // Distinct ranks, other than the bin's owner, that own a bin within kReach of 'bin' (periodic).
-  const std::vector<int>& neighbour_ranks(int bin) const { return adj_ranks_[bin]; }
+  int owner(int bin) const {
+    if (kind_ == DecompositionKind::Metis) return owner_[bin];
+    return owner_at(bin % dims_[0], bin / dims_[0] % dims_[1], bin / (dims_[0] * dims_[1]));
+  }
+  // The owner of the bin at coordinates (x, y, z), each within [0, dims()[k]).
+  int owner_at(int x, int y, int z) const {
+    if (kind_ == DecompositionKind::Metis) return owner_[x + dims_[0] * (y + dims_[1] * z)];
+    return run_[0][x] + grid_[0] * (run_[1][y] + grid_[1] * run_[2][z]);
+  }
+  // Distinct ranks, other than the bin's owner, that own a bin within kReach of 'bin' (periodic),
+  // ascending.
+  const std::vector<int>& neighbour_ranks(int bin) const {
+    if (kind_ == DecompositionKind::Metis) return adj_ranks_[bin];
+    const int x = bin % dims_[0], y = bin / dims_[0] % dims_[1], z = bin / (dims_[0] * dims_[1]);
+    return adj_ranks_[near_[0][x] + near_count_[0] * (near_[1][y] + near_count_[1] * near_[2][z])];
+  }
   // Distinct ranks, other than 'rank', that own a bin within kReach of one of rank's bins
   // (sorted): the only ranks it exchanges ghosts and migrants with. Symmetric: r is a partner
   // of s exactly when s is a partner of r.
@@ -100,15 +120,23 @@ class Decomposition {
   bool fits(const Vec3& L, real_t cutoff) const;
 
  private:
-  static Decomposition grid(int nranks, const Vec3& L, real_t cutoff);  // dims_ and grid_
-  void own_by_cuts();       // owner_ from cuts_
-  void finish(int nranks);  // fills adj_ranks_
+  // dims_ (Cartesian bins) and grid_
+  static Decomposition grid(int nranks, const Vec3& L, real_t cutoff);
+  void own_by_cuts();  // Cartesian: run_, near_, near_count_ and adj_ranks_ from cuts_
+  void finish();       // METIS: adj_ranks_ per bin from owner_
   DecompositionKind kind_ = DecompositionKind::Cartesian;
   std::array<int, 3> dims_{1, 1, 1};
   std::array<int, 3> grid_{1, 1, 1};
   CartesianCuts cuts_;
-  std::vector<int> owner_;
-  std::vector<std::vector<int>> adj_ranks_;  // per bin: other ranks owning a neighbour bin
+  std::vector<int> owner_;  // METIS: per bin
+  // Cartesian, per axis k: the run of each bin plane; and the class of each plane, one class
+  // per distinct set of runs within kReach of a plane (near_count_[k] classes).
+  std::array<std::vector<int>, 3> run_;
+  std::array<std::vector<int>, 3> near_;
+  std::array<int, 3> near_count_{1, 1, 1};
+  // METIS: per bin, the other ranks owning a bin within reach. Cartesian: the same per
+  // combination of the three axes' classes (at most (2 P1)(2 P2)(2 P3) lists).
+  std::vector<std::vector<int>> adj_ranks_;
 };
 
 }  // namespace fabrica

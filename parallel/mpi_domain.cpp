@@ -1,4 +1,5 @@
 #include "parallel/mpi_domain.hpp"
+#include "parallel/peak_memory.hpp"
 
 #include "parallel/byte_buffer.hpp"
 #include "parallel/properties.hpp"
@@ -94,7 +95,7 @@ void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell,
   if (opt_.kind == DecompositionKind::Cartesian) {
     decomposed_for_ = cell.lengths();
     if (opt_.balance_work && work) {  // work is null on every rank or on none
-      const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);  // the bins
+      const Decomposition shape = Decomposition::shape(DecompositionKind::Cartesian, cell.lengths(), cutoff_);
       set_decomposition(Decomposition::by_work(size_, cell.lengths(), cutoff_,
                                                global_plane_work(p, cell, shape, *work)));
     } else {
@@ -102,7 +103,7 @@ void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell,
     }
   } else {
     // Bin work from the current owners (the bins of the new decomposition).
-    const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
+    const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, cell.lengths(), cutoff_);
     set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_,
                                            global_bin_work(p, cell, shape), comm_));
   }
@@ -187,7 +188,7 @@ void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
       set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_));
     }
   } else {
-    const Decomposition shape = Decomposition::cartesian(1, cell.lengths(), cutoff_);
+    const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, cell.lengths(), cutoff_);
     std::vector<double> work;
     if (holding == Holding::Share) {
       work = global_bin_work(p, cell, shape);
@@ -377,6 +378,15 @@ void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& hist
     for (std::size_t k = 0; k < partners_.size(); ++k) in[partners_[k]] = std::move(from[k]);
   }
   p.permute_owned(keep);
+  // Room for the arrivals in one reallocation (appending source by source would grow every
+  // array by doubling), with an eighth to spare, which the ghosts then use.
+  std::size_t arriving = 0;
+  for (int r = 0; r < size_; ++r) {
+    if (in[r].empty()) continue;
+    const char* c = in[r].data();
+    arriving += std::size_t(get<std::int64_t>(c));
+  }
+  p.reserve_more(arriving);
   for (int r = 0; r < size_; ++r) {
     if (in[r].empty()) continue;
     const char* c = in[r].data();
@@ -429,7 +439,7 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
         if (dyz > lim2) continue;
         for (int ox = 0; ox < kSpan; ++ox) {
           if (dyz + d2[0][ox] > lim2) continue;
-          const int r = dec_->owner(w[0][ox] + dims[0] * (w[1][oy] + dims[1] * w[2][oz]));
+          const int r = dec_->owner_at(w[0][ox], w[1][oy], w[2][oz]);
           if (r != rank_) near[r] = 1;
         }
       }
@@ -461,6 +471,7 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
     ghost_recv_first_[r] = p.append_ghosts(n);
     unpack(p, ghost_recv_first_[r], n, Message::Full, in[k].data());
   }
+  note_ghosts(p.n_ghost(), p.n_owned());
   // The forward plan: same partners, same order, every step.
   forward_.send_ranks.clear();
   forward_.recv_ranks.clear();
