@@ -105,8 +105,11 @@ struct PairKernel {
     // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in
     // memory, but the curve's jumps and the second body of each pair are not: fetch the
     // positions and radii of the pair kAhead places on. Changes no result (it paid 7 % of the
-    // whole step on dense-13584 when the list was in id order, benchmarks/README.md).
-    constexpr std::size_t kAhead = 8;
+    // whole step on dense-13584 when the list was in id order, benchmarks/README.md). This
+    // loop takes a few ns per pair, so the fetch must start many pairs ahead to cover a trip
+    // to memory: 64 rather than 8 took 7 % off the force phase at 869,376 spheres and nothing
+    // at 13,584 (benchmarks/README.md, 2026-12-04).
+    constexpr std::size_t kAhead = 64;
     Index* ws = W.s.data();
     const Index* slot = pl.slot.data();
     Index* wi = W.i.data();
@@ -124,7 +127,10 @@ struct PairKernel {
       for (; q + 4 <= q1; q += 4) {
         using simd::d4;
         if (q + kAhead + 4 <= np)
-          for (int l = 0; l < 4; ++l) __builtin_prefetch(&x[pj[q + kAhead + l]]);
+          for (int l = 0; l < 4; ++l) {
+            __builtin_prefetch(&x[pj[q + kAhead + l]]);
+            __builtin_prefetch(&R[pj[q + kAhead + l]]);
+          }
         const Index im[4] = {img[q], img[q + 1], img[q + 2], img[q + 3]};
         const simd::V3<d4> xi = simd::gather3<d4>(x, pi + q), xj = simd::gather3<d4>(x, pj + q);
         const simd::V3<d4> s4 = simd::gather3<d4>(sh.data(), im);
