@@ -4,10 +4,17 @@
 // struct of them and of fixed-size Eigen vectors (which std::is_trivially_copyable does not
 // admit, though copying their bytes is exact).
 #pragma once
+#include <cstddef>
 #include <cstring>
 #include <vector>
 
 namespace fabrica {
+
+// A contiguous range of memory a message (or part of one) is received into.
+struct BytePiece {
+  void* at;
+  std::size_t bytes;
+};
 
 template <class T>
 void put(std::vector<char>& buf, const T& v) {

@@ -61,19 +61,20 @@ std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vecto
   return in;
 }
 
-void NeighbourExchange::start(MPI_Comm comm, int tag) {
+void NeighbourExchange::start(MPI_Comm comm, int tag, const std::vector<std::vector<BytePiece>>& recv_pieces) {
   requests.clear();
-  recv_buf.resize(recv_ranks.size());
-  for (std::size_t k = 0; k < recv_ranks.size(); ++k) {
-    recv_buf[k].resize(recv_bytes[k]);
-    requests.emplace_back();
-    MPI_Irecv(recv_buf[k].data(), int(recv_bytes[k]), MPI_BYTE, recv_ranks[k], tag, comm,
-              &requests.back());
-  }
+  for (std::size_t k = 0; k < recv_ranks.size(); ++k)
+    for (const BytePiece& piece : recv_pieces[k]) {
+      requests.emplace_back();
+      MPI_Irecv(piece.at, int(piece.bytes), MPI_BYTE, recv_ranks[k], tag, comm, &requests.back());
+    }
   for (std::size_t k = 0; k < send_ranks.size(); ++k) {
-    requests.emplace_back();
-    MPI_Isend(send_buf[k].data(), int(send_buf[k].size()), MPI_BYTE, send_ranks[k], tag, comm,
-              &requests.back());
+    std::size_t at = 0;
+    for (std::size_t bytes : send_pieces[k]) {
+      requests.emplace_back();
+      MPI_Isend(send_buf[k].data() + at, int(bytes), MPI_BYTE, send_ranks[k], tag, comm, &requests.back());
+      at += bytes;
+    }
   }
 }
 

@@ -1,5 +1,7 @@
 // Moving bytes between ranks. No physics here: ranks, counts and byte buffers only.
 #pragma once
+#include "parallel/byte_buffer.hpp"
+
 #include <mpi.h>
 
 #include <cstdint>
@@ -22,15 +24,19 @@ std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vecto
                                                  int tag);
 
 // A plan for the same exchange repeated every step between fixed partners (ghost updates):
-// what each partner gets and how many bytes each partner sends back.
+// what each partner gets, cut into pieces, and where each partner's pieces go. The pieces of
+// one message are sent as separate messages of one tag, which MPI matches in order between
+// two ranks (non-overtaking), so the receiver's k-th piece from a rank is the sender's k-th.
 struct NeighbourExchange {
   std::vector<int> send_ranks, recv_ranks;
-  std::vector<std::size_t> recv_bytes;  // per recv rank
-  std::vector<std::vector<char>> send_buf, recv_buf;
+  std::vector<std::vector<char>> send_buf;                // per send rank
+  std::vector<std::vector<std::size_t>> send_pieces;      // per send rank: piece sizes, in order
   std::vector<MPI_Request> requests;
 
-  // Posts receives and sends of send_buf; after wait(), recv_buf holds the partners' bytes.
-  void start(MPI_Comm comm, int tag);
+  // Posts one receive per piece of recv_pieces[k] (from recv_ranks[k]) straight into its place,
+  // and one send per piece of send_buf[k]; after wait(), every place holds its bytes.
+  // Before: the pieces' sizes sum to send_buf[k].size(); the places stay valid until wait().
+  void start(MPI_Comm comm, int tag, const std::vector<std::vector<BytePiece>>& recv_pieces);
   void wait();
   std::size_t bytes_sent() const;
 };

@@ -34,7 +34,6 @@ struct HistoryRecord {
 MpiDomain::MpiDomain(MPI_Comm comm, MpiDomainOptions opt) : comm_(comm), opt_(opt) {
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &size_);
-  forward_bytes_per_particle_ = bytes_per_particle(Message::Forward);
 }
 
 real_t MpiDomain::max_all(real_t local) {
@@ -475,38 +474,39 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
   // The forward plan: same partners, same order, every step.
   forward_.send_ranks.clear();
   forward_.recv_ranks.clear();
-  forward_.recv_bytes.clear();
   forward_.send_buf.clear();
+  forward_.send_pieces.clear();
   for (int r = 0; r < size_; ++r) {
     if (!ghost_send_idx_[r].empty()) {
       forward_.send_ranks.push_back(r);
       forward_.send_buf.emplace_back();
+      forward_.send_pieces.push_back(field_piece_bytes(ghost_send_idx_[r].size(), Message::Forward));
     }
-    if (ghost_recv_count_[r] != 0) {
-      forward_.recv_ranks.push_back(r);
-      forward_.recv_bytes.push_back(ghost_recv_count_[r] * forward_bytes_per_particle_);
-    }
+    if (ghost_recv_count_[r] != 0) forward_.recv_ranks.push_back(r);
   }
 }
 
-// The forward messages are field by field (all x, then all v, then all w): each field of the
-// received ghosts, which are contiguous, is one copy.
+// The forward messages are field by field (all x, then all v, then all w), each field a
+// message of its own, received straight into the ghosts' range of that array (a partner's
+// ghosts are contiguous): no receive buffer and no copy out of it. The places are taken from
+// p at every update, so a reallocation of p's arrays between updates cannot leave a receive
+// pointing at freed memory.
 void MpiDomain::begin_ghost_update(Particles& p) {
   for (std::size_t k = 0; k < forward_.send_ranks.size(); ++k) {
     auto& buf = forward_.send_buf[k];
     buf.clear();
     pack_fields(p, ghost_send_idx_[forward_.send_ranks[k]], Message::Forward, buf);
   }
-  forward_.start(comm_, kForwardTag);
-}
-
-void MpiDomain::end_ghost_update(Particles& p) {
-  forward_.wait();
+  forward_recv_pieces_.resize(forward_.recv_ranks.size());
   for (std::size_t k = 0; k < forward_.recv_ranks.size(); ++k) {
     const int r = forward_.recv_ranks[k];
-    unpack_fields(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward,
-                  forward_.recv_buf[k].data());
+    forward_recv_pieces_[k] = field_pieces(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward);
   }
+  forward_.start(comm_, kForwardTag, forward_recv_pieces_);
+}
+
+void MpiDomain::end_ghost_update(Particles&) {
+  forward_.wait();
   stats_.bytes_forward += std::int64_t(forward_.bytes_sent());
   ++stats_.forward_updates;
 }

@@ -103,7 +103,7 @@ class MpiDomain final : public Domain {
   std::vector<std::vector<Index>> ghost_send_idx_;
   std::vector<std::size_t> ghost_recv_first_, ghost_recv_count_;
   NeighbourExchange forward_;
-  std::size_t forward_bytes_per_particle_ = 0;
+  std::vector<std::vector<BytePiece>> forward_recv_pieces_;  // per recv rank, this update's places
   std::int64_t rebuilds_since_check_ = 0;
   std::int64_t rebuilds_since_cut_check_ = -1;  // -1: not checked yet
   DomainStats stats_;

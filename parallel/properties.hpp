@@ -8,6 +8,7 @@
 // (parallel/mpi_domain.cpp).
 #pragma once
 #include "core/particles.hpp"
+#include "parallel/byte_buffer.hpp"
 
 #include <cstring>
 #include <vector>
@@ -94,14 +95,33 @@ inline void pack_fields(const Particles& p, const std::vector<Index>& idx, Messa
   });
 }
 
-inline const char* unpack_fields(Particles& p, std::size_t first, std::size_t n, Message m,
-                                 const char* in) {
+// The places in p of a field-by-field message for the contiguous range [first, first + n):
+// one piece per carried field, in the message's order (a receive can go straight there).
+inline std::vector<BytePiece> field_pieces(Particles& p, std::size_t first, std::size_t n, Message m) {
+  std::vector<BytePiece> out;
   for_each_property(p, [&](const char*, auto& vec, Travel t) {
     if (!carries(m, t) || n == 0) return;
-    const std::size_t bytes = n * sizeof(vec[0]);
-    std::memcpy(static_cast<void*>(&vec[first]), in, bytes);
-    in += bytes;
+    out.push_back({static_cast<void*>(vec.data() + first), n * sizeof(vec[0])});
   });
+  return out;
+}
+
+// The sizes of those pieces for n particles (what a sender of such a message cuts it into).
+inline std::vector<std::size_t> field_piece_bytes(std::size_t n, Message m) {
+  std::vector<std::size_t> out;
+  Particles probe;
+  for_each_property(probe, [&](const char*, auto& vec, Travel t) {
+    if (carries(m, t) && n != 0) out.push_back(n * sizeof(typename std::decay_t<decltype(vec)>::value_type));
+  });
+  return out;
+}
+
+inline const char* unpack_fields(Particles& p, std::size_t first, std::size_t n, Message m,
+                                 const char* in) {
+  for (const BytePiece& piece : field_pieces(p, first, n, m)) {
+    std::memcpy(piece.at, in, piece.bytes);
+    in += piece.bytes;
+  }
   return in;
 }
 

@@ -49,3 +49,24 @@ TEST(Properties, FieldByFieldMessagesRoundTrip) {
   }
   for (std::size_t k = 0; k < src.size(); ++k) EXPECT_EQ(a.x[k], src.x[k]);
 }
+
+// The receive places of a field-by-field message (the forward update receives each field
+// straight into the ghosts' range): one piece per carried field, at that field's array from
+// 'first', sizes as the sender cuts its message (field_piece_bytes), and none for no particle.
+TEST(Properties, FieldPiecesAreTheGhostRangesOfEachField) {
+  Particles p;
+  for (int a = 0; a < 4; ++a) p.add({a, 0.01, 2650.0, Vec3(a, 0, 0)});
+  const std::size_t first = p.append_ghosts(3);
+  const std::vector<BytePiece> pieces = field_pieces(p, first, 3, Message::Forward);
+  const std::vector<std::size_t> sizes = field_piece_bytes(3, Message::Forward);
+  ASSERT_EQ(pieces.size(), 3u);
+  ASSERT_EQ(sizes, std::vector<std::size_t>(3, 3 * sizeof(Vec3)));
+  EXPECT_EQ(pieces[0].at, static_cast<void*>(p.x.data() + first));
+  EXPECT_EQ(pieces[1].at, static_cast<void*>(p.v.data() + first));
+  EXPECT_EQ(pieces[2].at, static_cast<void*>(p.w.data() + first));
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(pieces[k].bytes, sizes[k]);
+  EXPECT_TRUE(field_pieces(p, first, 0, Message::Forward).empty());
+  EXPECT_TRUE(field_piece_bytes(0, Message::Forward).empty());
+  // Full messages carry the properties set at creation too (radius ... id).
+  EXPECT_EQ(field_pieces(p, first, 3, Message::Full).size(), 9u);
+}
