@@ -1,7 +1,7 @@
 #include "parallel/mpi_domain.hpp"
-#include "parallel/peak_memory.hpp"
 
 #include "parallel/byte_buffer.hpp"
+#include "parallel/peak_memory.hpp"
 #include "parallel/properties.hpp"
 
 #include <algorithm>
