@@ -48,7 +48,8 @@ class Domain {
   // The same in two halves, so that work which reads no ghost (and writes no x, v, w) can run
   // while the messages travel: begin sends the owned particles' x, v, w; end receives them
   // into the ghosts. Other hooks may be called in between (their collectives let the messages
-  // progress), but not adopt, redistribute or build_ghosts.
+  // progress), but not adopt, redistribute or build_ghosts; and nothing in between may read or
+  // write the ghosts' x, v, w, nor reallocate p's arrays: the MPI domain receives them in place.
   virtual void begin_ghost_update(Particles& p) = 0;
   virtual void end_ghost_update(Particles& p) = 0;
 
