@@ -500,7 +500,7 @@ void MpiDomain::begin_ghost_update(Particles& p) {
   forward_recv_pieces_.resize(forward_.recv_ranks.size());
   for (std::size_t k = 0; k < forward_.recv_ranks.size(); ++k) {
     const int r = forward_.recv_ranks[k];
-    forward_recv_pieces_[k] = field_pieces(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward);
+    field_pieces(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward, forward_recv_pieces_[k]);
   }
   forward_.start(comm_, kForwardTag, forward_recv_pieces_);
 }

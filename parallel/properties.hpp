@@ -97,12 +97,18 @@ inline void pack_fields(const Particles& p, const std::vector<Index>& idx, Messa
 
 // The places in p of a field-by-field message for the contiguous range [first, first + n):
 // one piece per carried field, in the message's order (a receive can go straight there).
-inline std::vector<BytePiece> field_pieces(Particles& p, std::size_t first, std::size_t n, Message m) {
-  std::vector<BytePiece> out;
+// Written into 'out' (cleared first; its room is kept, so the per-step update allocates nothing).
+inline void field_pieces(Particles& p, std::size_t first, std::size_t n, Message m,
+                         std::vector<BytePiece>& out) {
+  out.clear();
   for_each_property(p, [&](const char*, auto& vec, Travel t) {
     if (!carries(m, t) || n == 0) return;
     out.push_back({static_cast<void*>(vec.data() + first), n * sizeof(vec[0])});
   });
+}
+inline std::vector<BytePiece> field_pieces(Particles& p, std::size_t first, std::size_t n, Message m) {
+  std::vector<BytePiece> out;
+  field_pieces(p, first, n, m, out);
   return out;
 }
 
