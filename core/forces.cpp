@@ -501,12 +501,13 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
                     PairList& pairs, WallContactList& wall_contacts, Dissipation& diss,
                     ContactSums* sums, real_t* wall_power) {
   const std::size_t n = p.size();
+  const std::size_t first = ctx.owned_ready ? p.n_owned() : 0;
   if (ctx.gravity.isZero()) {
-    for (std::size_t a = 0; a < n; ++a) p.f[a].setZero();
+    for (std::size_t a = first; a < n; ++a) p.f[a].setZero();
   } else {
-    for (std::size_t a = 0; a < n; ++a) p.f[a] = p.mass[a] * ctx.gravity;
+    for (std::size_t a = first; a < n; ++a) p.f[a] = p.mass[a] * ctx.gravity;
   }
-  for (std::size_t a = 0; a < n; ++a) p.t[a].setZero();
+  for (std::size_t a = first; a < n; ++a) p.t[a].setZero();
   if (sums) {
     *sums = ContactSums{};
     sums->contacts_per_particle.assign(n, 0);

@@ -67,9 +67,12 @@ struct ForceContext {
   // spheres' push on it, k_n u_n [N], and slot 2k + 1 += k_n [N/m], over this rank's touching
   // contacts; exact sums, so that the servo moves the wall the same on any number of ranks.
   ExactSums* wall_load = nullptr;
+  // The owned particles' f and t already hold m g and 0 (set by kick_drift_check, which
+  // passes over them anyway): only the ghosts' are set here.
+  bool owned_ready = false;
 };
 
-// Sets f = m g and t = 0, then adds every contact. 'sums' may be null (no measurement).
+// Sets f = m g and t = 0 (of the ghosts only if ctx.owned_ready), then adds every contact. 'sums' may be null (no measurement).
 // 'wall_power', if given, receives the power of the moving walls on this rank's spheres [W]
 // (sum over wall contacts of -F . v_wall, F the force on the wall).
 void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,

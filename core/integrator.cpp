@@ -1,6 +1,7 @@
 #include "core/integrator.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace fabrica {
 
@@ -21,6 +22,53 @@ void drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
   }
   const Vec3 s = cell.deform(dt);
   for (std::size_t a = 0; a < n; ++a) p.x[a] = (p.x[a] + dt * p.v[a]).cwiseProduct(s);
+}
+
+namespace {
+template <bool Deform, bool Gravity>
+StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt,
+                           const std::vector<Vec3>& s_ref, const Vec3& g) {
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  const real_t h = 0.5 * dt;
+  const std::size_t n = p.n_owned();
+  StepStart r;
+  for (std::size_t a = 0; a < n; ++a) {
+    Vec3 v = p.v[a], w = p.w[a];
+    v += (h * p.inv_mass[a]) * p.f[a];
+    w += (h * p.inv_inertia[a]) * p.t[a];
+    p.v[a] = v;
+    p.w[a] = w;
+    if constexpr (Gravity) r.gravity_power += p.mass[a] * g.dot(v);
+    Vec3 x = p.x[a];
+    if constexpr (Deform)
+      x = (x + dt * v).cwiseProduct(s);
+    else
+      x += dt * v;
+    p.x[a] = x;
+    const real_t d2 = (x - s_ref[a].cwiseProduct(L)).squaredNorm();
+    const real_t v2 = v.squaredNorm();
+    r.max_d2 = d2 <= r.max_d2 ? r.max_d2 : (d2 < inf ? d2 : inf);
+    r.max_v2 = v2 <= r.max_v2 ? r.max_v2 : (v2 < inf ? v2 : inf);
+    if constexpr (Gravity)
+      p.f[a] = p.mass[a] * g;
+    else
+      p.f[a].setZero();
+    p.t[a].setZero();
+  }
+  return r;
+}
+}  // namespace
+
+StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt,
+                           const std::vector<Vec3>& s_ref, const Vec3& gravity) {
+  const bool deform = !cell.strain_rate().isZero();
+  const Vec3 s = deform ? cell.deform(dt) : Vec3::Ones();
+  const Vec3& L = cell.lengths();
+  if (gravity.isZero())
+    return deform ? kick_drift_check<true, false>(p, s, L, dt, s_ref, gravity)
+                  : kick_drift_check<false, false>(p, s, L, dt, s_ref, gravity);
+  return deform ? kick_drift_check<true, true>(p, s, L, dt, s_ref, gravity)
+                : kick_drift_check<false, true>(p, s, L, dt, s_ref, gravity);
 }
 
 real_t apply_local_damping(Particles& p, real_t alpha, real_t dt) {

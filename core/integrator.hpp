@@ -8,6 +8,8 @@
 #include "core/cell.hpp"
 #include "core/particles.hpp"
 
+#include <vector>
+
 namespace fabrica {
 
 // v += dt/2 f/m, w += dt/2 t/I for owned particles.
@@ -15,6 +17,24 @@ void half_kick(Particles& p, real_t dt);
 
 // x += dt v (owned particles), then the cell deforms by dt and positions follow affinely.
 void drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt);
+
+// What the start of a step measures on the way (kick_drift_check).
+struct StepStart {
+  real_t max_d2 = 0;  // the largest |x - ref|^2 since the last rebuild (non-finite: infinity)
+  real_t max_v2 = 0;  // the largest |v|^2 after the kick (non-finite: infinity)
+  real_t gravity_power = 0;  // sum of m g . v after the kick [W]
+};
+
+// The start of a step in one pass over the owned particles, for a run without driven
+// particles: half_kick, then gravity's power with the kicked velocity, then drift_and_deform,
+// then the rebuild check's maxima (the reference positions s_ref are fractions of the cell,
+// compared with x at the deformed cell's lengths); last, f = m g and t = 0, the values the force
+// computation starts from (ForceContext::owned_ready). The same values, bit for bit, as those
+// loops one after another: each particle's arithmetic is the same and the power is summed in
+// the same order. At 10^6 spheres the arrays leave the cache, and the four loops read them
+// four times.
+StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt,
+                           const std::vector<Vec3>& s_ref, const Vec3& gravity);
 
 // Applies local damping to f and t of owned particles; returns the work the damping forces do
 // against the motion over the two half-kicks they act in [J] (exact for velocity Verlet).

@@ -96,22 +96,32 @@ Simulation::Simulation(SimulationSnapshot s, Domain* domain)
 void Simulation::step(bool measure) {
   const real_t dt = par_.dt;
   PhaseClock clk(timing_ ? &times_ : nullptr);
-  half_kick(p_, dt);
-  double drive = driven_.empty() ? 0.0 : impose_driven(0.5 * dt);
-  if (!par_.gravity.isZero()) {  // work of gravity over the drift, with the drift's velocity
-    real_t gv = 0;
-    for (std::size_t a = 0; a < p_.n_owned(); ++a) gv += p_.mass[a] * par_.gravity.dot(p_.v[a]);
-    gravity_work_local_ += gv * dt;
-  }
   const Vec3 rate = cell_.strain_rate();
-  drift_and_deform(p_, cell_, dt);
+  StepStart motion;
+  double drive = 0;
+  if (driven_.empty()) {  // one pass: kick, gravity's power, drift, the check's maxima, f and t
+    motion = kick_drift_check(p_, cell_, dt, s_ref_, par_.gravity);
+    if (!par_.gravity.isZero()) gravity_work_local_ += motion.gravity_power * dt;
+  } else {
+    half_kick(p_, dt);
+    drive = impose_driven(0.5 * dt);
+    if (!par_.gravity.isZero()) {  // work of gravity over the drift, with the drift's velocity
+      real_t gv = 0;
+      for (std::size_t a = 0; a < p_.n_owned(); ++a) gv += p_.mass[a] * par_.gravity.dot(p_.v[a]);
+      gravity_work_local_ += gv * dt;
+    }
+    drift_and_deform(p_, cell_, dt);
+  }
   for (Wall& w : par_.walls) w.point += w.velocity * dt;
   clk.lap(&PhaseTimes::integrate);
   // The ghosts' update travels while the rebuild check, which reads owned particles only, runs
   // (the messages can progress during its reduction).
   domain_->begin_ghost_update(p_);
   clk.lap(&PhaseTimes::ghost);
-  const bool rebuild_now = needs_rebuild();
+  if (!driven_.empty()) motion = local_motion();
+  const bool rebuild_now = needs_rebuild(motion);
+  // A migration's arrivals have f = 0: under gravity the force computation sets them all.
+  owned_ready_ = driven_.empty() && (par_.gravity.isZero() || !rebuild_now);
   rebuilt_last_ = false;  // set by rebuild_lists()
   clk.lap(&PhaseTimes::check);
   domain_->end_ghost_update(p_);
@@ -159,6 +169,8 @@ void Simulation::compute(bool measure, real_t dt) {
   }
   ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_, par_.kernel_lanes};
   ctx.wall_load = servo ? &wall_sums_ : nullptr;
+  ctx.owned_ready = owned_ready_;
+  owned_ready_ = false;
   real_t power = 0;
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,
                  moving ? &power : nullptr);
@@ -234,19 +246,26 @@ void Simulation::set_law(const ContactLawParams& law) {
   }
 }
 
-bool Simulation::needs_rebuild() {
+StepStart Simulation::local_motion() const {
+  const Vec3& L = cell_.lengths();
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  StepStart r;
+  for (std::size_t a = 0; a < p_.n_owned(); ++a) {
+    const real_t d2 = (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm();
+    const real_t v2 = p_.v[a].squaredNorm();
+    r.max_d2 = d2 <= r.max_d2 ? r.max_d2 : (d2 < inf ? d2 : inf);
+    r.max_v2 = v2 <= r.max_v2 ? r.max_v2 : (v2 < inf ? v2 : inf);
+  }
+  return r;
+}
+
+bool Simulation::needs_rebuild(const StepStart& motion) {
   const Vec3& L = cell_.lengths();
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   // m[0]: the largest displacement^2 since the last rebuild; m[1]: the largest speed^2 (the
   // step guard). A non-finite value counts as infinite (an exact maximum on every rank).
   // m[2]: the largest overlap ratio beyond the limit found by the last force computation.
-  double m[3] = {0, 0, overlap_.ratio};
-  for (std::size_t a = 0; a < p_.n_owned(); ++a) {
-    const real_t d2 = (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm();
-    const real_t v2 = p_.v[a].squaredNorm();
-    m[0] = d2 <= m[0] ? m[0] : (d2 < inf ? d2 : inf);
-    m[1] = v2 <= m[1] ? m[1] : (v2 < inf ? v2 : inf);
-  }
+  double m[3] = {motion.max_d2, motion.max_v2, overlap_.ratio};
   domain_->max_all(std::span<double>(m, 3));
   if (guard_rmin_ == 0) {  // once: the smallest radius over every rank
     real_t r = inf;

@@ -7,6 +7,7 @@
 #include "core/driven.hpp"
 #include "core/forces.hpp"
 #include "core/history_map.hpp"
+#include "core/integrator.hpp"
 #include "core/measures.hpp"
 #include "core/neighbor.hpp"
 #include "core/particles.hpp"
@@ -230,8 +231,10 @@ class Simulation {
   }
 
   // True once particles (on any rank) have moved, or the cell has strained, enough that a pair
-  // outside the list could be touching. Collective.
-  bool needs_rebuild();
+  // outside the list could be touching. Collective. 'motion': this rank's largest
+  // displacement^2 since the last rebuild and speed^2 (kick_drift_check, or local_motion()).
+  bool needs_rebuild(const StepStart& motion);
+  StepStart local_motion() const;  // the maxima of StepStart by a loop of their own
   void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
   void set_overlap_guard(real_t max_ratio);          // the same for the overlap (collective)
   void check_cell_still_fits();  // guard_ = the message once a cell length is <= 2 cutoffs
@@ -296,6 +299,7 @@ class Simulation {
   std::vector<Vec3> wall_ref_;          // wall points at the last rebuild
   bool timing_ = false;
   bool rebuilt_last_ = true;
+  bool owned_ready_ = false;  // the owned f and t hold their starting values (ForceContext)
   std::string guard_;      // step_guard()
   real_t guard_rmin_ = 0;  // the smallest radius over all ranks (set at the first check)
   OverlapAlarm overlap_;   // the largest overlap beyond the limit in the last force computation
