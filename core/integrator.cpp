@@ -25,7 +25,7 @@ void drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
 }
 
 namespace {
-template <bool Deform, bool Gravity>
+template <bool Deform, bool Gravity, bool Pending>
 StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt,
                            const std::vector<Vec3>& s_ref, const Vec3& g) {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
@@ -34,6 +34,10 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
   StepStart r;
   for (std::size_t a = 0; a < n; ++a) {
     Vec3 v = p.v[a], w = p.w[a];
+    if constexpr (Pending) {
+      v += (h * p.inv_mass[a]) * p.f[a];
+      w += (h * p.inv_inertia[a]) * p.t[a];
+    }
     v += (h * p.inv_mass[a]) * p.f[a];
     w += (h * p.inv_inertia[a]) * p.t[a];
     p.v[a] = v;
@@ -60,15 +64,17 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
 }  // namespace
 
 StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt,
-                           const std::vector<Vec3>& s_ref, const Vec3& gravity) {
+                           const std::vector<Vec3>& s_ref, const Vec3& gravity, bool pending) {
   const bool deform = !cell.strain_rate().isZero();
   const Vec3 s = deform ? cell.deform(dt) : Vec3::Ones();
   const Vec3& L = cell.lengths();
-  if (gravity.isZero())
-    return deform ? kick_drift_check<true, false>(p, s, L, dt, s_ref, gravity)
-                  : kick_drift_check<false, false>(p, s, L, dt, s_ref, gravity);
-  return deform ? kick_drift_check<true, true>(p, s, L, dt, s_ref, gravity)
-                : kick_drift_check<false, true>(p, s, L, dt, s_ref, gravity);
+  using F = StepStart (*)(Particles&, const Vec3&, const Vec3&, real_t, const std::vector<Vec3>&, const Vec3&);
+  static constexpr F table[8] = {
+      kick_drift_check<false, false, false>, kick_drift_check<false, false, true>,
+      kick_drift_check<false, true, false>,  kick_drift_check<false, true, true>,
+      kick_drift_check<true, false, false>,  kick_drift_check<true, false, true>,
+      kick_drift_check<true, true, false>,   kick_drift_check<true, true, true>};
+  return table[4 * deform + 2 * !gravity.isZero() + pending](p, s, L, dt, s_ref, gravity);
 }
 
 real_t apply_local_damping(Particles& p, real_t alpha, real_t dt) {

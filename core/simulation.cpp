@@ -99,10 +99,13 @@ void Simulation::step(bool measure) {
   const Vec3 rate = cell_.strain_rate();
   StepStart motion;
   double drive = 0;
-  if (driven_.empty()) {  // one pass: kick, gravity's power, drift, the check's maxima, f and t
-    motion = kick_drift_check(p_, cell_, dt, s_ref_, par_.gravity);
+  if (driven_.empty()) {  // one pass: [the last step's closing kick,] kick, gravity's power,
+                         // drift, the check's maxima, f and t
+    motion = kick_drift_check(p_, cell_, dt, s_ref_, par_.gravity, kick_pending_);
+    kick_pending_ = false;
     if (!par_.gravity.isZero()) gravity_work_local_ += motion.gravity_power * dt;
   } else {
+    settle();
     half_kick(p_, dt);
     drive = impose_driven(0.5 * dt);
     if (!par_.gravity.isZero()) {  // work of gravity over the drift, with the drift's velocity
@@ -135,7 +138,10 @@ void Simulation::step(bool measure) {
   const bool strains = !rate.isZero();
   compute(measure || strains, dt);  // a straining step needs the contact virial (boundary work)
   clk.lap(&PhaseTimes::force);
-  half_kick(p_, dt);
+  if (!measure && driven_.empty())
+    kick_pending_ = true;  // to the next step's first pass (or settle())
+  else
+    half_kick(p_, dt);
   if (!par_.driven.empty()) {  // the same on every rank (the sets, not this rank's members)
     drive += impose_driven(0.5 * dt);
     domain_->sum_all(std::span<double>(&drive, 1));
@@ -222,7 +228,14 @@ real_t Simulation::impose_driven(real_t dt_half) {
   return work;
 }
 
+void Simulation::settle() const {
+  if (!kick_pending_) return;
+  half_kick(p_, par_.dt);
+  kick_pending_ = false;
+}
+
 void Simulation::set_skin(real_t skin) {
+  settle();
   const real_t two_rmax = cutoff_max_ - par_.skin;  // global (a rank may not hold the largest)
   const real_t cutoff = two_rmax + skin;
   if (domain_->size() > 1 && cutoff > cutoff_max_)
