@@ -72,7 +72,8 @@ struct ForceContext {
   bool owned_ready = false;
 };
 
-// Sets f = m g and t = 0 (of the ghosts only if ctx.owned_ready), then adds every contact. 'sums' may be null (no measurement).
+// Sets f = m g and t = 0 (of the ghosts only if ctx.owned_ready), then adds every contact.
+// 'sums' may be null (no measurement).
 // 'wall_power', if given, receives the power of the moving walls on this rank's spheres [W]
 // (sum over wall contacts of -F . v_wall, F the force on the wall).
 void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,

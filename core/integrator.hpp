@@ -27,13 +27,13 @@ struct StepStart {
 
 // The start of a step in one pass over the owned particles, for a run without driven
 // particles: with 'pending', first the previous step's closing half_kick (left to this pass,
-// Simulation::step), then half_kick, then gravity's power with the kicked velocity, then drift_and_deform,
-// then the rebuild check's maxima (the reference positions s_ref are fractions of the cell,
-// compared with x at the deformed cell's lengths); last, f = m g and t = 0, the values the force
-// computation starts from (ForceContext::owned_ready). The same values, bit for bit, as those
-// loops one after another: each particle's arithmetic is the same and the power is summed in
-// the same order. At 10^6 spheres the arrays leave the cache, and the four loops read them
-// four times.
+// Simulation::step), then half_kick, then gravity's power with the kicked velocity, then
+// drift_and_deform, then the rebuild check's maxima (the reference positions s_ref are
+// fractions of the cell, compared with x at the deformed cell's lengths); last, f = m g and
+// t = 0, the values the force computation starts from (ForceContext::owned_ready). The same
+// values, bit for bit, as those loops one after another: each particle's arithmetic is the
+// same and the power is summed in the same order. At 10^6 spheres the arrays leave the cache,
+// and separate loops read them once each.
 StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt,
                            const std::vector<Vec3>& s_ref, const Vec3& gravity, bool pending);
 
