@@ -61,7 +61,11 @@ constexpr const auto& kTouchBytes = kPackTables.bytes;
 // the order of the one-pass loop (contact-opening energies merged back at their place), and
 // the law gives the same bits on every lane (core/simd.hpp): lanes = 1 and lanes = 4 give the
 // same results bit for bit (tests/unit/test_forces_simd.cpp), and so does the rank count.
-template <bool Rolling, bool Viscous, bool Measure>
+// What the pair loop sums besides the forces: nothing, only ContactSums::fb (a straining step
+// that does not measure: the boundary work needs the diagonal of the stress), or everything.
+constexpr int kNone = 0, kVirial = 1, kFull = 2;
+
+template <bool Rolling, bool Viscous, int Measure>
 struct PairKernel {
   Particles& P;
   const ForceContext& ctx;
@@ -326,7 +330,10 @@ struct PairKernel {
       e_fric += ef[l];
       if constexpr (Rolling) e_roll += er[l];
       if constexpr (Viscous) e_visc += ev[l];
-      if constexpr (Measure) {
+      if constexpr (Measure == kVirial) {  // the same sum, in the same order, as below
+        if (lane(own, l) != 0.0) sums->fb.noalias() += Fl * lane(d, l).transpose();
+      }
+      if constexpr (Measure == kFull) {
         const real_t own_i = lane(own, l);
         if (own_i != 0.0) {
           const PairConstants cl{lane(pc.kn, l), lane(pc.ks, l), lane(pc.kr, l), 0, 0, 0};
@@ -389,7 +396,7 @@ struct PairKernel {
   }
 };
 
-template <bool Rolling, bool Viscous, bool Measure>
+template <bool Rolling, bool Viscous, int Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                  Dissipation& diss, ContactSums* sums) {
   PairKernel<Rolling, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
@@ -402,7 +409,7 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
 
 // Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
 // law or the scene's.
-template <bool Rolling, bool Viscous, bool Measure>
+template <bool Rolling, bool Viscous, int Measure>
 void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss,
                  ContactSums* sums, real_t* wall_power) {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
@@ -457,7 +464,7 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     diss.friction += r.e_friction;
     diss.rolling += r.e_rolling;
     diss.viscous += r.e_viscous;
-    if constexpr (Measure) {
+    if constexpr (Measure == kFull) {
       ++sums->wall_contacts;
       sums->fb_walls.noalias() += F * (a1 * k.n).transpose();
       sums->wall_force[wl.wall[q]] += F;
@@ -476,7 +483,7 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
   if (wall_power) *wall_power = power;
 }
 
-template <bool Rolling, bool Viscous, bool Measure>
+template <bool Rolling, bool Viscous, int Measure>
 void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                 WallContactList& wl, Dissipation& diss, ContactSums* sums, real_t* wall_power) {
   pair_forces<Rolling, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
@@ -487,12 +494,12 @@ void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,
 using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&,
                         WallContactList&, Dissipation&, ContactSums*, real_t*);
 
-// Table indexed by rolling * 4 + viscous * 2 + measure.
-constexpr std::array<Kernel, 8> kKernels = {
-    all_forces<false, false, false>, all_forces<false, false, true>,
-    all_forces<false, true, false>,  all_forces<false, true, true>,
-    all_forces<true, false, false>,  all_forces<true, false, true>,
-    all_forces<true, true, false>,   all_forces<true, true, true>,
+// Table indexed by rolling * 6 + viscous * 3 + measure (kNone, kVirial, kFull).
+constexpr std::array<Kernel, 12> kKernels = {
+    all_forces<false, false, kNone>, all_forces<false, false, kVirial>, all_forces<false, false, kFull>,
+    all_forces<false, true, kNone>,  all_forces<false, true, kVirial>,  all_forces<false, true, kFull>,
+    all_forces<true, false, kNone>,  all_forces<true, false, kVirial>,  all_forces<true, false, kFull>,
+    all_forces<true, true, kNone>,   all_forces<true, true, kVirial>,   all_forces<true, true, kFull>,
 };
 
 }  // namespace
@@ -508,7 +515,10 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
     for (std::size_t a = first; a < n; ++a) p.f[a] = p.mass[a] * ctx.gravity;
   }
   for (std::size_t a = first; a < n; ++a) p.t[a].setZero();
-  if (sums) {
+  const int measure = !sums ? kNone : ctx.virial_only ? kVirial : kFull;
+  if (measure == kVirial) {
+    sums->fb.setZero();
+  } else if (measure == kFull) {
     *sums = ContactSums{};
     sums->contacts_per_particle.assign(n, 0);
     sums->wall_force.assign(ctx.walls.size(), Vec3::Zero());
@@ -518,9 +528,9 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
   bool rolling = ctx.law.rolling(), viscous = ctx.law.viscous();
   for (const Wall& w : ctx.walls)
     if (w.own_law) rolling = rolling || w.law.rolling(), viscous = viscous || w.law.viscous();
-  const int k = 4 * rolling + 2 * viscous + (sums != nullptr);
+  const int k = 6 * rolling + 3 * viscous + measure;
   kKernels[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);
-  if (sums)
+  if (measure == kFull)
     for (std::size_t a = 0; a < p.n_owned(); ++a) sums->sum_particle_force += p.f[a].norm();
 }
 

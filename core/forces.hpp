@@ -70,6 +70,10 @@ struct ForceContext {
   // The owned particles' f and t already hold m g and 0 (set by kick_drift_check, which
   // passes over them anyway): only the ghosts' are set here.
   bool owned_ready = false;
+  // With 'sums': only sums->fb is wanted (and set; the other fields are left as they were),
+  // the same bits as the full measurement gives it. A straining step that does not measure
+  // needs the diagonal of the contact virial for its boundary work, nothing else.
+  bool virial_only = false;
 };
 
 // Sets f = m g and t = 0 (of the ghosts only if ctx.owned_ready), then adds every contact.

@@ -136,7 +136,7 @@ void Simulation::step(bool measure) {
     times_.migrate += last_migrate_seconds_;
   }
   const bool strains = !rate.isZero();
-  compute(measure || strains, dt);  // a straining step needs the contact virial (boundary work)
+  compute(measure || strains, dt, !measure);  // a straining step needs the contact virial (boundary work)
   clk.lap(&PhaseTimes::force);
   if (!measure && driven_.empty())
     kick_pending_ = true;  // to the next step's first pass (or settle())
@@ -164,7 +164,7 @@ void Simulation::step(bool measure) {
   time_ += dt;
 }
 
-void Simulation::compute(bool measure, real_t dt) {
+void Simulation::compute(bool measure, real_t dt, bool virial_only) {
   overlap_ = OverlapAlarm{};
   const bool moving = dt > 0 && par_.moving_walls();
   // Servo walls (core/wall_servo.hpp): the push and contact stiffness of each wall, exact sums.
@@ -176,6 +176,7 @@ void Simulation::compute(bool measure, real_t dt) {
   ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_, par_.kernel_lanes};
   ctx.wall_load = servo ? &wall_sums_ : nullptr;
   ctx.owned_ready = owned_ready_;
+  ctx.virial_only = virial_only;
   owned_ready_ = false;
   real_t power = 0;
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,

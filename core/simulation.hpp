@@ -256,7 +256,8 @@ class Simulation {
 
   // Forces at the current positions; the contact springs advance by the relative motion over
   // dt (0 for the initial forces, which must not change the contact history).
-  void compute(bool measure, real_t dt);
+  // 'virial_only': with 'measure', only the contact virial is summed (ForceContext).
+  void compute(bool measure, real_t dt, bool virial_only = false);
 
   void measure_and_reduce(const Vec3& strain_increment);  // of the step just done
   // Adds the boundary work of the step just done (its strain increment edot dt, with the
