@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -65,10 +66,7 @@ Setup replicate(const Setup& s, int copies) {
   return r;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  MpiContext mpi(argc, argv);
+int run_benchmark(MpiContext& mpi, int argc, char** argv) {
   const MPI_Comm comm = mpi.comm();
   const std::string mode = argc > 1 ? argv[1] : "strong";
   const int reps = argc > 2 ? std::atoi(argv[2]) : 3;
@@ -166,4 +164,18 @@ int main(int argc, char** argv) {
                 bytes_per_step, bytes_per_step / mpi.size());
   }
   return 0;
+}
+
+}  // namespace
+
+// A bad scene or data file ends every rank with its message (no abort trace, no hang).
+int main(int argc, char** argv) {
+  MpiContext mpi(argc, argv);
+  try {
+    return run_benchmark(mpi, argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_scaling: %s\n", e.what());
+    MPI_Abort(mpi.comm(), 1);
+  }
+  return 1;
 }

@@ -25,6 +25,7 @@ STEPS=${STEPS:-200}
 SIZES=${SIZES:-1 2 4}
 RANKS=${RANKS:-1 2}
 BUILD=${BUILD:-$root/build-bench}
+[ -d "$BUILD" ] && BUILD=$(cd "$BUILD" && pwd)  # absolute: the scenes name their data files by it
 WORK=${WORK:-$BUILD/large}
 PEERS=${PEERS:-1}
 shared=$(cd "$root/../shared/bench/dense-13584" && pwd)
@@ -36,6 +37,7 @@ if [ "$PEERS" = 1 ]; then
   command -v liggghts >/dev/null && have_lig=1
 fi
 mkdir -p "$WORK"
+WORK=$(cd "$WORK" && pwd)
 results=$WORK/results.txt
 : > "$results"
 

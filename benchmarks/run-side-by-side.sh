@@ -27,6 +27,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 REPS=${REPS:-5}
 BUILD=${BUILD:-$root/build-bench}
+[ -d "$BUILD" ] && BUILD=$(cd "$BUILD" && pwd)  # absolute: the scenes name their data files by it
 PEERS=${PEERS:-$(cd "$root/../shared/bench/dense-13584" && pwd)}
 DIAG=${DIAG:-1}
 QUIET=${QUIET:-1}
