@@ -153,8 +153,9 @@ class Simulation {
   // where edot_k dt is the step's exact logarithmic strain increment (PeriodicCell::deform).
   // For an affine elastic lattice it equals the change of the stored elastic energy to
   // O((edot dt)^2) per step, at any measuring interval (tests/unit/test_energy_account.cpp). A
-  // straining step therefore sums the contact virial (the measuring kernel of the forces) and
-  // reduces its diagonal over the ranks (3 numbers), whether it measures or not; a step with
+  // straining step therefore sums the contact virial (when it does not measure, the pair loop's
+  // variant that sums nothing else) and reduces its diagonal over the ranks (3 numbers), whether
+  // it measures or not; a step with
   // the cell at rest costs nothing more. When the stress at the start of a straining step is
   // unknown (the step before neither strained nor measured), the end stress stands for it.
   // macro().energy_input is e0 + W + gravity work at measuring steps.
