@@ -8,10 +8,7 @@ namespace fabrica {
 void half_kick(Particles& p, real_t dt) {
   const real_t h = 0.5 * dt;
   const std::size_t n = p.n_owned();
-  for (std::size_t a = 0; a < n; ++a) {
-    p.v[a] += (h * p.inv_mass[a]) * p.f[a];
-    p.w[a] += (h * p.inv_inertia[a]) * p.t[a];
-  }
+  for (std::size_t a = 0; a < n; ++a) kick(p, a, h, p.v[a], p.w[a]);
 }
 
 void drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
@@ -28,18 +25,13 @@ namespace {
 template <bool Deform, bool Gravity, bool Pending>
 StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt,
                            const std::vector<Vec3>& s_ref, const Vec3& g) {
-  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   const real_t h = 0.5 * dt;
   const std::size_t n = p.n_owned();
   StepStart r;
   for (std::size_t a = 0; a < n; ++a) {
     Vec3 v = p.v[a], w = p.w[a];
-    if constexpr (Pending) {
-      v += (h * p.inv_mass[a]) * p.f[a];
-      w += (h * p.inv_inertia[a]) * p.t[a];
-    }
-    v += (h * p.inv_mass[a]) * p.f[a];
-    w += (h * p.inv_inertia[a]) * p.t[a];
+    if constexpr (Pending) kick(p, a, h, v, w);
+    kick(p, a, h, v, w);
     p.v[a] = v;
     p.w[a] = w;
     if constexpr (Gravity) r.gravity_power += p.mass[a] * g.dot(v);
@@ -49,10 +41,8 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
     else
       x += dt * v;
     p.x[a] = x;
-    const real_t d2 = (x - s_ref[a].cwiseProduct(L)).squaredNorm();
-    const real_t v2 = v.squaredNorm();
-    r.max_d2 = d2 <= r.max_d2 ? r.max_d2 : (d2 < inf ? d2 : inf);
-    r.max_v2 = v2 <= r.max_v2 ? r.max_v2 : (v2 < inf ? v2 : inf);
+    raise_max(r.max_d2, (x - s_ref[a].cwiseProduct(L)).squaredNorm());
+    raise_max(r.max_v2, v.squaredNorm());
     if constexpr (Gravity)
       p.f[a] = p.mass[a] * g;
     else

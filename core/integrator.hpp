@@ -8,9 +8,23 @@
 #include "core/cell.hpp"
 #include "core/particles.hpp"
 
+#include <limits>
 #include <vector>
 
 namespace fabrica {
+
+// v += h f/m and w += h t/I of particle a (h = dt/2): the one arithmetic of every half kick.
+inline void kick(const Particles& p, std::size_t a, real_t h, Vec3& v, Vec3& w) {
+  v += (h * p.inv_mass[a]) * p.f[a];
+  w += (h * p.inv_inertia[a]) * p.t[a];
+}
+
+// m = the larger of m and x, a non-finite x counting as infinity (so that the maximum over the
+// ranks is exact and the same on each): the rebuild check's maxima.
+inline void raise_max(real_t& m, real_t x) {
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  m = x <= m ? m : (x < inf ? x : inf);
+}
 
 // v += dt/2 f/m, w += dt/2 t/I for owned particles.
 void half_kick(Particles& p, real_t dt);

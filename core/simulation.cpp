@@ -262,13 +262,10 @@ void Simulation::set_law(const ContactLawParams& law) {
 
 StepStart Simulation::local_motion() const {
   const Vec3& L = cell_.lengths();
-  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   StepStart r;
   for (std::size_t a = 0; a < p_.n_owned(); ++a) {
-    const real_t d2 = (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm();
-    const real_t v2 = p_.v[a].squaredNorm();
-    r.max_d2 = d2 <= r.max_d2 ? r.max_d2 : (d2 < inf ? d2 : inf);
-    r.max_v2 = v2 <= r.max_v2 ? r.max_v2 : (v2 < inf ? v2 : inf);
+    raise_max(r.max_d2, (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm());
+    raise_max(r.max_v2, p_.v[a].squaredNorm());
   }
   return r;
 }
