@@ -84,6 +84,12 @@ real_t signed_index(const Mat3& a, const Mat3& s) {
 
 FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volume,
                             const FabricOptions& options, Domain& reducer) {
+  return analyse_fabric([records](const ContactVisitor& fn) { for (const ContactRecord& c : records) fn(c); },
+                        volume, options, reducer);
+}
+
+FabricResult analyse_fabric(const std::function<void(const ContactVisitor&)>& visit, real_t volume,
+                            const FabricOptions& options, Domain& reducer) {
   FabricResult out;
   const int B = options.rose_bins;
   out.rose_bins = B;
@@ -91,10 +97,14 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
   // 1. The global mean normal force.
   {
     ExactSums s(1);
-    for (const ContactRecord& c : records) s.add(0, c.fn);
+    std::int64_t n = 0;
+    visit([&](const ContactRecord& c) {
+      s.add(0, c.fn);
+      ++n;
+    });
     s.normalize();
     std::vector<std::int64_t> buf(s.words().begin(), s.words().end());
-    buf.push_back(std::int64_t(records.size()));
+    buf.push_back(n);
     reducer.sum_all(std::span<std::int64_t>(buf));
     ++out.reductions;
     std::copy(buf.begin(), buf.end() - 1, s.words().begin());
@@ -111,7 +121,7 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
   {
     ExactSums s(std::size_t(kNetworks) * kSlots2);
     std::vector<std::int64_t> counts(ints2, 0);
-    for (const ContactRecord& c : records) {
+    visit([&](const ContactRecord& c) {
       const Vec3& n = c.normal;
       const Vec3 f = c.force();
       const int b12 = rose_bin(n[1], n[0], B), b23 = rose_bin(n[2], n[1], B);
@@ -126,7 +136,7 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
         ck[1 + b12] += 1;
         ck[1 + B + b23] += 1;
       }
-    }
+    });
     s.normalize();
     std::vector<std::int64_t> buf(s.words().begin(), s.words().end());
     buf.insert(buf.end(), counts.begin(), counts.end());
@@ -160,7 +170,7 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
   {
     ExactSums s(std::size_t(kNetworks) * kSlots3);
     std::vector<std::int64_t> bad(kNetworks, 0);
-    for (const ContactRecord& c : records) {
+    visit([&](const ContactRecord& c) {
       const Vec3& n = c.normal;
       const real_t len = c.branch.norm();
       for (int k : networks_of(c, threshold)) {
@@ -179,7 +189,7 @@ FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volum
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j) s.add(base + kFt + 3 * i + j, c.ft[i] * n[j] * iw);
       }
-    }
+    });
     s.normalize();
     std::vector<std::int64_t> buf(s.words().begin(), s.words().end());
     buf.insert(buf.end(), bad.begin(), bad.end());

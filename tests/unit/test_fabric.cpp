@@ -450,7 +450,7 @@ namespace {
 // and the prediction 0.
 TEST(Fabric, NoContacts) {
   SerialDomain serial;
-  const FabricResult r = analyse_fabric({}, 1.0, FabricOptions{}, serial);
+  const FabricResult r = analyse_fabric(std::span<const ContactRecord>{}, 1.0, FabricOptions{}, serial);
   EXPECT_EQ(r.reductions, 3);
   EXPECT_EQ(r.contacts, 0);
   EXPECT_EQ(r.q_p, 0.0);
