@@ -35,13 +35,22 @@ struct DecompositionRecord {
   bool empty() const { return lengths.isZero(); }
 };
 
+// The drift of a step (x <- x + dt v, then scaled by the cell's deformation 'scale' when
+// 'deform'), which a forward ghost update may apply to the ghosts instead of carrying their
+// positions (Domain::begin_ghost_update).
+struct GhostDrift {
+  real_t dt = 0;
+  Vec3 scale = Vec3::Ones();
+  bool deform = false;
+};
+
 class Domain {
  public:
   virtual ~Domain() = default;
 
   // Before: owned particles' x, v, w are current. After: every ghost has its owner's x, v, w.
   void update_ghosts(Particles& p) {
-    begin_ghost_update(p);
+    begin_ghost_update(p, nullptr);
     end_ghost_update(p);
   }
 
@@ -50,7 +59,11 @@ class Domain {
   // into the ghosts. Other hooks may be called in between (their collectives let the messages
   // progress), but not adopt, redistribute or build_ghosts; and nothing in between may read or
   // write the ghosts' x, v, w, nor reallocate p's arrays: the MPI domain receives them in place.
-  virtual void begin_ghost_update(Particles& p) = 0;
+  // Given a drift, begin sends v and w alone, and end advances each ghost's position itself
+  // (drifted(), core/integrator.hpp): before, every owned particle has moved by exactly that
+  // drift since the ghosts last had its position, with the velocity it now has (a step's drift:
+  // the update comes after it, and nothing else moved the owned particles).
+  virtual void begin_ghost_update(Particles& p, const GhostDrift* drift) = 0;
   virtual void end_ghost_update(Particles& p) = 0;
 
   // The largest value over all ranks (every rank calls it once per step).

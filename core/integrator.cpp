@@ -11,14 +11,15 @@ void half_kick(Particles& p, real_t dt) {
   for (std::size_t a = 0; a < n; ++a) kick(p, a, h, p.v[a], p.w[a]);
 }
 
-void drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
+Vec3 drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
   const std::size_t n = p.n_owned();
   if (cell.strain_rate().isZero()) {
-    for (std::size_t a = 0; a < n; ++a) p.x[a] += dt * p.v[a];
-    return;
+    for (std::size_t a = 0; a < n; ++a) p.x[a] = drifted<false>(p.x[a], p.v[a], dt, Vec3::Ones());
+    return Vec3::Ones();
   }
   const Vec3 s = cell.deform(dt);
-  for (std::size_t a = 0; a < n; ++a) p.x[a] = (p.x[a] + dt * p.v[a]).cwiseProduct(s);
+  for (std::size_t a = 0; a < n; ++a) p.x[a] = drifted<true>(p.x[a], p.v[a], dt, s);
+  return s;
 }
 
 namespace {
@@ -35,11 +36,7 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
     p.v[a] = v;
     p.w[a] = w;
     if constexpr (Gravity) r.gravity_power += p.mass[a] * g.dot(v);
-    Vec3 x = p.x[a];
-    if constexpr (Deform)
-      x = (x + dt * v).cwiseProduct(s);
-    else
-      x += dt * v;
+    const Vec3 x = drifted<Deform>(p.x[a], v, dt, s);
     p.x[a] = x;
     raise_max(r.max_d2, (x - s_ref[a].cwiseProduct(L)).squaredNorm());
     raise_max(r.max_v2, v.squaredNorm());
@@ -64,7 +61,9 @@ StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt,
       kick_drift_check<false, true, false>,  kick_drift_check<false, true, true>,
       kick_drift_check<true, false, false>,  kick_drift_check<true, false, true>,
       kick_drift_check<true, true, false>,   kick_drift_check<true, true, true>};
-  return table[4 * deform + 2 * !gravity.isZero() + pending](p, s, L, dt, s_ref, gravity);
+  StepStart r = table[4 * deform + 2 * !gravity.isZero() + pending](p, s, L, dt, s_ref, gravity);
+  r.scale = s;
+  return r;
 }
 
 real_t apply_local_damping(Particles& p, real_t alpha, real_t dt) {

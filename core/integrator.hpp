@@ -19,6 +19,17 @@ inline void kick(const Particles& p, std::size_t a, real_t h, Vec3& v, Vec3& w) 
   w += (h * p.inv_inertia[a]) * p.t[a];
 }
 
+// x advanced over dt at velocity v, then (Deform) scaled by the cell's deformation s of the
+// step: the one arithmetic of every drift, the owned particles' and the ghosts' copies of them
+// (which the MPI domain advances itself, parallel/mpi_domain.cpp, so that they stay their
+// owners' bits without being sent).
+template <bool Deform>
+inline Vec3 drifted(Vec3 x, const Vec3& v, real_t dt, const Vec3& s) {
+  x += dt * v;
+  if constexpr (Deform) x = x.cwiseProduct(s);
+  return x;
+}
+
 // m = the larger of m and x, a non-finite x counting as infinity (so that the maximum over the
 // ranks is exact and the same on each): the rebuild check's maxima.
 inline void raise_max(real_t& m, real_t x) {
@@ -29,14 +40,16 @@ inline void raise_max(real_t& m, real_t x) {
 // v += dt/2 f/m, w += dt/2 t/I for owned particles.
 void half_kick(Particles& p, real_t dt);
 
-// x += dt v (owned particles), then the cell deforms by dt and positions follow affinely.
-void drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt);
+// x += dt v (owned particles), then the cell deforms by dt and positions follow affinely;
+// returns the deformation's scale factors (ones if the cell does not strain).
+Vec3 drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt);
 
 // What the start of a step measures on the way (kick_drift_check).
 struct StepStart {
   real_t max_d2 = 0;  // the largest |x - ref|^2 since the last rebuild (non-finite: infinity)
   real_t max_v2 = 0;  // the largest |v|^2 after the kick (non-finite: infinity)
   real_t gravity_power = 0;  // sum of m g . v after the kick [W]
+  Vec3 scale = Vec3::Ones();  // the cell's deformation over the step (drifted())
 };
 
 // The start of a step in one pass over the owned particles, for a run without driven

@@ -4,7 +4,7 @@ namespace fabrica {
 
 // One process holds every particle: there is nothing to exchange, and a reduction over one
 // rank is the value itself.
-void SerialDomain::begin_ghost_update(Particles&) {}
+void SerialDomain::begin_ghost_update(Particles&, const GhostDrift*) {}
 void SerialDomain::end_ghost_update(Particles&) {}
 real_t SerialDomain::max_all(real_t local) { return local; }
 void SerialDomain::max_all(std::span<double>) {}

@@ -11,7 +11,7 @@ class SerialDomain final : public Domain {
   SerialDomain() = default;
   SerialDomain(const SerialDomain&) = default;
 
-  void begin_ghost_update(Particles& p) override;
+  void begin_ghost_update(Particles& p, const GhostDrift* drift) override;
   void end_ghost_update(Particles& p) override;
   real_t max_all(real_t local) override;
   void max_all(std::span<double> values) override;

@@ -69,6 +69,7 @@ class PhaseClock {
 
 Simulation::Simulation(const Simulation& other, Domain* domain) : Simulation(other) {
   domain_ = domain ? domain : &serial_domain();
+  positions_exposed_ = true;  // the new domain's ghosts: sent in full at the first update
 }
 
 Simulation::Simulation(SimulationSnapshot s, Domain* domain)
@@ -99,9 +100,11 @@ void Simulation::step(bool measure) {
   const Vec3 rate = cell_.strain_rate();
   StepStart motion;
   double drive = 0;
+  Vec3 scale;
   if (driven_.empty()) {  // one pass: [the last step's closing kick,] kick, gravity's power,
                          // drift, the check's maxima, f and t
     motion = kick_drift_check(p_, cell_, dt, s_ref_, par_.gravity, kick_pending_);
+    scale = motion.scale;
     kick_pending_ = false;
     if (!par_.gravity.isZero()) gravity_work_local_ += motion.gravity_power * dt;
   } else {
@@ -113,13 +116,17 @@ void Simulation::step(bool measure) {
       for (std::size_t a = 0; a < p_.n_owned(); ++a) gv += p_.mass[a] * par_.gravity.dot(p_.v[a]);
       gravity_work_local_ += gv * dt;
     }
-    drift_and_deform(p_, cell_, dt);
+    scale = drift_and_deform(p_, cell_, dt);
   }
   for (Wall& w : par_.walls) w.point += w.velocity * dt;
   clk.lap(&PhaseTimes::integrate);
   // The ghosts' update travels while the rebuild check, which reads owned particles only, runs
-  // (the messages can progress during its reduction).
-  domain_->begin_ghost_update(p_);
+  // (the messages can progress during its reduction). It carries v and w, and the ghosts'
+  // positions take the step's drift on arrival, unless the owned positions were open to
+  // change since the ghosts last had them (particles() not const): then they travel too.
+  const GhostDrift drift{dt, scale, !rate.isZero()};
+  domain_->begin_ghost_update(p_, positions_exposed_ ? nullptr : &drift);
+  positions_exposed_ = false;
   clk.lap(&PhaseTimes::ghost);
   if (!driven_.empty()) motion = local_motion();
   const bool rebuild_now = needs_rebuild(motion);

@@ -132,7 +132,11 @@ class Simulation {
 
   // The particles at the end of the last step (this applies a closing half kick the last step
   // left to the next one, see step()).
-  Particles& particles() { settle(); return p_; }
+  Particles& particles() {
+    settle();
+    positions_exposed_ = true;  // the next ghost update sends positions (step())
+    return p_;
+  }
   const Particles& particles() const { settle(); return p_; }
   PeriodicCell& cell() { return cell_; }
   const PeriodicCell& cell() const { return cell_; }
@@ -275,6 +279,9 @@ class Simulation {
 
   Domain* domain_;  // never null: the caller's domain, or serial_domain()
   mutable Particles p_;  // mutable: settle() from particles() const
+  // The owned positions were handed out for change (particles() not const) since the last
+  // ghost update: the next one sends them rather than letting the ghosts drift.
+  bool positions_exposed_ = true;
   PeriodicCell cell_;
   SimulationParams par_;
   NeighborSearch search_;

@@ -1,5 +1,6 @@
 #include "parallel/mpi_domain.hpp"
 
+#include "core/integrator.hpp"
 #include "parallel/byte_buffer.hpp"
 #include "parallel/peak_memory.hpp"
 #include "parallel/properties.hpp"
@@ -491,24 +492,41 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
 // ghosts are contiguous): no receive buffer and no copy out of it. The places are taken from
 // p at every update, so a reallocation of p's arrays between updates cannot leave a receive
 // pointing at freed memory.
-void MpiDomain::begin_ghost_update(Particles& p) {
+void MpiDomain::begin_ghost_update(Particles& p, const GhostDrift* drift) {
+  // Given the step's drift, the ghosts' positions are advanced here rather than sent (a third
+  // of the bytes); otherwise they travel with v and w.
+  const Message m = drift ? Message::Forward : Message::Refresh;
+  forward_drift_.reset();
+  if (drift) forward_drift_ = *drift;
   for (std::size_t k = 0; k < forward_.send_ranks.size(); ++k) {
     auto& buf = forward_.send_buf[k];
     buf.clear();
-    pack_fields(p, ghost_send_idx_[forward_.send_ranks[k]], Message::Forward, buf);
+    const std::vector<Index>& idx = ghost_send_idx_[forward_.send_ranks[k]];
+    pack_fields(p, idx, m, buf);
+    field_piece_bytes(idx.size(), m, forward_.send_pieces[k]);
   }
   forward_recv_pieces_.resize(forward_.recv_ranks.size());
   for (std::size_t k = 0; k < forward_.recv_ranks.size(); ++k) {
     const int r = forward_.recv_ranks[k];
-    field_pieces(p, ghost_recv_first_[r], ghost_recv_count_[r], Message::Forward, forward_recv_pieces_[k]);
+    field_pieces(p, ghost_recv_first_[r], ghost_recv_count_[r], m, forward_recv_pieces_[k]);
   }
   forward_.start(comm_, kForwardTag, forward_recv_pieces_);
 }
 
-void MpiDomain::end_ghost_update(Particles&) {
+void MpiDomain::end_ghost_update(Particles& p) {
   forward_.wait();
   stats_.bytes_forward += std::int64_t(forward_.bytes_sent());
   ++stats_.forward_updates;
+  if (!forward_drift_) return;
+  const GhostDrift d = *forward_drift_;
+  forward_drift_.reset();
+  for (const int r : forward_.recv_ranks) {
+    const std::size_t first = ghost_recv_first_[r], end = first + ghost_recv_count_[r];
+    if (d.deform)
+      for (std::size_t a = first; a < end; ++a) p.x[a] = drifted<true>(p.x[a], p.v[a], d.dt, d.scale);
+    else
+      for (std::size_t a = first; a < end; ++a) p.x[a] = drifted<false>(p.x[a], p.v[a], d.dt, d.scale);
+  }
 }
 
 }  // namespace fabrica

@@ -50,7 +50,7 @@ class MpiDomain final : public Domain {
  public:
   MpiDomain(MPI_Comm comm, MpiDomainOptions opt = {});
 
-  void begin_ghost_update(Particles& p) override;
+  void begin_ghost_update(Particles& p, const GhostDrift* drift) override;
   void end_ghost_update(Particles& p) override;
   real_t max_all(real_t local) override;
   void max_all(std::span<double> values) override;
@@ -104,6 +104,7 @@ class MpiDomain final : public Domain {
   std::vector<std::size_t> ghost_recv_first_, ghost_recv_count_;
   NeighbourExchange forward_;
   std::vector<std::vector<BytePiece>> forward_recv_pieces_;  // per recv rank, this update's places
+  std::optional<GhostDrift> forward_drift_;  // the drift end_ghost_update applies (begin's)
   std::int64_t rebuilds_since_check_ = 0;
   std::int64_t rebuilds_since_cut_check_ = -1;  // -1: not checked yet
   DomainStats stats_;

@@ -2,6 +2,10 @@
 // ghosts and migrants follow from this list (after waLBerla mesa_pd's syncMode and LAMMPS'
 // fields_comm / fields_border).
 //   EveryStep  - sent to ghosts every step (forward update) and with ghosts and migrants
+//   Drifted    - sent when a ghost is created, with migrants and in a refreshing update; an
+//                ordinary forward update leaves it out, since the receiver advances its ghosts'
+//                copies itself with the velocities it receives, as their owners advance them
+//                (the position: x + dt v, with the same arithmetic, core/domain.hpp GhostDrift)
 //   AtCreation - sent when a ghost is created and with migrants, never in between
 //   Never      - not sent (accumulators, rebuilt every step)
 // Contact history is not a particle property: it travels with migrants, keyed by the two ids
@@ -15,12 +19,12 @@
 
 namespace fabrica {
 
-enum class Travel { EveryStep, AtCreation, Never };
+enum class Travel { EveryStep, Drifted, AtCreation, Never };
 
 // Calls f(name, vector, travel) for every property of Particles.
 template <class P, class F>
 void for_each_property(P& p, F&& f) {
-  f("x", p.x, Travel::EveryStep);
+  f("x", p.x, Travel::Drifted);
   f("v", p.v, Travel::EveryStep);
   f("w", p.w, Travel::EveryStep);
   f("radius", p.radius, Travel::AtCreation);
@@ -34,13 +38,19 @@ void for_each_property(P& p, F&& f) {
 }
 
 // Which properties a message carries.
-// Forward: EveryStep only; Full: EveryStep + AtCreation; All: every property, the accumulators
-// too (a particle handed to its owner at start-up, whose forces the next half-kick uses).
-enum class Message { Forward, Full, All };
+// Forward: EveryStep only (v, w); Refresh: EveryStep + Drifted (x, v, w); Full: EveryStep +
+// Drifted + AtCreation; All: every property, the accumulators too (a particle handed to its
+// owner at start-up, whose forces the next half-kick uses).
+enum class Message { Forward, Refresh, Full, All };
 
 inline bool carries(Message m, Travel t) {
-  return m == Message::All || t == Travel::EveryStep ||
-         (m == Message::Full && t == Travel::AtCreation);
+  switch (t) {
+    case Travel::EveryStep: return true;
+    case Travel::Drifted: return m != Message::Forward;
+    case Travel::AtCreation: return m == Message::Full || m == Message::All;
+    case Travel::Never: return m == Message::All;
+  }
+  return false;
 }
 
 // Bytes per particle of a message.
@@ -112,13 +122,18 @@ inline std::vector<BytePiece> field_pieces(Particles& p, std::size_t first, std:
   return out;
 }
 
-// The sizes of those pieces for n particles (what a sender of such a message cuts it into).
-inline std::vector<std::size_t> field_piece_bytes(std::size_t n, Message m) {
-  std::vector<std::size_t> out;
+// The sizes of those pieces for n particles (what a sender of such a message cuts it into),
+// written into 'out' (cleared first, its room kept).
+inline void field_piece_bytes(std::size_t n, Message m, std::vector<std::size_t>& out) {
+  out.clear();
   Particles probe;
   for_each_property(probe, [&](const char*, auto& vec, Travel t) {
     if (carries(m, t) && n != 0) out.push_back(n * sizeof(typename std::decay_t<decltype(vec)>::value_type));
   });
+}
+inline std::vector<std::size_t> field_piece_bytes(std::size_t n, Message m) {
+  std::vector<std::size_t> out;
+  field_piece_bytes(n, m, out);
   return out;
 }
 
