@@ -57,17 +57,32 @@ Diff compare(const Simulation& par, const Simulation& ser) {
 
 class DenseRun : public ::testing::TestWithParam<DecompositionKind> {};
 
+MpiDomainOptions options_of(DecompositionKind kind) {
+  MpiDomainOptions opt;
+  opt.kind = kind;
+  return opt;
+}
+
+// The dense scene run serially on this rank and over all ranks (a domain of the given kind).
+struct DensePair {
+  fabrica::Setup s = dense_setup();
+  MpiDomain domain;
+  Simulation serial, par;
+  explicit DensePair(DecompositionKind kind)
+      : domain(MPI_COMM_WORLD, options_of(kind)), serial(s.particles, s.cell, s.params),
+        par(s.particles, s.cell, s.params, &domain) {}
+};
+
 }  // namespace
 
 // The dense packing: 1000 steps on N ranks against 1 rank. Required: relative difference of the
 // positions below 1e-10 (of the cell length); achieved: bitwise equality, asserted as such.
 TEST_P(DenseRun, SameTrajectoryOnEveryRankCount) {
-  fabrica::Setup s = dense_setup();
-  Simulation serial(s.particles, s.cell, s.params);
-  MpiDomainOptions opt;
-  opt.kind = GetParam();
-  MpiDomain domain(MPI_COMM_WORLD, opt);
-  Simulation par(s.particles, s.cell, s.params, &domain);
+  DensePair r(GetParam());
+  const fabrica::Setup& s = r.s;
+  Simulation& serial = r.serial;
+  Simulation& par = r.par;
+  MpiDomain& domain = r.domain;
   const std::size_t n = s.particles.n_owned();
 
   auto momentum = [](const Simulation& sim) {
@@ -118,12 +133,9 @@ TEST_P(DenseRun, SameTrajectoryOnEveryRankCount) {
 // in both runs); the parallel run must stay the serial one bit for bit. (Without the positions
 // sent after such a change, the ghosts keep their old positions and the runs part.)
 TEST_P(DenseRun, PositionsChangedBetweenStepsReachTheGhosts) {
-  fabrica::Setup s = dense_setup();
-  Simulation serial(s.particles, s.cell, s.params);
-  MpiDomainOptions opt;
-  opt.kind = GetParam();
-  MpiDomain domain(MPI_COMM_WORLD, opt);
-  Simulation par(s.particles, s.cell, s.params, &domain);
+  DensePair r(GetParam());
+  Simulation& serial = r.serial;
+  Simulation& par = r.par;
   auto nudge = [](Simulation& sim) {
     Particles& P = sim.particles();
     for (std::size_t a = 0; a < P.n_owned(); ++a) P.x[a][0] += 1e-6 * real_t(P.id[a] % 3 - 1);
@@ -137,7 +149,7 @@ TEST_P(DenseRun, PositionsChangedBetweenStepsReachTheGhosts) {
     par.step(k % 100 == 0);
   }
   const Diff d = compare(par, serial);
-  EXPECT_EQ(d.compared, std::int64_t(s.particles.n_owned()));
+  EXPECT_EQ(d.compared, std::int64_t(r.s.particles.n_owned()));
   EXPECT_EQ(d.x, 0.0) << "positions differ from the serial run by " << d.x << " m";
   EXPECT_EQ(d.v, 0.0);
   EXPECT_EQ(d.w, 0.0);
