@@ -62,11 +62,15 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
   t0_ = clock::now();
   if (restart_) read_restart();
   start_case_ = current_case_;
-  if (restart_ && start_case_ >= 0) case_snapshot_ = restart_->simulation("sim", mpi.comm());
+  // A checkpoint inside a case holds the case ("sim") and the consolidated state ("prep"),
+  // except in the last case, which took the consolidated state over: then "sim" alone, read
+  // into prepared_, which that case takes over again (run_case).
+  const bool with_prep = restart_ && start_case_ >= 0 && restart_->has("prep.global");
+  if (with_prep) case_snapshot_ = restart_->simulation("sim", mpi.comm());
   prepared_ = !restart_ ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params,
                                                        domain_.get(), s.holding)
                         : std::make_unique<Simulation>(
-                              restart_->simulation(start_case_ < 0 ? "sim" : "prep", mpi.comm()), domain_.get());
+                              restart_->simulation(with_prep ? "prep" : "sim", mpi.comm()), domain_.get());
   current_ = prepared_.get();
   restart_step_ = restart_ ? restart_->header().step : 0;
   if (output_ && restart_) {  // run.h5: what the run wrote after the checkpoint goes
@@ -131,7 +135,7 @@ void TriaxialSweep::flush_files() {
 // The current simulation, and inside a case the consolidated one every later case branches from.
 AppCheckpoint::Sims TriaxialSweep::sims() const {
   AppCheckpoint::Sims v{{"sim", current_}};
-  if (current_case_ >= 0) v.push_back({"prep", prepared_.get()});
+  if (current_case_ >= 0 && !prep_taken_) v.push_back({"prep", prepared_.get()});
   return v;
 }
 
@@ -190,9 +194,24 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   const auto t1 = clock::now();
   const Domain* from = replay ? shared_->domain.get() : domain_.get();
   std::unique_ptr<Domain> d2 = from ? from->clone() : nullptr;
-  std::unique_ptr<Simulation> simp =
-      resuming ? std::make_unique<Simulation>(std::move(*case_snapshot_), d2.get())
-               : std::make_unique<Simulation>(replay ? *shared_->sim : *prepared_, d2.get());
+  // No later case branches from the consolidated state once the last case has started: that
+  // case takes prepared_ over (or, when it shares another case's re-equilibration, lets it
+  // go) rather than keeping a second copy of the specimen's state in memory for the whole case
+  // and in its checkpoints. Resumed from such a checkpoint, prepared_ holds the case itself.
+  const bool last = i + 1 == cases_.size() && !(resuming && case_snapshot_);
+  std::unique_ptr<Simulation> simp;
+  if (resuming && case_snapshot_)
+    simp = std::make_unique<Simulation>(std::move(*case_snapshot_), d2.get());
+  else if (replay)
+    simp = std::make_unique<Simulation>(*shared_->sim, d2.get());
+  else if (last)
+    simp = std::make_unique<Simulation>(std::move(*prepared_), d2.get());
+  else
+    simp = std::make_unique<Simulation>(*prepared_, d2.get());
+  if (last && replay) {  // its memory goes now (prepared_ stays, emptied: 'prep' refers to it)
+    const Simulation released(std::move(*prepared_), nullptr);
+  }
+  prep_taken_ = last;
   Simulation& sim = *simp;
   SeriesFile series(mpi_.comm(), (out_ / tc.name / "series.csv").string(), header_, 1,
                     resuming ? restart_step_ : -1);

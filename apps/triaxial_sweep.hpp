@@ -65,6 +65,9 @@ class TriaxialSweep {
   std::string summary_rows_;
   std::optional<SimulationSnapshot> case_snapshot_;
   std::unique_ptr<Simulation> prepared_;  // the consolidation's simulation; the cases branch off it
+  // The last case took prepared_ over or let it go (no later case branches from it):
+  // checkpoints leave "prep" out.
+  bool prep_taken_ = false;
   // Under equilibration = "common", the re-equilibrated state every case shears from: the first
   // case that runs the re-equilibration from its start keeps its end state, its account and
   // what it wrote, and every later case starts from a copy (the same trajectory, bit for bit,

@@ -72,6 +72,11 @@ Simulation::Simulation(const Simulation& other, Domain* domain) : Simulation(oth
   positions_exposed_ = true;  // the new domain's ghosts: sent in full at the first update
 }
 
+Simulation::Simulation(Simulation&& other, Domain* domain) : Simulation(std::move(other)) {
+  domain_ = domain ? domain : &serial_domain();
+  positions_exposed_ = true;  // the new domain's ghosts: sent in full at the first update
+}
+
 Simulation::Simulation(SimulationSnapshot s, Domain* domain)
     : domain_(domain ? domain : &serial_domain()), p_(std::move(s.particles)), cell_(s.cell),
       par_(std::move(s.params)), diss_(s.dissipation), macro_(s.macro), step_(s.step),

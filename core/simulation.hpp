@@ -109,6 +109,8 @@ class Simulation {
   // for a serial run): to branch several runs from one prepared state. The only copy: a plain
   // copy would share other's domain (its decomposition and ghost plan), so it is not public.
   Simulation(const Simulation& other, Domain* domain);
+  // The same without the copy: 'other' is taken over (left empty), e.g. by the last branch.
+  Simulation(Simulation&& other, Domain* domain);
   Simulation& operator=(const Simulation&) = delete;
   // A move keeps the domain (the serial one is shared and stateless).
   Simulation(Simulation&&) = default;
