@@ -481,7 +481,7 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
     if (!ghost_send_idx_[r].empty()) {
       forward_.send_ranks.push_back(r);
       forward_.send_buf.emplace_back();
-      forward_.send_pieces.push_back(field_piece_bytes(ghost_send_idx_[r].size(), Message::Forward));
+      forward_.send_pieces.emplace_back();  // its pieces: at each update (the message kind varies)
     }
     if (ghost_recv_count_[r] != 0) forward_.recv_ranks.push_back(r);
   }
