@@ -74,6 +74,10 @@ struct ForceContext {
   // the same bits as the full measurement gives it. A straining step that does not measure
   // needs the diagonal of the contact virial for its boundary work, nothing else.
   bool virial_only = false;
+  // What the pair loop fetches ahead of each contact (no result depends on it): -1 decides by
+  // the particle count (core/forces.cpp, fetch_all_ahead), 0 the first lines of the partner's
+  // fields, 1 every line a contact reads.
+  int fetch_ahead = -1;
 };
 
 // Sets f = m g and t = 0 (of the ghosts only if ctx.owned_ready), then adds every contact.

@@ -189,6 +189,7 @@ void Simulation::compute(bool measure, real_t dt, bool virial_only) {
   ctx.wall_load = servo ? &wall_sums_ : nullptr;
   ctx.owned_ready = owned_ready_;
   ctx.virial_only = virial_only;
+  ctx.fetch_ahead = par_.fetch_ahead;
   owned_ready_ = false;
   real_t power = 0;
   compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,

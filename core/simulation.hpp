@@ -31,6 +31,8 @@ struct SimulationParams {
   bool spatial_sort = true;         // reorder particles in space at rebuilds (cache locality)
   int kernel_lanes = 4;             // contacts the force loop evaluates at once (4 or 1: the
                                     // same bits, core/forces.cpp)
+  int fetch_ahead = -1;             // what the force loop fetches ahead: -1 by the particle
+                                    // count, 0 the first lines, 1 everything (the same bits)
 
   // The kernel's switches: the scene's law or a wall's own law needs them.
   bool rolling() const {
