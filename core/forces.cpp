@@ -60,7 +60,7 @@ inline const char* last_byte(const Vec3* v) { return reinterpret_cast<const char
 // vector, the mass and the springs) or only the first lines of the partner's position, radius,
 // velocity, spin, force and torque: true once the particles' hot fields (x, v, w, f, t, R, m:
 // 136 bytes each) outgrow the second-level cache. Measured 2026-12-05 (benchmarks/README.md):
-// the force phase 10-15 % shorter at 869,376 spheres, 3 % at 108,672, and 3 % longer at
+// the force phase about 18 % shorter at 869,376 spheres, 3 % at 108,672, and 3 % longer at
 // 13,584 spheres, which sit in that cache (the extra instructions, nothing to wait for).
 bool fetch_all_ahead(std::size_t particles) {
   static const long l2 = [] {
