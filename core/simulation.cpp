@@ -388,6 +388,7 @@ void Simulation::rebuild() {
 // force loop reads the pools nearly in order: the carry's pools are permuted in place (no second
 // copy of the springs at the rebuild's peak) and become the list's; the slots no touching pair
 // takes (contacts that opened, the walls', those of particles gone to other ranks) are dropped.
+// The carry is released (empty) at the end.
 void Simulation::attach_springs() {
   const bool rolling = par_.rolling();
   const std::size_t np = pairs_.size();
@@ -507,8 +508,7 @@ void Simulation::rebuild_lists() {
       if (rolling) walls_.mr[q] = h.mr;
     }
   search_.build(p_, cell_, par_.skin, pairs_);
-  attach_springs();
-  carry_.release();  // attached: the springs live in the lists until the next rebuild
+  attach_springs();  // releases the carry: the springs live in the lists until the next rebuild
 
   // 4. Reference for the displacement criterion.
   const Vec3& L = cell_.lengths();
