@@ -17,6 +17,18 @@ void Particles::reserve_more(std::size_t n) {
   if (size() + n > capacity()) reserve(size() + n + n / 8);
 }
 
+void Particles::release_forces() {
+  std::vector<Vec3>().swap(f);
+  std::vector<Vec3>().swap(t);
+}
+
+void Particles::zero_forces() {
+  for (auto* a : {&f, &t}) {
+    a->reserve(capacity());  // the other arrays' room, so that appending does not double them
+    a->assign(size(), Vec3::Zero());
+  }
+}
+
 void Particles::resize(std::size_t n) {
   for (auto* a : {&x, &v, &w, &f, &t}) a->resize(n, Vec3::Zero());
   for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) a->resize(n, 0.0);

@@ -50,6 +50,11 @@ class Particles {
   // array by doubling: at 869,376 spheres on 2 ranks, 73 MB of spare capacity per rank.
   void reserve_more(std::size_t n);
   std::size_t capacity() const { return id.capacity(); }
+  // The force and torque accumulators freed (the rebuild's peak memory at large N: 48 bytes per
+  // particle), while nothing reads them; zero_forces() makes them again, every entry zero. In
+  // between, no other member may be called but those that read x, radius and id.
+  void release_forces();
+  void zero_forces();
   // Density scaling: every mass and moment of inertia (ghosts included) times f, inverses
   // recomputed.
   void scale_density(real_t f);

@@ -12,6 +12,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <malloc.h>
+
 namespace fabrica {
 
 Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
@@ -142,7 +144,7 @@ void Simulation::step(bool measure) {
   domain_->end_ghost_update(p_);
   clk.lap(&PhaseTimes::ghost);
   if (rebuild_now) {
-    rebuild();
+    rebuild(true);  // f and t: zero (owned_ready_) or reset by compute() below
     clk.lap(&PhaseTimes::rebuild);
     times_.rebuild -= last_migrate_seconds_;
     times_.migrate += last_migrate_seconds_;
@@ -350,7 +352,7 @@ void Simulation::set_overlap_guard(real_t max_ratio) {
   guard_ = b;
 }
 
-void Simulation::rebuild() {
+void Simulation::rebuild(bool forces_spent) {
   if (guard_.empty()) check_cell_still_fits();
   const bool rolling = par_.rolling();
   // The displacement reference is made anew at the end: free it for the rebuild's peak.
@@ -378,10 +380,12 @@ void Simulation::rebuild() {
       if (std::size_t(pairs_.j[q]) < p_.n_owned()) ++w[pairs_.j[q]];
     }
   }
-  // The old lists are now in carry_: free them before the new ones are built (memory at large N).
+  // The old lists are now in carry_: free them before the new ones are built, and before the
+  // carry's table is made (memory at large N).
   pairs_ = PairList();
   walls_ = WallContactList();
-  rebuild_lists();
+  carry_.index();
+  rebuild_lists(forces_spent);
 }
 
 // The carried springs go to the new pair list, their slots renumbered in list order so that the
@@ -474,7 +478,7 @@ void Simulation::check_cell_still_fits() {
   }
 }
 
-void Simulation::rebuild_lists() {
+void Simulation::rebuild_lists(bool forces_spent) {
   const bool rolling = par_.rolling();
   // 2. Wrap into the cell, move particles that left this subdomain (with their springs), sort
   //    the owned ones in space, and bring in the ghosts.
@@ -491,6 +495,8 @@ void Simulation::rebuild_lists() {
   if (timing_)
     last_migrate_seconds_ = std::chrono::duration<double>(t1 - t0).count() +
                             std::chrono::duration<double>(clock::now() - t2).count();
+
+  if (forces_spent) p_.release_forces();  // back, zero, once the springs are attached
 
   // 3. New lists, with the kept springs attached. The walls' first: they copy their springs
   //    out of the carry, whose pools then become the pairs'.
@@ -509,6 +515,7 @@ void Simulation::rebuild_lists() {
     }
   search_.build(p_, cell_, par_.skin, pairs_);
   attach_springs();  // releases the carry: the springs live in the lists until the next rebuild
+  if (forces_spent) p_.zero_forces();
 
   // 4. Reference for the displacement criterion.
   const Vec3& L = cell_.lengths();
@@ -526,6 +533,7 @@ void Simulation::rebuild_lists() {
   wall_ref_.resize(par_.walls.size());
   for (std::size_t w = 0; w < par_.walls.size(); ++w) wall_ref_[w] = par_.walls[w].point;
   ++rebuilds_;
+  malloc_trim(0);  // EXPERIMENT
   rebuilt_last_ = true;
 }
 

@@ -253,7 +253,12 @@ class Simulation {
   void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
   void set_overlap_guard(real_t max_ratio);          // the same for the overlap (collective)
   void check_cell_still_fits();  // guard_ = the message once a cell length is <= 2 cutoffs
-  void rebuild();
+  // New lists: the springs carried by global ids, the particles migrated and sorted in space,
+  // the ghosts, the neighbour search, the springs attached. 'forces_spent': the force and
+  // torque accumulators hold nothing the run needs (step(): the first pass has zeroed them, or
+  // the force computation that follows resets them all); they are then freed during the
+  // search (48 bytes per particle off the rebuild's peak) and come back zero.
+  void rebuild(bool forces_spent = false);
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable
   // branch). Enabling resets the sums.
@@ -273,7 +278,7 @@ class Simulation {
   // diagonal stress at its end and the one remembered from its start) and remembers the end.
   void account_step(const Vec3& strain_increment, const Vec3& stress_end);
   // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
-  void rebuild_lists();
+  void rebuild_lists(bool forces_spent = false);
   // Part of step 3: the carried springs into the new pair list (slots in list order).
   void attach_springs();
   // Sets the driven particles' velocity and spin after a half-kick of dt_half; returns the work
