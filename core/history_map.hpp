@@ -41,11 +41,15 @@ class HistoryMap {
 
   // Empties the map and takes over the spring pools of a contact list (the slots of its
   // touching contacts are then keyed with insert_slot). Without rolling, 'mr' is ignored and
-  // every rolling spring reads zero. Room for 'expected' keys.
+  // every rolling spring reads zero. Room for 'expected' keys. The table that finds them is
+  // made by index() (or by the first insert()), so that the caller can free the list first
+  // (the rebuild's peak at large N: the table is 8 bytes per contact).
   void adopt_pools(std::vector<Vec3>&& fs, std::vector<Vec3>&& mr, bool rolling,
                    std::size_t expected) {
     recs_.clear();
     recs_.reserve(expected);
+    std::vector<std::uint32_t>().swap(slots_);
+    mask_ = 0;
     fs_ = std::move(fs);
     rolling_ = rolling;
     if (rolling) {
@@ -54,7 +58,11 @@ class HistoryMap {
     } else {
       std::vector<Vec3>().swap(mr_);
     }
-    rehash(expected);
+  }
+
+  // Makes the table over the keys, if there is none (find_slot needs it).
+  void index() {
+    if (slots_.empty()) rehash(recs_.size());
   }
 
   // Frees every buffer (the map is empty and usable afterwards).
@@ -66,9 +74,11 @@ class HistoryMap {
     mask_ = 0;
   }
 
-  // Contact (a, b) has the springs at 'slot' of the pools (a slot keyed at most once).
+  // Contact (a, b) has the springs at 'slot' of the pools (a slot keyed at most once). Before
+  // index() the key is only recorded: each (a, b) must then come at most once.
   void insert_slot(GlobalId a, GlobalId b, std::uint32_t slot) {
-    recs_[find_or_add(a, b)].slot = slot;
+    if (slots_.empty()) recs_.push_back({a, b, slot});
+    else recs_[find_or_add(a, b)].slot = slot;
   }
 
   // Contact (a, b) has history h: a new slot at the end of the pools, or its own slot
@@ -87,7 +97,10 @@ class HistoryMap {
 
   // The slot of contact (a, b) in the pools, or kNone.
   std::uint32_t find_slot(GlobalId a, GlobalId b) const {
-    if (slots_.empty()) return kNone;
+    if (slots_.empty()) {
+      if (!recs_.empty()) throw std::logic_error("HistoryMap::find_slot before index()");
+      return kNone;
+    }
     for (std::size_t k = hash(a, b) & mask_;; k = (k + 1) & mask_) {
       const std::uint32_t s = slots_[k];
       if (s == kEmpty) return kNone;

@@ -77,5 +77,26 @@ TEST(HistoryMap, AdoptedPoolsAreKeyedNotCopied) {
   EXPECT_EQ(fs.data(), data);
 }
 
+TEST(HistoryMap, KeysAreIndexedOnlyWhenAsked) {
+  // After adopt_pools the keys are recorded without a table (the caller frees its list first):
+  // lookups before index() are refused, not answered wrongly; after it every key is found.
+  std::vector<Vec3> fs(1000, Vec3::Zero()), mr;
+  HistoryMap h;
+  h.adopt_pools(std::move(fs), std::move(mr), false, 500);
+  for (GlobalId k = 0; k < 500; ++k) h.insert_slot(k, 7 * k + 1, std::uint32_t(2 * k));
+  EXPECT_THROW(h.find_slot(3, 22), std::logic_error);
+  h.index();
+  for (GlobalId k = 0; k < 500; ++k) {
+    EXPECT_EQ(h.find_slot(k, 7 * k + 1), std::uint32_t(2 * k));
+    EXPECT_EQ(h.find_slot(k, 7 * k + 2), HistoryMap::kNone);
+  }
+  h.index();  // a second call changes nothing
+  EXPECT_EQ(h.find_slot(499, 3494), 998u);
+  // An empty map answers without a table.
+  HistoryMap e;
+  e.adopt_pools({}, {}, false, 0);
+  EXPECT_EQ(e.find_slot(1, 2), HistoryMap::kNone);
+}
+
 }  // namespace
 }  // namespace fabrica
