@@ -1,6 +1,8 @@
 // RAII ownership of MPI for one executable: MPI_Init in the constructor, MPI_Finalize in the
 // destructor. Passed explicitly (no singleton); everything else takes an MPI_Comm.
 #pragma once
+#include "core/heap_policy.hpp"
+
 #include <mpi.h>
 
 #include <cstdlib>
@@ -12,6 +14,7 @@ namespace fabrica {
 class MpiContext {
  public:
   MpiContext(int& argc, char**& argv) {
+    map_large_blocks();  // resident memory that follows the heap in use (core/heap_policy.hpp)
     int initialized = 0;
     MPI_Initialized(&initialized);
     if (!initialized) {
