@@ -358,19 +358,12 @@ void Simulation::rebuild(bool forces_spent) {
   // The displacement reference is made anew at the end: free it for the rebuild's peak.
   std::vector<Vec3>().swap(s_ref_);
   // 1. Keep the springs of touching contacts, keyed by global ids (local indices change): the
-  //    carry takes the list's spring pools over and keys the slots of the touching pairs.
-  std::size_t touching = 0;
-  for (std::uint8_t t : pairs_.touching) touching += t;
-  for (std::uint8_t t : walls_.touching) touching += t;
-  carry_.adopt_pools(std::move(pairs_.spring_fs), std::move(pairs_.spring_mr),
-                     rolling && pairs_.rolling, touching);
+  //    carry takes the list's spring pools over and keys the slots of the touching pairs. The
+  //    bodies of each slot are noted first (8 bytes a slot), so that the old list is freed
+  //    before the keys are made (the rebuild's peak at large N).
+  std::vector<std::array<Index, 2>> bodies(pairs_.spring_fs.size(), {Index(-1), Index(-1)});
   for (std::size_t q = 0; q < pairs_.size(); ++q)
-    if (pairs_.touching[q])
-      carry_.insert_slot(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]], std::uint32_t(pairs_.slot[q]));
-  for (std::size_t q = 0; q < walls_.size(); ++q)
-    if (walls_.touching[q])
-      carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
-                    {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+    if (pairs_.touching[q]) bodies[pairs_.slot[q]] = {pairs_.i[q], pairs_.j[q]};
   // The work of each owned particle over the last list (1 + its pairs), by which the MPI
   // domain may balance its decomposition.
   if (domain_->size() > 1) {  // on every rank, so that the balancing decision is collective
@@ -380,9 +373,18 @@ void Simulation::rebuild(bool forces_spent) {
       if (std::size_t(pairs_.j[q]) < p_.n_owned()) ++w[pairs_.j[q]];
     }
   }
-  // The old lists are now in carry_: free them before the new ones are built, and before the
-  // carry's table is made (memory at large N).
-  pairs_ = PairList();
+  std::vector<Vec3> fs = std::move(pairs_.spring_fs), mr = std::move(pairs_.spring_mr);
+  const bool pairs_rolling = pairs_.rolling;
+  pairs_ = PairList();  // freed (memory at large N)
+  carry_.adopt_pools(std::move(fs), std::move(mr), rolling && pairs_rolling);
+  for (std::size_t s = 0; s < bodies.size(); ++s)
+    if (bodies[s][0] != Index(-1))
+      carry_.insert_slot(p_.id[bodies[s][0]], p_.id[bodies[s][1]], std::uint32_t(s));
+  std::vector<std::array<Index, 2>>().swap(bodies);
+  for (std::size_t q = 0; q < walls_.size(); ++q)
+    if (walls_.touching[q])
+      carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
+                    {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
   walls_ = WallContactList();
   carry_.index();
   rebuild_lists(forces_spent);

@@ -54,7 +54,7 @@ TEST(HistoryMap, AdoptedPoolsAreKeyedNotCopied) {
     m.reserve(8);
     const Vec3* fdata = f.data();
     HistoryMap h;
-    h.adopt_pools(std::move(f), std::move(m), rolling, 4);
+    h.adopt_pools(std::move(f), std::move(m), rolling);
     for (GlobalId s : {0, 2, 3, 5}) h.insert_slot(10 + s, 20 + s, std::uint32_t(s));
     h.insert(7, -1, history_of(9));  // a wall contact: a new slot after the adopted ones
     EXPECT_EQ(h.size(), 5u);
@@ -82,7 +82,7 @@ TEST(HistoryMap, KeysAreIndexedOnlyWhenAsked) {
   // lookups before index() are refused, not answered wrongly; after it every key is found.
   std::vector<Vec3> fs(1000, Vec3::Zero()), mr;
   HistoryMap h;
-  h.adopt_pools(std::move(fs), std::move(mr), false, 500);
+  h.adopt_pools(std::move(fs), std::move(mr), false);
   for (GlobalId k = 0; k < 500; ++k) h.insert_slot(k, 7 * k + 1, std::uint32_t(2 * k));
   EXPECT_THROW(h.find_slot(3, 22), std::logic_error);
   h.index();
@@ -94,7 +94,7 @@ TEST(HistoryMap, KeysAreIndexedOnlyWhenAsked) {
   EXPECT_EQ(h.find_slot(499, 3494), 998u);
   // An empty map answers without a table.
   HistoryMap e;
-  e.adopt_pools({}, {}, false, 0);
+  e.adopt_pools({}, {}, false);
   EXPECT_EQ(e.find_slot(1, 2), HistoryMap::kNone);
 }
 
