@@ -7,8 +7,8 @@
 // and the arrays a rebuild frees and makes again leave tens of MB resident beyond what is in
 // use (at 869,376 spheres on one rank: peak RSS 318 MiB for a 269 MB heap peak). A fixed
 // threshold keeps blocks of 1 MiB and more in mappings of their own, so that the resident
-// memory follows what is in use, at the cost of the page faults of fresh mappings (the
-// neighbour build about 8 % longer at that size, the step about 1 %; docs/large.md).
+// memory follows what is in use, at the cost of the page faults of fresh mappings (at that
+// size the neighbour build about 4 % longer, the step within the noise; docs/large.md).
 #pragma once
 
 namespace fabrica {

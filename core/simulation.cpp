@@ -12,8 +12,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include <malloc.h>
-
 namespace fabrica {
 
 Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
