@@ -533,7 +533,6 @@ void Simulation::rebuild_lists(bool forces_spent) {
   wall_ref_.resize(par_.walls.size());
   for (std::size_t w = 0; w < par_.walls.size(); ++w) wall_ref_[w] = par_.walls[w].point;
   ++rebuilds_;
-  malloc_trim(0);  // EXPERIMENT
   rebuilt_last_ = true;
 }
 
