@@ -56,10 +56,11 @@ void Particles::add(const SphereInit& s) {
 template <class T>
 static void apply_order(std::vector<T>& a, std::span<const Index> order, std::vector<T>& tmp) {
   // 'tmp' is the array ordered before this one. For an order much shorter than the arrays (a
-  // set-up's hand-over keeps an eighth of what a rank read), a fresh buffer: reused, the long
+  // set-up's hand-over keeps about 1/P of what a rank read), a fresh buffer: reused, the long
   // one would pass on from array to array as spare room (at 869,376 spheres on 8 ranks 12 MB
-  // per rank at the set-up's peak).
-  if (tmp.capacity() > order.size() + order.size() / 4) std::vector<T>().swap(tmp);
+  // per rank at the set-up's peak). Not for the room of ghosts (up to about twice the owned
+  // particles on many ranks), which the next ghost build would otherwise allocate again.
+  if (tmp.capacity() > 3 * order.size()) std::vector<T>().swap(tmp);
   tmp.resize(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) tmp[k] = a[order[k]];
   a.swap(tmp);
