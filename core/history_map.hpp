@@ -85,8 +85,7 @@ class HistoryMap {
   // Contact (a, b) has history h: a new slot at the end of the pools, or its own slot
   // overwritten if (a, b) is already in the map.
   void insert(GlobalId a, GlobalId b, const ContactHistory& h) {
-    index();
-    if (2 * (count_ + 1) > slots_.size()) rehash(2 * (count_ + 1));
+    if (2 * (count_ + 1) > slots_.size()) rehash(2 * (count_ + 1));  // also the first table
     std::uint32_t& s = probe(a, b);
     if (s == kEmpty) {
       s = std::uint32_t(fs_.size());
