@@ -61,6 +61,7 @@ static void apply_order(std::vector<T>& a, std::span<const Index> order, std::ve
   // per rank at the set-up's peak). Not for the room of ghosts (up to about twice the owned
   // particles on many ranks), which the next ghost build would otherwise allocate again.
   if (tmp.capacity() > 3 * order.size()) std::vector<T>().swap(tmp);
+  else if (a.capacity() <= 3 * order.size()) tmp.reserve(a.capacity());  // the first array's room too
   tmp.resize(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) tmp[k] = a[order[k]];
   a.swap(tmp);

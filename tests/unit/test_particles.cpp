@@ -1,0 +1,73 @@
+// Particles (core/particles.hpp): the buffers of a reordering and of the force accumulators,
+// which the peak memory of large runs depends on (docs/large.md, "Not yet").
+#include "core/particles.hpp"
+
+#include <gtest/gtest.h>
+
+#include <numeric>
+#include <vector>
+
+namespace fabrica {
+namespace {
+
+Particles line_of(int n) {
+  Particles p;
+  for (int k = 0; k < n; ++k)
+    p.add({GlobalId(100 + k), 1e-3 * (1 + k % 3), 2500.0, Vec3(0.01 * k, 0, 0), Vec3(k, 0, 0)});
+  return p;
+}
+
+std::size_t largest_capacity(const Particles& p) {
+  std::size_t c = p.id.capacity();
+  for (const auto* a : {&p.x, &p.v, &p.w, &p.f, &p.t}) c = std::max(c, a->capacity());
+  for (const auto* a : {&p.radius, &p.mass, &p.inertia, &p.inv_mass, &p.inv_inertia})
+    c = std::max(c, a->capacity());
+  return c;
+}
+
+TEST(Particles, ShortOrderFreesTheLongBuffers) {
+  // A rank keeping a tenth of what it read (a set-up's hand-over): no array keeps the room of
+  // the thousand, and the kept ones are the ones named, in that order.
+  Particles p = line_of(1000);
+  std::vector<Index> keep;
+  for (Index k = 990; k >= 0; k -= 10) keep.push_back(k);
+  p.permute_owned(keep);
+  ASSERT_EQ(p.n_owned(), keep.size());
+  EXPECT_LE(largest_capacity(p), 3 * keep.size());
+  for (std::size_t k = 0; k < keep.size(); ++k) {
+    EXPECT_EQ(p.id[k], 100 + keep[k]);
+    EXPECT_EQ(p.v[k][0], double(keep[k]));
+    EXPECT_EQ(p.inv_mass[k], 1.0 / p.mass[k]);
+  }
+}
+
+TEST(Particles, FullOrderKeepsTheRoom) {
+  // A rebuild's spatial sort (every owned particle) keeps the room made for ghosts.
+  Particles p = line_of(1000);
+  p.reserve(1500);
+  std::vector<Index> order(1000);
+  std::iota(order.rbegin(), order.rend(), 0);
+  p.permute_owned(order);
+  EXPECT_EQ(p.id.front(), 1099);
+  for (const auto* a : {&p.x, &p.v, &p.w, &p.f, &p.t}) EXPECT_GE(a->capacity(), 1500u);
+}
+
+TEST(Particles, ForcesReleasedComeBackZeroWithTheRoom) {
+  Particles p = line_of(200);
+  p.reserve(260);
+  for (std::size_t a = 0; a < p.size(); ++a) p.f[a] = Vec3(1, 2, 3), p.t[a] = Vec3(4, 5, 6);
+  p.release_forces();
+  EXPECT_EQ(p.f.capacity(), 0u);
+  EXPECT_EQ(p.t.capacity(), 0u);
+  p.zero_forces();
+  ASSERT_EQ(p.f.size(), p.size());
+  ASSERT_EQ(p.t.size(), p.size());
+  EXPECT_GE(p.f.capacity(), p.capacity());  // appending ghosts does not double them
+  for (std::size_t a = 0; a < p.size(); ++a) {
+    EXPECT_EQ(p.f[a], Vec3::Zero());
+    EXPECT_EQ(p.t[a], Vec3::Zero());
+  }
+}
+
+}  // namespace
+}  // namespace fabrica
