@@ -1,5 +1,6 @@
 #include "core/integrator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -8,7 +9,12 @@ namespace fabrica {
 void half_kick(Particles& p, real_t dt) {
   const real_t h = 0.5 * dt;
   const std::size_t n = p.n_owned();
-  for (std::size_t a = 0; a < n; ++a) kick(p, a, h, p.v[a], p.w[a]);
+  real_t im[kKickBlock], iI[kKickBlock];
+  for (std::size_t a0 = 0; a0 < n; a0 += kKickBlock) {
+    const std::size_t nb = std::min(kKickBlock, n - a0);
+    inverse_masses(p, a0, nb, im, iI);
+    for (std::size_t k = 0; k < nb; ++k) kick(h, im[k], iI[k], p.f[a0 + k], p.t[a0 + k], p.v[a0 + k], p.w[a0 + k]);
+  }
 }
 
 Vec3 drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
@@ -29,10 +35,13 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
   const real_t h = 0.5 * dt;
   const std::size_t n = p.n_owned();
   StepStart r;
+  real_t im[kKickBlock], iI[kKickBlock];
   for (std::size_t a = 0; a < n; ++a) {
+    const std::size_t k = a % kKickBlock;
+    if (k == 0) inverse_masses(p, a, std::min(kKickBlock, n - a), im, iI);
     Vec3 v = p.v[a], w = p.w[a];
-    if constexpr (Pending) kick(p, a, h, v, w);
-    kick(p, a, h, v, w);
+    if constexpr (Pending) kick(h, im[k], iI[k], p.f[a], p.t[a], v, w);
+    kick(h, im[k], iI[k], p.f[a], p.t[a], v, w);
     p.v[a] = v;
     p.w[a] = w;
     if constexpr (Gravity) r.gravity_power += p.mass[a] * g.dot(v);
@@ -70,6 +79,7 @@ real_t apply_local_damping(Particles& p, real_t alpha, real_t dt) {
   real_t work = 0;
   const std::size_t n = p.n_owned();
   for (std::size_t a = 0; a < n; ++a) {
+    const real_t im = p.inv_mass(a), iI = p.inv_inertia(a);
     for (int k = 0; k < 3; ++k) {
       const real_t df = alpha * std::abs(p.f[a][k]);
       const real_t dm = alpha * std::abs(p.t[a][k]);
@@ -83,8 +93,8 @@ real_t apply_local_damping(Particles& p, real_t alpha, real_t dt) {
       // F_d . v_end dt, v_end = v + (dt / 2) f / m the velocity at the end of this step (the
       // mean of the three velocities, weighted 1, 2, 1). Booked with v, the half-step velocity,
       // it is over-counted where the velocity reverses within those kicks.
-      const real_t v_end = p.v[a][k] + 0.5 * dt * p.inv_mass[a] * p.f[a][k];
-      const real_t w_end = p.w[a][k] + 0.5 * dt * p.inv_inertia[a] * p.t[a][k];
+      const real_t v_end = p.v[a][k] + 0.5 * dt * im * p.f[a][k];
+      const real_t w_end = p.w[a][k] + 0.5 * dt * iI * p.t[a][k];
       work += (df * sv * v_end + dm * sw * w_end) * dt;
     }
   }

@@ -10,7 +10,7 @@ namespace fabrica {
 real_t kinetic_energy(const Particles& p) {
   real_t e = 0;
   for (std::size_t a = 0; a < p.n_owned(); ++a)
-    e += p.mass[a] * p.v[a].squaredNorm() + p.inertia[a] * p.w[a].squaredNorm();
+    e += p.mass[a] * p.v[a].squaredNorm() + p.inertia(a) * p.w[a].squaredNorm();
   return 0.5 * e;
 }
 

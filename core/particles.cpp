@@ -9,7 +9,7 @@ namespace fabrica {
 
 void Particles::reserve(std::size_t n) {
   for (auto* a : {&x, &v, &w, &f, &t}) a->reserve(n);
-  for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) a->reserve(n);
+  for (auto* a : {&radius, &mass}) a->reserve(n);
   id.reserve(n);
 }
 
@@ -31,14 +31,13 @@ void Particles::zero_forces() {
 
 void Particles::resize(std::size_t n) {
   for (auto* a : {&x, &v, &w, &f, &t}) a->resize(n, Vec3::Zero());
-  for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) a->resize(n, 0.0);
+  for (auto* a : {&radius, &mass}) a->resize(n, 0.0);
   id.resize(n, -1);
 }
 
 void Particles::add(const SphereInit& s) {
   if (n_ghost() != 0) throw std::logic_error("Particles::add called while ghosts are present");
   const real_t m = s.density * 4.0 / 3.0 * std::numbers::pi * s.radius * s.radius * s.radius;
-  const real_t I = 0.4 * m * s.radius * s.radius;
   x.push_back(s.x);
   v.push_back(s.v);
   w.push_back(s.w);
@@ -46,9 +45,6 @@ void Particles::add(const SphereInit& s) {
   t.push_back(Vec3::Zero());
   radius.push_back(s.radius);
   mass.push_back(m);
-  inertia.push_back(I);
-  inv_mass.push_back(1.0 / m);
-  inv_inertia.push_back(1.0 / I);
   id.push_back(s.id);
   ++n_owned_;
 }
@@ -88,7 +84,7 @@ void Particles::permute_owned(std::span<const Index> order) {
   std::vector<real_t> tr;
   std::vector<GlobalId> ti;
   for (auto* a : {&x, &v, &w, &f, &t}) apply_order(*a, order, tv);
-  for (auto* a : {&radius, &mass, &inertia, &inv_mass, &inv_inertia}) apply_order(*a, order, tr);
+  for (auto* a : {&radius, &mass}) apply_order(*a, order, tr);
   apply_order(id, order, ti);
   n_owned_ = order.size();
 }
@@ -106,12 +102,7 @@ real_t Particles::solid_volume() const {
 }
 
 void Particles::scale_density(real_t f) {
-  for (std::size_t a = 0; a < size(); ++a) {
-    mass[a] *= f;
-    inertia[a] *= f;
-    inv_mass[a] = 1.0 / mass[a];
-    inv_inertia[a] = 1.0 / inertia[a];
-  }
+  for (std::size_t a = 0; a < size(); ++a) mass[a] *= f;
 }
 
 }  // namespace fabrica

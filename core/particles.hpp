@@ -24,10 +24,15 @@ class Particles {
   std::vector<Vec3> f, t;          // force (N) and torque (N m) accumulators
   std::vector<real_t> radius;      // m
   std::vector<real_t> mass;        // kg
-  std::vector<real_t> inertia;     // kg m^2 (solid sphere: 2/5 m R^2)
-  std::vector<real_t> inv_mass;    // 1/kg
-  std::vector<real_t> inv_inertia; // 1/(kg m^2)
   std::vector<GlobalId> id;
+
+  // The moment of inertia of a solid sphere, 2/5 m R^2, and the inverses the half kicks use are
+  // derived from mass and radius where they are needed, not stored (24 bytes per particle):
+  // each is the one expression every use evaluates, so a value is the same bits wherever it
+  // is computed (core/integrator.hpp inverse_masses, the vectorised form).
+  real_t inertia(std::size_t a) const { return 0.4 * mass[a] * radius[a] * radius[a]; }
+  real_t inv_mass(std::size_t a) const { return 1.0 / mass[a]; }
+  real_t inv_inertia(std::size_t a) const { return 1.0 / inertia(a); }
 
   std::size_t size() const { return id.size(); }
   std::size_t n_owned() const { return n_owned_; }
@@ -55,8 +60,8 @@ class Particles {
   // between, no other member may be called but those that read x, radius and id.
   void release_forces();
   void zero_forces();
-  // Density scaling: every mass and moment of inertia (ghosts included) times f, inverses
-  // recomputed.
+  // Density scaling: every mass (ghosts included) times f; the moments of inertia and the
+  // inverses follow, being derived.
   void scale_density(real_t f);
 
   real_t max_radius() const;

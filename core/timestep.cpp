@@ -19,7 +19,7 @@ real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool 
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   real_t best = inf;
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
-    const real_t R = p.radius[a], m = p.mass[a], I = p.inertia[a];
+    const real_t R = p.radius[a], m = p.mass[a], I = p.inertia(a);
     const real_t partners[4] = {rmin, R, rmax, inf};
     for (int q = 0; q < (walls ? 4 : 3); ++q) {
       const real_t R2 = partners[q];

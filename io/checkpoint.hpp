@@ -33,7 +33,7 @@ namespace fabrica {
 // Raise the format version with any change of the file's structure. The fields of a section
 // carry their own layout (names and types), so a change of what a section holds is refused by
 // the reader naming the field, in any version.
-inline constexpr std::uint32_t kCheckpointFormat = 6;
+inline constexpr std::uint32_t kCheckpointFormat = 7;
 inline constexpr std::size_t kHeaderBytes = 2048;
 
 // FNV-1a (64 bits) of the scene text: a checkpoint of another scene is refused.

@@ -117,7 +117,7 @@ DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int r
     check_memory(path + ":" + std::to_string(h.natoms_line) + ": '" + std::to_string(h.natoms) +
                      " atoms'",
                  double(h.natoms) * kBytesPerSphere / ranks * node,
-                 "320 B per sphere at least, " + std::to_string(h.natoms / ranks) + " spheres on each of " +
+                 "200 B per sphere at least, " + std::to_string(h.natoms / ranks) + " spheres on each of " +
                      std::to_string(node) + " rank(s) of this node");
   });
   Piece piece;
@@ -289,7 +289,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     agree(comm, [&] {
       check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
                    double(g.count) * kBytesPerSphere / ranks * node,
-                   "320 B per sphere at least, " + std::to_string(g.count / ranks) +
+                   "200 B per sphere at least, " + std::to_string(g.count / ranks) +
                        " spheres on each of " + std::to_string(node) + " rank(s) of this node");
     });
     std::optional<RegionCut> cut;

@@ -205,7 +205,7 @@ DataFile read_lammps_data(const std::string& path) {
   const DataHeader h = read_data_header(path);
   check_memory(where(path, h.natoms_line) + ": '" + std::to_string(h.natoms) + " atoms'",
                double(h.natoms) * kBytesPerSphere,
-               "320 B per sphere at least");
+               "200 B per sphere at least");
   std::ifstream in(path, std::ios::binary);
   in.seekg(std::streamoff(h.body_offset));
   DataFile out;

@@ -12,10 +12,10 @@ namespace fabrica {
 // Bytes of memory the machine has (physical pages x page size); 0 if unknown.
 double machine_memory_bytes();
 
-// A lower bound of what a run of 'spheres' spheres needs: 320 B per sphere (the particle record
-// alone is 168 B; measured: about 360 B for a loose gas, 510 B for the dense 869,376-sphere
-// packing of docs/large.md, both with neighbour pairs and contact history).
-constexpr double kBytesPerSphere = 320;
+// A lower bound of what a run of 'spheres' spheres needs: 200 B per sphere (the particle record
+// is 144 B and the rebuild reference 24 B; measured 2026-12-05: 283 B for the dense 869,376-sphere
+// packing of docs/large.md on 1 rank, with neighbour pairs, contact history and the libraries).
+constexpr double kBytesPerSphere = 200;
 
 // Throws InputError("<what>: needs at least B of memory (<why>), the machine has M") if 'bytes'
 // exceeds the machine's memory.

@@ -122,7 +122,7 @@ Setup make_setup(const Scene& sc) {
   } else {
     const GenerateSpec& g = sc.generate;
     check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
-                 double(g.count) * kBytesPerSphere, "320 B per sphere at least");
+                 double(g.count) * kBytesPerSphere, "200 B per sphere at least");
     if (g.placement == GenerateSpec::Placement::Regions) {
       try {
         RegionCut cut = region_cut(sc);

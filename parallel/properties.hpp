@@ -29,9 +29,6 @@ void for_each_property(P& p, F&& f) {
   f("w", p.w, Travel::EveryStep);
   f("radius", p.radius, Travel::AtCreation);
   f("mass", p.mass, Travel::AtCreation);
-  f("inertia", p.inertia, Travel::AtCreation);
-  f("inv_mass", p.inv_mass, Travel::AtCreation);
-  f("inv_inertia", p.inv_inertia, Travel::AtCreation);
   f("id", p.id, Travel::AtCreation);
   f("f", p.f, Travel::Never);
   f("t", p.t, Travel::Never);

@@ -228,7 +228,7 @@ TEST(Checkpoint, SmallBlocksWriteTheSameFile) {
       return std::string(std::istreambuf_iterator<char>(in), {});
     };
     const std::string a = bytes(one), b = bytes(many);
-    EXPECT_GT(a.size(), 13584u * 168);
+    EXPECT_GT(a.size(), 13584u * 144);
     EXPECT_TRUE(a == b) << "files of " << a.size() << " and " << b.size() << " bytes differ";
   }
   Checkpoint::Expect ex;

@@ -134,8 +134,8 @@ TEST(Conservation, AngularMomentumFreeCluster) {
     Vec3 L = Vec3::Zero();
     scale = rmax = 0;
     for (std::size_t a = 0; a < q.n_owned(); ++a) {
-      L += q.mass[a] * (q.x[a] - c).cross(q.v[a]) + q.inertia[a] * q.w[a];
-      scale += q.mass[a] * (q.x[a] - c).norm() * q.v[a].norm() + q.inertia[a] * q.w[a].norm();
+      L += q.mass[a] * (q.x[a] - c).cross(q.v[a]) + q.inertia(a) * q.w[a];
+      scale += q.mass[a] * (q.x[a] - c).norm() * q.v[a].norm() + q.inertia(a) * q.w[a].norm();
       rmax = std::max(rmax, (q.x[a] - c).norm());
     }
     return L;

@@ -84,7 +84,7 @@ TEST(Generate, SimpleCubicLattice) {
   EXPECT_TRUE((p.x[26] - Vec3::Constant(2.5 * 0.0195)).isZero(1e-15));
   EXPECT_TRUE((p.x[1] - p.x[0] - Vec3(0.0195, 0, 0)).isZero(1e-15));
   EXPECT_NEAR(p.mass[0], 2650.0 * 4.0 / 3.0 * std::numbers::pi * 1e-6, 1e-15);
-  EXPECT_NEAR(p.inertia[0], 0.4 * p.mass[0] * 1e-4, 1e-18);
+  EXPECT_NEAR(p.inertia(0), 0.4 * p.mass[0] * 1e-4, 1e-18);
 }
 
 }  // namespace

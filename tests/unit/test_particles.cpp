@@ -1,10 +1,15 @@
 // Particles (core/particles.hpp): the buffers of a reordering and of the force accumulators,
-// which the peak memory of large runs depends on (docs/large.md, "Not yet").
+// which the peak memory of large runs depends on (docs/large.md, "Not yet"), and the derived
+// moments of inertia and inverse masses.
+#include "core/integrator.hpp"
 #include "core/particles.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <numbers>
 #include <numeric>
+#include <random>
 #include <vector>
 
 namespace fabrica {
@@ -20,8 +25,7 @@ Particles line_of(int n) {
 std::size_t largest_capacity(const Particles& p) {
   std::size_t c = p.id.capacity();
   for (const auto* a : {&p.x, &p.v, &p.w, &p.f, &p.t}) c = std::max(c, a->capacity());
-  for (const auto* a : {&p.radius, &p.mass, &p.inertia, &p.inv_mass, &p.inv_inertia})
-    c = std::max(c, a->capacity());
+  for (const auto* a : {&p.radius, &p.mass}) c = std::max(c, a->capacity());
   return c;
 }
 
@@ -29,6 +33,7 @@ TEST(Particles, ShortOrderFreesTheLongBuffers) {
   // A rank keeping a tenth of what it read (a set-up's hand-over): no array keeps the room of
   // the thousand, and the kept ones are the ones named, in that order.
   Particles p = line_of(1000);
+  const Particles read = line_of(1000);
   std::vector<Index> keep;
   for (Index k = 990; k >= 0; k -= 10) keep.push_back(k);
   p.permute_owned(keep);
@@ -37,7 +42,8 @@ TEST(Particles, ShortOrderFreesTheLongBuffers) {
   for (std::size_t k = 0; k < keep.size(); ++k) {
     EXPECT_EQ(p.id[k], 100 + keep[k]);
     EXPECT_EQ(p.v[k][0], double(keep[k]));
-    EXPECT_EQ(p.inv_mass[k], 1.0 / p.mass[k]);
+    EXPECT_EQ(p.radius[k], read.radius[keep[k]]);
+    EXPECT_EQ(p.mass[k], read.mass[keep[k]]);
   }
 }
 
@@ -66,6 +72,33 @@ TEST(Particles, ForcesReleasedComeBackZeroWithTheRoom) {
   for (std::size_t a = 0; a < p.size(); ++a) {
     EXPECT_EQ(p.f[a], Vec3::Zero());
     EXPECT_EQ(p.t[a], Vec3::Zero());
+  }
+}
+
+TEST(Particles, DerivedInertiaAndInversesAreOneArithmetic) {
+  // A solid sphere's I = 2/5 m R^2 (to a rounding), and the half kicks' inverses, taken a block
+  // at a time by inverse_masses, the same bits as Particles::inv_mass and inv_inertia for every
+  // particle, the last short block included (a difference would make a run's bits depend on
+  // where a particle falls in the blocks, hence on the rank count).
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<real_t> r(1e-4, 3e-2), rho(500.0, 8000.0);
+  Particles p;
+  const std::size_t n = 3 * kKickBlock + 5;
+  std::vector<real_t> density(n);
+  for (std::size_t k = 0; k < n; ++k) p.add({GlobalId(k), r(rng), density[k] = rho(rng), Vec3::Zero()});
+  p.scale_density(10.0);  // masses no longer those of add()'s expression
+  std::vector<real_t> im(kKickBlock), iI(kKickBlock);
+  for (std::size_t a0 = 0; a0 < n; a0 += kKickBlock) {
+    const std::size_t nb = std::min(kKickBlock, n - a0);
+    inverse_masses(p, a0, nb, im.data(), iI.data());
+    for (std::size_t k = 0; k < nb; ++k) {
+      const std::size_t a = a0 + k;
+      const real_t I = 10.0 * 8.0 / 15.0 * std::numbers::pi * density[a] * std::pow(p.radius[a], 5);
+      EXPECT_NEAR(p.inertia(a), I, 1e-14 * I) << a;
+      EXPECT_EQ(im[k], p.inv_mass(a)) << a;
+      EXPECT_EQ(iI[k], p.inv_inertia(a)) << a;
+      EXPECT_EQ(iI[k], 1.0 / p.inertia(a)) << a;
+    }
   }
 }
 

@@ -554,8 +554,8 @@ TEST(DensityScaling, CriticalStepGrowsWithTheSquareRoot) {
   EXPECT_NEAR(c.critical_dt / a.critical_dt, std::sqrt(10.0), 1e-14);
   for (std::size_t q = 0; q < a.particles.size(); ++q) {
     EXPECT_EQ(b.particles.mass[q], 4.0 * a.particles.mass[q]);
-    EXPECT_EQ(b.particles.inertia[q], 4.0 * a.particles.inertia[q]);
-    EXPECT_EQ(b.particles.inv_mass[q], 0.25 * a.particles.inv_mass[q]);
+    EXPECT_EQ(b.particles.inertia(q), 4.0 * a.particles.inertia(q));
+    EXPECT_EQ(b.particles.inv_mass(q), 0.25 * a.particles.inv_mass(q));
   }
 }
 
