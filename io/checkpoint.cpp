@@ -109,9 +109,10 @@ std::string decode_header(const std::string& in, CheckpointHeader& h) {
     return "truncated: " + std::to_string(in.size()) + " bytes, shorter than the header (" +
            std::to_string(kHeaderBytes) + " bytes)";
   h.format = std::uint32_t(peek(in, 8, 4));
-  if (h.format != kCheckpointFormat)
+  if (h.format < kOldestCheckpointFormat || h.format > kCheckpointFormat)
     return "checkpoint format version " + std::to_string(h.format) + ", this build of Fabrica (" +
-           FABRICA_VERSION + ") reads version " + std::to_string(kCheckpointFormat) + " only";
+           FABRICA_VERSION + ") reads versions " + std::to_string(kOldestCheckpointFormat) + " to " +
+           std::to_string(kCheckpointFormat) + " only";
   if (peek(in, 12, 4) != kHeaderBytes) return "corrupted header (header size)";
   h.software = read_fixed(in.data() + 16, 16);
   h.scene_fingerprint = peek(in, 32, 8);
@@ -588,10 +589,10 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   const std::string where = path_ + ": section " + prefix;
   FieldReader g = fields(prefix + ".global");
   const std::string prec = g.text("particle_record"), crec = g.text("contact_record");
-  if (prec != particle_record_schema() || crec != contact_record_schema())
-    throw InputError(where + ".global: written by a build with other records (particle '" + prec +
-                     "', contact '" + crec + "'; this build: '" + particle_record_schema() +
-                     "', '" + contact_record_schema() + "')");
+  const ParticleRecordReader particle_records(prec, where + ".global");
+  if (crec != contact_record_schema())
+    throw InputError(where + ".global: written by a build with other contact records ('" + crec +
+                     "'; this build: '" + contact_record_schema() + "')");
   snap.cell = PeriodicCell(g.vec3("cell.lengths"));
   snap.cell.set_strain_rate(g.vec3("cell.strain_rate"));
   SimulationParams& par = snap.params;
@@ -661,8 +662,8 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
                        std::to_string(bytes));
     return chunks_.at(name).bytes;
   };
-  const std::string& parts = records(prefix + ".particles", particle_record_bytes());
-  read_particles(parts.data(), parts.size() / particle_record_bytes(), snap.particles);
+  const std::string& parts = records(prefix + ".particles", particle_records.bytes());
+  particle_records.read(parts.data(), parts.size() / particle_records.bytes(), snap.particles);
   const std::string& contacts = records(prefix + ".contacts", contact_record_bytes());
   const std::size_t nc = contacts.size() / contact_record_bytes();
   snap.history.reset(nc);

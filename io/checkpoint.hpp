@@ -34,6 +34,9 @@ namespace fabrica {
 // carry their own layout (names and types), so a change of what a section holds is refused by
 // the reader naming the field, in any version.
 inline constexpr std::uint32_t kCheckpointFormat = 7;
+// The oldest format this build reads: 6 differs from 7 only in its particle records, which
+// carry three values this build derives (io/state_fields.hpp ParticleRecordReader).
+inline constexpr std::uint32_t kOldestCheckpointFormat = 6;
 inline constexpr std::size_t kHeaderBytes = 2048;
 
 // FNV-1a (64 bits) of the scene text: a checkpoint of another scene is refused.
