@@ -20,6 +20,7 @@ void Particles::reserve_more(std::size_t n) {
 void Particles::release_forces() {
   std::vector<Vec3>().swap(f);
   std::vector<Vec3>().swap(t);
+  forces_released_ = true;
 }
 
 void Particles::zero_forces() {
@@ -27,10 +28,13 @@ void Particles::zero_forces() {
     a->reserve(capacity());  // the other arrays' room, so that appending does not double them
     a->assign(size(), Vec3::Zero());
   }
+  forces_released_ = false;
 }
 
 void Particles::resize(std::size_t n) {
-  for (auto* a : {&x, &v, &w, &f, &t}) a->resize(n, Vec3::Zero());
+  for (auto* a : {&x, &v, &w}) a->resize(n, Vec3::Zero());
+  if (!forces_released_)
+    for (auto* a : {&f, &t}) a->resize(n, Vec3::Zero());
   for (auto* a : {&radius, &mass}) a->resize(n, 0.0);
   id.resize(n, -1);
 }
@@ -83,7 +87,9 @@ void Particles::permute_owned(std::span<const Index> order) {
   std::vector<Vec3> tv;
   std::vector<real_t> tr;
   std::vector<GlobalId> ti;
-  for (auto* a : {&x, &v, &w, &f, &t}) apply_order(*a, order, tv);
+  for (auto* a : {&x, &v, &w}) apply_order(*a, order, tv);
+  if (!forces_released_)
+    for (auto* a : {&f, &t}) apply_order(*a, order, tv);
   for (auto* a : {&radius, &mass}) apply_order(*a, order, tr);
   apply_order(id, order, ti);
   n_owned_ = order.size();

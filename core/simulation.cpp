@@ -488,6 +488,10 @@ void Simulation::rebuild_lists(bool forces_spent) {
   const auto t0 = timing_ ? clock::now() : clock::time_point{};
   domain_->migrate(p_, cell_, carry_, particle_work_ ? &*particle_work_ : nullptr);
   particle_work_.reset();
+  // f and t are zero, or set anew by the force computation of this step (step(): rebuild(true)):
+  // freed before the spatial sort, which then does not reorder them, and made again, zero,
+  // once the springs are attached (the rebuild's peak memory at large N).
+  if (forces_spent) p_.release_forces();
   const auto t1 = timing_ ? clock::now() : clock::time_point{};
   if (par_.spatial_sort) p_.permute_owned(search_.spatial_order(p_, cell_));
   const auto t2 = timing_ ? clock::now() : clock::time_point{};
@@ -495,8 +499,6 @@ void Simulation::rebuild_lists(bool forces_spent) {
   if (timing_)
     last_migrate_seconds_ = std::chrono::duration<double>(t1 - t0).count() +
                             std::chrono::duration<double>(clock::now() - t2).count();
-
-  if (forces_spent) p_.release_forces();  // back, zero, once the springs are attached
 
   // 3. New lists, with the kept springs attached. The walls' first: they copy their springs
   //    out of the carry, whose pools then become the pairs'.

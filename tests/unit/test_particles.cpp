@@ -75,6 +75,32 @@ TEST(Particles, ForcesReleasedComeBackZeroWithTheRoom) {
   }
 }
 
+TEST(Particles, ReleasedForcesStayOutOfTheSortAndTheGhosts) {
+  // A rebuild frees f and t before its spatial sort: the sort and the ghosts leave them out
+  // (no array of them is made again) and order the rest; zero_forces() then sizes them.
+  Particles p = line_of(300);
+  for (std::size_t a = 0; a < p.size(); ++a) p.f[a] = Vec3(1, 2, 3);
+  p.release_forces();
+  std::vector<Index> order(250);
+  std::iota(order.rbegin(), order.rend(), 50);  // 299 down to 50: 50 particles leave
+  p.permute_owned(order);
+  const std::size_t first = p.append_ghosts(20);
+  EXPECT_EQ(p.f.capacity(), 0u);
+  EXPECT_EQ(p.t.capacity(), 0u);
+  ASSERT_EQ(p.n_owned(), 250u);
+  ASSERT_EQ(p.size(), 270u);
+  EXPECT_EQ(first, 250u);
+  EXPECT_EQ(p.id[0], 100 + 299);
+  EXPECT_EQ(p.v[0][0], 299.0);
+  EXPECT_EQ(p.id[249], 100 + 50);
+  p.zero_forces();
+  ASSERT_EQ(p.f.size(), 270u);
+  ASSERT_EQ(p.t.size(), 270u);
+  for (std::size_t a = 0; a < p.size(); ++a) EXPECT_EQ(p.f[a], Vec3::Zero());
+  p.clear_ghosts();  // with the forces back, the ghosts' go with the rest
+  EXPECT_EQ(p.f.size(), 250u);
+}
+
 TEST(Particles, DerivedInertiaAndInversesAreOneArithmetic) {
   // A solid sphere's I = 2/5 m R^2 (to a rounding), and the half kicks' inverses, taken a block
   // at a time by inverse_masses, the same bits as Particles::inv_mass and inv_inertia for every
