@@ -8,7 +8,9 @@
 namespace fabrica {
 
 void Particles::reserve(std::size_t n) {
-  for (auto* a : {&x, &v, &w, &f, &t}) a->reserve(n);
+  for (auto* a : {&x, &v, &w}) a->reserve(n);
+  if (!forces_released_)
+    for (auto* a : {&f, &t}) a->reserve(n);
   for (auto* a : {&radius, &mass}) a->reserve(n);
   id.reserve(n);
 }

@@ -57,8 +57,9 @@ class Particles {
   std::size_t capacity() const { return id.capacity(); }
   // The force and torque accumulators freed (the rebuild's peak memory at large N: 48 bytes per
   // particle), while nothing reads them; zero_forces() makes them again, every entry zero. In
-  // between, reordering and ghosts leave f and t out (permute_owned, append_ghosts,
-  // clear_ghosts), and no other member may be called but those that read x, radius and id.
+  // between, reordering and ghosts leave f and t out (permute_owned, reserve, reserve_more,
+  // append_ghosts, clear_ghosts), and no other member may be called but those that read x,
+  // radius and id.
   void release_forces();
   void zero_forces();
   // Density scaling: every mass (ghosts included) times f; the moments of inertia and the
