@@ -47,6 +47,43 @@ TEST(Particles, ShortOrderFreesTheLongBuffers) {
   }
 }
 
+TEST(Particles, KeptInOrderIsCompactedInPlace) {
+  // A migration keeps nearly all its particles, in their order: compacted in place (no second
+  // array at the rebuild's peak), the room for ghosts kept; a set-up's short hand-over in order
+  // still frees the long room.
+  Particles p = line_of(1000);
+  const Particles read = line_of(1000);
+  p.reserve(1200);
+  for (std::size_t a = 0; a < p.size(); ++a) p.f[a] = Vec3(double(a), 0, 0);
+  std::vector<Index> keep;
+  for (Index k = 0; k < 1000; ++k)
+    if (k % 10 != 3) keep.push_back(k);
+  const Vec3* x0 = p.x.data();
+  const real_t* m0 = p.mass.data();
+  const GlobalId* id0 = p.id.data();
+  p.permute_owned(keep);
+  ASSERT_EQ(p.n_owned(), keep.size());
+  EXPECT_EQ(p.x.data(), x0);
+  EXPECT_EQ(p.mass.data(), m0);
+  EXPECT_EQ(p.id.data(), id0);
+  for (const auto* a : {&p.x, &p.v, &p.w, &p.f, &p.t}) EXPECT_GE(a->capacity(), 1200u);
+  for (std::size_t k = 0; k < keep.size(); ++k) {
+    EXPECT_EQ(p.id[k], 100 + keep[k]);
+    EXPECT_EQ(p.x[k], read.x[keep[k]]);
+    EXPECT_EQ(p.v[k][0], double(keep[k]));
+    EXPECT_EQ(p.f[k][0], double(keep[k]));
+    EXPECT_EQ(p.radius[k], read.radius[keep[k]]);
+    EXPECT_EQ(p.mass[k], read.mass[keep[k]]);
+  }
+  std::vector<Index> tenth;
+  for (Index k = 5; k < Index(keep.size()); k += 10) tenth.push_back(k);
+  const std::vector<GlobalId> ids = p.id;
+  p.permute_owned(tenth);
+  ASSERT_EQ(p.n_owned(), tenth.size());
+  EXPECT_LE(largest_capacity(p), 3 * tenth.size());
+  for (std::size_t k = 0; k < tenth.size(); ++k) EXPECT_EQ(p.id[k], ids[tenth[k]]);
+}
+
 TEST(Particles, FullOrderKeepsTheRoom) {
   // A rebuild's spatial sort (every owned particle) keeps the room made for ghosts.
   Particles p = line_of(1000);
