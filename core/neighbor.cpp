@@ -57,10 +57,13 @@ Grid make_grid(const Vec3& L, real_t edge) {
 }  // namespace
 
 // The class-b spheres of one grid in cell order, with their positions and radii copied in that
-// order, so that the scan of a cell reads memory in sequence.
+// order in single precision, so that the scan of a cell reads memory in sequence (20 bytes a
+// sphere instead of 36: the neighbour build's peak memory at large N). The copies only pick
+// the candidates, with a margin that covers their rounding; the pairs are then decided from
+// the particles' own positions and radii, as before, so the list is the same bit for bit.
 struct NeighborSearch::CellCopies {
   std::vector<Index> start, item;  // counting sort: cell c holds item[start[c] .. start[c + 1])
-  std::vector<real_t> x, y, z, r;  // position and radius of item[q]
+  std::vector<float> x, y, z, r;   // position and radius of item[q], rounded to float
 };
 
 namespace {
@@ -81,16 +84,22 @@ void make_room(std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::
 // candidate is written to the next slot and the count advances by the test, so the ~80 % of
 // candidates that fail do not cost a mispredicted branch. With at least 3 cells on every axis
 // each of the 27 cells is a distinct cell seen through one periodic image, known from the
-// offset (the three cells of a row are scanned as one range where they are consecutive); on a
+// offset (the three cells of a row are scanned as one range where they are consecutive), and
+// the single-precision copies decide every candidate but those within `margin` (which covers
+// their rounding) of the cutoff, which are tested in double precision from the particles. On a
 // smaller grid the image is found per candidate (minimum image) and repeated cells are scanned
-// once. Both give the nearest image of b, the same bits as d = x_b - x_a + s L.
+// once, in double precision from the particles. Both give the nearest image of b, the same
+// bits as d = x_b - x_a + s L.
 template <bool kImagePerCandidate>
 std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, bool same_class,
-                      const Grid& g, const Vec3& L, real_t skin,
+                      const Grid& g, const Vec3& L, real_t skin, real_t margin,
                       const NeighborSearch::CellCopies& cb, std::size_t m,
                       std::vector<Index>& ti, std::vector<Index>& tj,
                       std::vector<std::uint8_t>& timg) {
   const Index n_owned = Index(p.n_owned());
+  const Vec3* px = p.x.data();
+  const real_t* pr = p.radius.data();
+  const float skin_lo = float(skin - margin), skin_hi = float(skin + margin);
   for (Index a : members_a) {
     const Vec3 xa = p.x[a];
     const real_t ra = p.radius[a];
@@ -113,6 +122,8 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
         }
       }
     }
+    const float xa0 = float(xa[0]), xa1 = float(xa[1]), xa2 = float(xa[2]);
+    const float ra_f = float(ra);
     // The candidates cb.item[q0 .. q1), seen through the periodic image (s0, s1, s2).
     auto scan = [&](std::size_t q0, std::size_t q1, int s0, int s1, int s2) {
       make_room(ti, tj, timg, m + (q1 - q0));
@@ -121,27 +132,51 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
       Index* __restrict out_i = ti.data();
       Index* __restrict out_j = tj.data();
       std::uint8_t* __restrict out_img = timg.data();
-      for (std::size_t q = q0; q < q1; ++q) {
-        const Index b = cb.item[q];
-        real_t d0 = cb.x[q] - xa[0], d1 = cb.y[q] - xa[1], d2 = cb.z[q] - xa[2];
-        std::uint8_t img = code;
-        if constexpr (kImagePerCandidate) {
+      // The exact test of sphere b seen at d (x_b - x_a + shift), as every build has made it.
+      auto within_exact = [&](Index b, real_t d0, real_t d1, real_t d2) {
+        const real_t cut = ra + pr[b] + skin;
+        const real_t r2 = d0 * d0 + d1 * d1 + d2 * d2;
+        return !(r2 >= cut * cut);
+      };
+      if constexpr (kImagePerCandidate) {
+        for (std::size_t q = q0; q < q1; ++q) {
+          const Index b = cb.item[q];
+          real_t d0 = px[b][0] - xa[0], d1 = px[b][1] - xa[1], d2 = px[b][2] - xa[2];
           const int t0 = -int(std::nearbyint(d0 / L[0]));
           const int t1 = -int(std::nearbyint(d1 / L[1]));
           const int t2 = -int(std::nearbyint(d2 / L[2]));
           d0 += t0 * L[0], d1 += t1 * L[1], d2 += t2 * L[2];
-          img = std::uint8_t(image_code(t0, t1, t2));
-        } else {
-          d0 += sh0, d1 += sh1, d2 += sh2;
+          out_i[m] = a;
+          out_j[m] = b;
+          out_img[m] = std::uint8_t(image_code(t0, t1, t2));
+          m += within_exact(b, d0, d1, d2) & !(same_class & (b <= a)) & !(a_ghost & (b >= n_owned));
         }
-        const real_t cut = ra + cb.r[q] + skin;
-        const real_t r2 = d0 * d0 + d1 * d1 + d2 * d2;
-        const bool keep = !(r2 >= cut * cut) & !(same_class & (b <= a)) &
-                          !(a_ghost & (b >= n_owned));
-        out_i[m] = a;
-        out_j[m] = b;
-        out_img[m] = img;
-        m += keep;
+      } else {
+        // From the copies: a candidate nearer than the cutoff less the margin is a pair, one
+        // farther than the cutoff plus the margin is not; between the two (a band of about
+        // 4e-6 of the cell length, so few candidates) the exact test decides.
+        const float sh0f = float(sh0), sh1f = float(sh1), sh2f = float(sh2);
+        const Index* __restrict item = cb.item.data();
+        const float* __restrict cx = cb.x.data();
+        const float* __restrict cy = cb.y.data();
+        const float* __restrict cz = cb.z.data();
+        const float* __restrict cr = cb.r.data();
+        for (std::size_t q = q0; q < q1; ++q) {
+          const Index b = item[q];
+          const float d0 = (cx[q] - xa0) + sh0f, d1 = (cy[q] - xa1) + sh1f, d2 = (cz[q] - xa2) + sh2f;
+          const float sum_r = ra_f + cr[q];
+          const float lo = sum_r + skin_lo, hi = sum_r + skin_hi;
+          const float r2 = d0 * d0 + d1 * d1 + d2 * d2;
+          bool keep = !(r2 >= lo * lo);
+          const bool near = !(r2 >= hi * hi);
+          if (keep != near) [[unlikely]]  // one branch, nearly never taken
+            keep = within_exact(b, (px[b][0] - xa[0]) + sh0, (px[b][1] - xa[1]) + sh1,
+                                (px[b][2] - xa[2]) + sh2);
+          out_i[m] = a;
+          out_j[m] = b;
+          out_img[m] = code;
+          m += keep & !(same_class & (b <= a)) & !(a_ghost & (b >= n_owned));
+        }
       }
     };
     // Away from the x ends of the grid the three cells of a row are consecutive in the cell
@@ -193,6 +228,12 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
   std::size_t m = 0;
   make_room(tmp_i_, tmp_j_, tmp_img_, last_pairs_ + last_pairs_ / 16);
   const Vec3& L = cell.lengths();
+  // The single-precision copies' rounding: each of x_b, x_a and the shift rounded once (at most
+  // 2^-24 of L each), the two sums rounded once more (2^-24 of 2 L each), the squares, the sum
+  // of radii and the skin likewise relative to the cutoff: 2^-18 (64 u) of the largest cell
+  // length plus the largest cutoff bounds every error of |d| and of the cutoff with room to
+  // spare.
+  const real_t margin = std::ldexp(L.maxCoeff() + 2 * rmax + skin, -18);
   CellCopies cb;
   for (int b_class = 0; b_class < nclass; ++b_class) {
     const std::vector<Index>& mb = members[b_class];
@@ -206,26 +247,33 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
       for (Index b : mb) ++cb.start[g.index(p.x[b]) + 1];
       for (int c = 0; c < ncell; ++c) cb.start[c + 1] += cb.start[c];
       cb.item.resize(mb.size());
-      cb.x.resize(mb.size());
-      cb.y.resize(mb.size());
-      cb.z.resize(mb.size());
-      cb.r.resize(mb.size());
+      const bool copies = g.n[0] >= 3 && g.n[1] >= 3 && g.n[2] >= 3;  // else read from p
+      if (copies) {
+        cb.x.resize(mb.size());
+        cb.y.resize(mb.size());
+        cb.z.resize(mb.size());
+        cb.r.resize(mb.size());
+      }
       {
         std::vector<Index> fill(cb.start.begin(), cb.start.end() - 1);
         for (Index b : mb) {
           const Index q = fill[g.index(p.x[b])]++;
           cb.item[q] = b;
-          cb.x[q] = p.x[b][0];
-          cb.y[q] = p.x[b][1];
-          cb.z[q] = p.x[b][2];
-          cb.r[q] = p.radius[b];
+          if (copies) {
+            cb.x[q] = float(p.x[b][0]);
+            cb.y[q] = float(p.x[b][1]);
+            cb.z[q] = float(p.x[b][2]);
+            cb.r[q] = float(p.radius[b]);
+          }
         }
       }
       const bool same = a_class == b_class;
-      if (g.n[0] >= 3 && g.n[1] >= 3 && g.n[2] >= 3)
-        m = scan_grid<false>(p, members[a_class], same, g, L, skin, cb, m, tmp_i_, tmp_j_, tmp_img_);
+      if (copies)
+        m = scan_grid<false>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_,
+                             tmp_img_);
       else
-        m = scan_grid<true>(p, members[a_class], same, g, L, skin, cb, m, tmp_i_, tmp_j_, tmp_img_);
+        m = scan_grid<true>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_,
+                            tmp_img_);
     }
   }
   cb = CellCopies();  // free before the sort (memory at large N)

@@ -1,7 +1,8 @@
 // Neighbour search against brute force (docs/verification.md section 10):
 //  - NeighborSearch::build == brute_force_pairs on polydisperse periodic packings (diameter
 //    ratio 6), including cells where the grid of the largest class has fewer than 3 cells per
-//    axis, with the stored periodic image giving the minimum-image branch vector;
+//    axis, with the stored periodic image giving the minimum-image branch vector, and pairs
+//    placed at the cutoff to within far less than single precision resolves;
 //  - the list order (by space-filling-curve place, core/space_order.hpp) depends on the
 //    particles alone, not on their storage order (the basis of rank-count independence);
 //  - during a run with a deforming cell, the Verlet rebuild criterion keeps every touching pair
@@ -123,6 +124,40 @@ TEST(Neighbor, BuildMatchesBruteForceSmallCell) {
     const Particles p = compressed_packing(d, Lv, 0.8, rng);
     for (real_t s : {0.0, skin}) compare_with_brute_force(p, cell, s, "small cell");
   }
+}
+
+// Pairs at the cutoff to within far less than the single-precision copies resolve (their
+// rounding is about 5e-7 m in a 4 m cell): the copies only pick candidates, and the pairs
+// just inside the cutoff are in the list, those just outside and exactly at it are not,
+// through periodic images too (fails if the copies decide alone, with or without a margin).
+TEST(Neighbor, PairsAtTheCutoffDecidedExactly) {
+  const real_t L = 4.0, R = 0.01, skin = 0.001, cut = 2 * R + skin;
+  const PeriodicCell cell(Vec3(L, 0.75 * L, 0.5 * L));
+  const real_t offsets[] = {-1e-9, 1e-9, -1e-12, 1e-12, 0.0, -3e-6, 3e-6, -2e-7, 2e-7};
+  Random rng(11);
+  Particles p;
+  GlobalId id = 0;
+  int k = 0;
+  for (real_t a : {0.004, 0.59, 1.33, 1.99, 2.51, 2.98})
+    for (real_t b : {0.004, 0.48, 1.24, 1.96, 2.61})
+      for (real_t c : {0.004, 0.32, 0.85, 1.39, 1.63}) {
+        // Near the faces at 0 the partner lies across the face: a periodic image.
+        const Vec3 base(a, b, c);
+        Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
+        dir.normalize();
+        const real_t dist = cut + offsets[k++ % std::size(offsets)];
+        p.add({id++, R, test::kRho, cell.wrap(base)});
+        p.add({id++, R, test::kRho, cell.wrap(base + dist * dir)});
+      }
+  NeighborSearch ns;
+  PairList pl;
+  ns.build(p, cell, skin, pl);
+  const std::vector<Pair> got = list_pairs(p, cell, pl);
+  const std::vector<Pair> ref = brute_force_pairs(p, cell, skin);
+  EXPECT_EQ(got, ref);
+  // Both sides of the cutoff are represented: about half the partners are within it.
+  EXPECT_GT(ref.size(), p.size() / 6);
+  EXPECT_LT(ref.size(), p.size() / 3);
 }
 
 // The Morton key interleaves the cell coordinates (bit k of axis a at bit 3k + a) and clamps
