@@ -45,12 +45,21 @@ struct Grid {
   }
 };
 
-Grid make_grid(const Vec3& L, real_t edge) {
+// Cells of edge at least `edge`, and at most 16 per sphere of the grid (65,536 at least): a
+// dilute specimen would otherwise ask for up to (L / edge)^3 cells (2.8e10 for 1-cm spheres in
+// a 64 m cell, beyond the memory and an int). Wider cells find the same pairs.
+Grid make_grid(const Vec3& L, real_t edge, std::size_t spheres) {
+  const double most = std::max(65536.0, 16.0 * double(spheres));
   Grid g;
-  for (int k = 0; k < 3; ++k) {
-    g.n[k] = std::max(1, int(std::floor(L[k] / edge)));
-    g.inv_h[k] = g.n[k] / L[k];
+  for (real_t e = edge;; e *= 1.25) {
+    double cells = 1;
+    for (int k = 0; k < 3; ++k) {
+      g.n[k] = int(std::max(1.0, std::min(most, std::floor(L[k] / e))));
+      cells *= g.n[k];
+    }
+    if (cells <= most) break;
   }
+  for (int k = 0; k < 3; ++k) g.inv_h[k] = g.n[k] / L[k];
   return g;
 }
 
@@ -240,7 +249,7 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
     if (mb.empty()) continue;
     for (int a_class = 0; a_class <= b_class; ++a_class) {
       if (members[a_class].empty()) continue;
-      const Grid g = make_grid(L, cls_rmax[a_class] + cls_rmax[b_class] + skin);
+      const Grid g = make_grid(L, cls_rmax[a_class] + cls_rmax[b_class] + skin, mb.size());
       const int ncell = g.n[0] * g.n[1] * g.n[2];
       // Counting sort of class-b spheres into cells, with their positions and radii.
       cb.start.assign(ncell + 1, 0);

@@ -160,6 +160,29 @@ TEST(Neighbor, PairsAtTheCutoffDecidedExactly) {
   EXPECT_LT(ref.size(), p.size() / 3);
 }
 
+// A dilute specimen: spheres of 1 cm in a 64 m cell would ask for a grid of 2.8e10 cells of
+// the cutoff's size (it crashed); the grid is capped at 16 cells a sphere (65,536 at least),
+// and the pairs are the brute-force ones.
+TEST(Neighbor, DiluteSpecimenCapsTheGrid) {
+  const PeriodicCell cell(Vec3(64.0, 48.0, 40.0));
+  Random rng(5);
+  Particles p;
+  for (GlobalId id = 0; id < 400; id += 2) {
+    const Vec3 x(64.0 * rng.uniform(), 48.0 * rng.uniform(), 40.0 * rng.uniform());
+    Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
+    dir.normalize();
+    p.add({id, 0.01, test::kRho, x});
+    p.add({id + 1, 0.005 + 0.01 * rng.uniform(), test::kRho, cell.wrap(x + 0.028 * rng.uniform() * dir)});
+  }
+  NeighborSearch ns;
+  PairList pl;
+  ns.build(p, cell, 0.002, pl);
+  const std::vector<Pair> got = list_pairs(p, cell, pl);
+  const std::vector<Pair> ref = brute_force_pairs(p, cell, 0.002);
+  EXPECT_EQ(got, ref);
+  EXPECT_GT(ref.size(), 100u);
+}
+
 // The Morton key interleaves the cell coordinates (bit k of axis a at bit 3k + a) and clamps
 // positions on the upper face into the last cell.
 TEST(Neighbor, MortonKeyInterleavesAndClamps) {
