@@ -22,7 +22,9 @@ std::uint64_t morton_key(const Vec3& x, const Vec3& L);
 
 // For the first n particles of p: rank[a] is a's place among them in the (key, id) order, so
 // that rank[a] < rank[b] exactly when (key_a, id_a) < (key_b, id_b). 'order' (optional) receives
-// the indices sorted in that order.
+// the indices sorted in that order. Without 'order', owned particles found already in that
+// order (a rebuild's neighbour search, after the spatial sort) are not sorted again: only the
+// others are, and merged with them.
 void space_ranks(const Particles& p, std::size_t n, const Vec3& L, std::vector<std::uint32_t>& rank,
                  std::vector<Index>* order = nullptr);
 

@@ -183,6 +183,44 @@ TEST(Neighbor, DiluteSpecimenCapsTheGrid) {
   EXPECT_GT(ref.size(), 100u);
 }
 
+// The places in the (Morton key, id) order: owned particles in that order already (a rebuild's
+// neighbour search, after the spatial sort) have only the ghosts sorted and merged in; the
+// places equal those of one sort of everything, ties of keys included, and so do those of
+// owned particles out of order.
+TEST(Neighbor, SpaceRanksMergeGhostsIntoSortedOwned) {
+  Random rng(3);
+  const PeriodicCell cell(Vec3(1.0, 0.8, 0.6));
+  const Vec3& L = cell.lengths();
+  Particles p;
+  for (GlobalId id = 0; id < 3000; ++id) {
+    Vec3 x(rng.uniform(), 0.8 * rng.uniform(), 0.6 * rng.uniform());
+    if (id % 10 == 0 && id > 0) x = p.x[std::size_t(id - 1)];  // the same key, told apart by id
+    p.add({1000 - id, 0.001, test::kRho, x});
+  }
+  NeighborSearch ns;
+  p.permute_owned(ns.spatial_order(p, cell));
+  const std::size_t first = p.append_ghosts(700);
+  for (std::size_t a = first; a < p.size(); ++a) {
+    p.x[a] = Vec3(rng.uniform(), 0.8 * rng.uniform(), 0.6 * rng.uniform());
+    if (a % 7 == 0) p.x[a] = p.x[a % first];  // ties with owned particles
+    p.id[a] = GlobalId(5000 + a);
+  }
+  auto reference = [&] {
+    std::vector<std::tuple<std::uint64_t, GlobalId, std::size_t>> all;
+    for (std::size_t a = 0; a < p.size(); ++a) all.emplace_back(morton_key(p.x[a], L), p.id[a], a);
+    std::sort(all.begin(), all.end());
+    std::vector<std::uint32_t> r(p.size());
+    for (std::size_t k = 0; k < all.size(); ++k) r[std::get<2>(all[k])] = std::uint32_t(k);
+    return r;
+  };
+  std::vector<std::uint32_t> rank;
+  space_ranks(p, p.size(), L, rank);
+  EXPECT_EQ(rank, reference()) << "sorted owned, ghosts merged";
+  std::swap(p.x[10], p.x[2000]);  // owned out of order: one sort of everything
+  space_ranks(p, p.size(), L, rank);
+  EXPECT_EQ(rank, reference()) << "owned out of order";
+}
+
 // The Morton key interleaves the cell coordinates (bit k of axis a at bit 3k + a) and clamps
 // positions on the upper face into the last cell.
 TEST(Neighbor, MortonKeyInterleavesAndClamps) {
