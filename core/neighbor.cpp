@@ -174,7 +174,8 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
           const Index b = item[q];
           const float d0 = (cx[q] - xa0) + sh0f, d1 = (cy[q] - xa1) + sh1f, d2 = (cz[q] - xa2) + sh2f;
           const float sum_r = ra_f + cr[q];
-          const float lo = sum_r + skin_lo, hi = sum_r + skin_hi;
+          // (Below zero where the margin exceeds the cutoff: nothing is then surely in.)
+          const float lo = std::max(sum_r + skin_lo, 0.0f), hi = sum_r + skin_hi;
           const float r2 = d0 * d0 + d1 * d1 + d2 * d2;
           bool keep = !(r2 >= lo * lo);
           const bool near = !(r2 >= hi * hi);

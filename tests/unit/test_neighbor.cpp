@@ -160,6 +160,29 @@ TEST(Neighbor, PairsAtTheCutoffDecidedExactly) {
   EXPECT_LT(ref.size(), p.size() / 3);
 }
 
+// Spheres so small against the cell that the single-precision margin exceeds the cutoff
+// (1-um spheres, no skin, a 4 m cell: margin 1.5e-5 m, cutoff 2e-6 m): spheres 5e-6 m apart
+// are not a pair, those 1.5e-6 m apart are (the "surely in" bound must not go below zero).
+TEST(Neighbor, MarginBeyondTheCutoffKeepsTheExactList) {
+  const PeriodicCell cell(Vec3(4.0, 3.0, 2.0));
+  Random rng(9);
+  Particles p;
+  for (GlobalId id = 0; id < 600; id += 2) {
+    const Vec3 x(4.0 * rng.uniform(), 3.0 * rng.uniform(), 2.0 * rng.uniform());
+    Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
+    dir.normalize();
+    p.add({id, 1e-6, test::kRho, x});
+    p.add({id + 1, 1e-6, test::kRho, cell.wrap(x + (id % 4 == 0 ? 5e-6 : 1.5e-6) * dir)});
+  }
+  NeighborSearch ns;
+  PairList pl;
+  ns.build(p, cell, 0.0, pl);
+  const std::vector<Pair> got = list_pairs(p, cell, pl);
+  const std::vector<Pair> ref = brute_force_pairs(p, cell, 0.0);
+  EXPECT_EQ(got, ref);
+  EXPECT_EQ(ref.size(), 150u);
+}
+
 // A dilute specimen: spheres of 1 cm in a 64 m cell would ask for a grid of 2.8e10 cells of
 // the cutoff's size (it crashed); the grid is capped at 16 cells a sphere (65,536 at least),
 // and the pairs are the brute-force ones.
