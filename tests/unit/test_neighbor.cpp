@@ -58,6 +58,20 @@ std::vector<Pair> list_pairs(const Particles& p, const PeriodicCell& cell, const
   return out;
 }
 
+// The pairs the neighbour search lists, as list_pairs gives them.
+std::vector<Pair> search_pairs(const Particles& p, const PeriodicCell& cell, real_t skin) {
+  NeighborSearch ns;
+  PairList pl;
+  ns.build(p, cell, skin, pl);
+  return list_pairs(p, cell, pl);
+}
+
+// A direction drawn from the cube [-1, 1]^3, normalised.
+Vec3 random_direction(Random& rng) {
+  Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
+  return dir.normalized();
+}
+
 void compare_with_brute_force(const Particles& p, const PeriodicCell& cell, real_t skin,
                               const char* label) {
   NeighborSearch ns;
@@ -143,16 +157,12 @@ TEST(Neighbor, PairsAtTheCutoffDecidedExactly) {
       for (real_t c : {0.004, 0.32, 0.85, 1.39, 1.63}) {
         // Near the faces at 0 the partner lies across the face: a periodic image.
         const Vec3 base(a, b, c);
-        Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
-        dir.normalize();
+        const Vec3 dir = random_direction(rng);
         const real_t dist = cut + offsets[k++ % std::size(offsets)];
         p.add({id++, R, test::kRho, cell.wrap(base)});
         p.add({id++, R, test::kRho, cell.wrap(base + dist * dir)});
       }
-  NeighborSearch ns;
-  PairList pl;
-  ns.build(p, cell, skin, pl);
-  const std::vector<Pair> got = list_pairs(p, cell, pl);
+  const std::vector<Pair> got = search_pairs(p, cell, skin);
   const std::vector<Pair> ref = brute_force_pairs(p, cell, skin);
   EXPECT_EQ(got, ref);
   // Both sides of the cutoff are represented: about half the partners are within it.
@@ -169,15 +179,11 @@ TEST(Neighbor, MarginBeyondTheCutoffKeepsTheExactList) {
   Particles p;
   for (GlobalId id = 0; id < 600; id += 2) {
     const Vec3 x(4.0 * rng.uniform(), 3.0 * rng.uniform(), 2.0 * rng.uniform());
-    Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
-    dir.normalize();
+    const Vec3 dir = random_direction(rng);
     p.add({id, 1e-6, test::kRho, x});
     p.add({id + 1, 1e-6, test::kRho, cell.wrap(x + (id % 4 == 0 ? 5e-6 : 1.5e-6) * dir)});
   }
-  NeighborSearch ns;
-  PairList pl;
-  ns.build(p, cell, 0.0, pl);
-  const std::vector<Pair> got = list_pairs(p, cell, pl);
+  const std::vector<Pair> got = search_pairs(p, cell, 0.0);
   const std::vector<Pair> ref = brute_force_pairs(p, cell, 0.0);
   EXPECT_EQ(got, ref);
   EXPECT_EQ(ref.size(), 150u);
@@ -192,15 +198,11 @@ TEST(Neighbor, DiluteSpecimenCapsTheGrid) {
   Particles p;
   for (GlobalId id = 0; id < 400; id += 2) {
     const Vec3 x(64.0 * rng.uniform(), 48.0 * rng.uniform(), 40.0 * rng.uniform());
-    Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
-    dir.normalize();
+    const Vec3 dir = random_direction(rng);
     p.add({id, 0.01, test::kRho, x});
     p.add({id + 1, 0.005 + 0.01 * rng.uniform(), test::kRho, cell.wrap(x + 0.028 * rng.uniform() * dir)});
   }
-  NeighborSearch ns;
-  PairList pl;
-  ns.build(p, cell, 0.002, pl);
-  const std::vector<Pair> got = list_pairs(p, cell, pl);
+  const std::vector<Pair> got = search_pairs(p, cell, 0.002);
   const std::vector<Pair> ref = brute_force_pairs(p, cell, 0.002);
   EXPECT_EQ(got, ref);
   EXPECT_GT(ref.size(), 100u);
