@@ -268,15 +268,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     DataFile df = read_data_share(sc.data_file, comm, rank, ranks, natoms);
     s.particles = std::move(df.particles);
     const Vec3 L = sc.cell_size.value_or(df.hi - df.lo);
-    agree(comm, [&] {
-      for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
-        for (int k = 0; k < 3; ++k)
-          if (s.particles.x[a][k] < 0 || s.particles.x[a][k] > L[k])
-            throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
-                             number_text(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
-                             " of " + sc.data_file + " lies outside the cell (coordinate " +
-                             std::to_string(k + 1) + " = " + number_text(s.particles.x[a][k] + df.lo[k]) + ")");
-    });
+    agree(comm, [&] { check_inside_cell(sc, s.particles, L, df.lo); });
     double rmin = s.particles.n_owned() ? s.particles.min_radius() : 1e300;
     MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
     agree(comm, [&] { check_neighbour_grid(sc.data_file, L, rmin, sc.skin); });

@@ -95,6 +95,16 @@ std::string overlap_message(const Scene& sc, const OverlapReport& ov) {
          "; fix the specimen (a bad generation or data file) or raise the limit";
 }
 
+void check_inside_cell(const Scene& sc, const Particles& p, const Vec3& L, const Vec3& lo) {
+  for (std::size_t a = 0; a < p.n_owned(); ++a)
+    for (int k = 0; k < 3; ++k)
+      if (p.x[a][k] < 0 || p.x[a][k] > L[k])
+        throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
+                         number_text(L[2]) + "]: particle " + std::to_string(p.id[a]) + " of " +
+                         sc.data_file + " lies outside the cell (coordinate " + std::to_string(k + 1) +
+                         " = " + number_text(p.x[a][k] + lo[k]) + ")");
+}
+
 void apply_scene_run(const Scene& sc, Setup& s) {
   if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
   s.params.law = sc.law;
@@ -110,13 +120,7 @@ Setup make_setup(const Scene& sc) {
     s.particles = std::move(df.particles);
     const Vec3 box = df.hi - df.lo;
     const Vec3 L = sc.cell_size.value_or(box);
-    for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
-      for (int k = 0; k < 3; ++k)
-        if (s.particles.x[a][k] < 0 || s.particles.x[a][k] > L[k])
-          throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
-                           number_text(L[2]) + "]: particle " + std::to_string(s.particles.id[a]) +
-                           " of " + sc.data_file + " lies outside the cell (coordinate " +
-                           std::to_string(k + 1) + " = " + number_text(s.particles.x[a][k] + df.lo[k]) + ")");
+    check_inside_cell(sc, s.particles, L, df.lo);
     check_neighbour_grid(sc.data_file, L, s.particles.min_radius(), sc.skin);
     s.cell = PeriodicCell(L);
   } else {
