@@ -11,7 +11,7 @@ bool map_large_blocks() {
   if (std::getenv("MALLOC_MMAP_THRESHOLD_")) return false;
   if (const char* t = std::getenv("GLIBC_TUNABLES"); t && std::strstr(t, "mmap_threshold"))
     return false;
-  return mallopt(M_MMAP_THRESHOLD, 1 << 20) == 1;
+  return mallopt(M_MMAP_THRESHOLD, kMapThreshold) == 1;
 }
 
 }  // namespace fabrica
