@@ -28,13 +28,20 @@ long resident_kib() {
   return value;
 }
 
-TEST(HeapPolicy, FreedLargeBlocksLeaveResidentMemory) {
+// The policy set before each test; skipped where it is not Fabrica's to set.
+class HeapPolicy : public ::testing::Test {
+ protected:
+  void SetUp() override {
 #if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "the sanitizers' allocator does not follow glibc's settings";
+    GTEST_SKIP() << "the sanitizers' allocator does not follow glibc's settings";
 #endif
-  if (std::getenv("MALLOC_MMAP_THRESHOLD_") || std::getenv("GLIBC_TUNABLES"))
-    GTEST_SKIP() << "the user's allocator settings are kept";
-  ASSERT_TRUE(fabrica::map_large_blocks());
+    if (std::getenv("MALLOC_MMAP_THRESHOLD_") || std::getenv("GLIBC_TUNABLES"))
+      GTEST_SKIP() << "the user's allocator settings are kept";
+    ASSERT_TRUE(fabrica::map_large_blocks());
+  }
+};
+
+TEST_F(HeapPolicy, FreedLargeBlocksLeaveResidentMemory) {
   // Three rounds of a 24 MiB block written and freed, as a rebuild makes and frees its arrays.
   // Without the policy the first block's mapping raises glibc's threshold to 24 MiB, the next
   // ones come from the heap, and 24 MiB stay resident after they are freed.
@@ -49,13 +56,7 @@ TEST(HeapPolicy, FreedLargeBlocksLeaveResidentMemory) {
   EXPECT_LT(resident_kib(), before + 4 * 1024) << "resident KiB before " << before;
 }
 
-TEST(HeapPolicy, FreedMidSizeBlocksBetweenLiveOnesLeaveResidentMemory) {
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "the sanitizers' allocator does not follow glibc's settings";
-#endif
-  if (std::getenv("MALLOC_MMAP_THRESHOLD_") || std::getenv("GLIBC_TUNABLES"))
-    GTEST_SKIP() << "the user's allocator settings are kept";
-  ASSERT_TRUE(fabrica::map_large_blocks());
+TEST_F(HeapPolicy, FreedMidSizeBlocksBetweenLiveOnesLeaveResidentMemory) {
   // The arrays of a rank's share of a few ten thousand particles are 0.1 to 1 MiB, made and
   // freed at every rebuild among smaller blocks that live on. Here 48 blocks of 256 KiB, each
   // followed by a small block that stays: below the threshold (as with 1 MiB) they come from
