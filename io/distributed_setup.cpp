@@ -268,7 +268,13 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     DataFile df = read_data_share(sc.data_file, comm, rank, ranks, natoms);
     s.particles = std::move(df.particles);
     const Vec3 L = sc.cell_size.value_or(df.hi - df.lo);
-    agree(comm, [&] { check_inside_cell(sc, s.particles, L, df.lo); });
+    // The offender with the smallest id over all ranks, as the serial check names it.
+    const std::size_t out = outside_cell(s.particles, L);
+    GlobalId first = out < s.particles.n_owned() ? s.particles.id[out] : std::numeric_limits<GlobalId>::max();
+    MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT64_T, MPI_MIN, comm);
+    agree(comm, [&] {
+      if (out < s.particles.n_owned() && s.particles.id[out] == first) refuse_outside_cell(sc, s.particles, out, L, df.lo);
+    });
     double rmin = s.particles.n_owned() ? s.particles.min_radius() : 1e300;
     MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
     agree(comm, [&] { check_neighbour_grid(sc.data_file, L, rmin, sc.skin); });

@@ -95,14 +95,28 @@ std::string overlap_message(const Scene& sc, const OverlapReport& ov) {
          "; fix the specimen (a bad generation or data file) or raise the limit";
 }
 
-void check_inside_cell(const Scene& sc, const Particles& p, const Vec3& L, const Vec3& lo) {
+namespace {
+bool inside_cell(const Vec3& x, const Vec3& L) {
+  for (int k = 0; k < 3; ++k)
+    if (x[k] < 0 || x[k] > L[k]) return false;
+  return true;
+}
+}  // namespace
+
+std::size_t outside_cell(const Particles& p, const Vec3& L) {
+  std::size_t first = p.n_owned();
   for (std::size_t a = 0; a < p.n_owned(); ++a)
-    for (int k = 0; k < 3; ++k)
-      if (p.x[a][k] < 0 || p.x[a][k] > L[k])
-        throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
-                         number_text(L[2]) + "]: particle " + std::to_string(p.id[a]) + " of " +
-                         sc.data_file + " lies outside the cell (coordinate " + std::to_string(k + 1) +
-                         " = " + number_text(p.x[a][k] + lo[k]) + ")");
+    if (!inside_cell(p.x[a], L) && (first == p.n_owned() || p.id[a] < p.id[first])) first = a;
+  return first;
+}
+
+void refuse_outside_cell(const Scene& sc, const Particles& p, std::size_t a, const Vec3& L, const Vec3& lo) {
+  int k = 0;
+  while (k < 2 && p.x[a][k] >= 0 && p.x[a][k] <= L[k]) ++k;
+  throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
+                   number_text(L[2]) + "]: particle " + std::to_string(p.id[a]) + " of " +
+                   sc.data_file + " lies outside the cell (coordinate " + std::to_string(k + 1) +
+                   " = " + number_text(p.x[a][k] + lo[k]) + ")");
 }
 
 void apply_scene_run(const Scene& sc, Setup& s) {
@@ -120,7 +134,8 @@ Setup make_setup(const Scene& sc) {
     s.particles = std::move(df.particles);
     const Vec3 box = df.hi - df.lo;
     const Vec3 L = sc.cell_size.value_or(box);
-    check_inside_cell(sc, s.particles, L, df.lo);
+    if (const std::size_t a = outside_cell(s.particles, L); a < s.particles.n_owned())
+      refuse_outside_cell(sc, s.particles, a, L, df.lo);
     check_neighbour_grid(sc.data_file, L, s.particles.min_radius(), sc.skin);
     s.cell = PeriodicCell(L);
   } else {

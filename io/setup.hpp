@@ -45,10 +45,13 @@ PeriodicCell region_cell(const Scene& scene, RegionCut& cut, real_t solid_volume
 // The InputError of an initial overlap above [run] max_initial_overlap.
 std::string overlap_message(const Scene& scene, const OverlapReport& ov);
 
-// Throws the InputError of the first of the read particles p (this rank's, or all) outside a
-// cell of lengths L, whose corner is lo in the data file's coordinates (the error gives the
-// particle's coordinate as the file has it).
-void check_inside_cell(const Scene& scene, const Particles& p, const Vec3& L, const Vec3& lo);
+// Of the read particles p (this rank's, or all), the index of the one with the smallest id
+// that lies outside a cell of lengths L, or p.n_owned() if none does; and the InputError that
+// refuses particle a, with its coordinate as the data file has it (the cell's corner at lo
+// there). The smallest id, so that the same particle is named on any rank count.
+std::size_t outside_cell(const Particles& p, const Vec3& L);
+[[noreturn]] void refuse_outside_cell(const Scene& scene, const Particles& p, std::size_t a,
+                                      const Vec3& L, const Vec3& lo);
 
 // [run] density_scaling applied to the particles, and the contact law, skin, gravity and local
 // damping of the scene copied into the parameters (make_setup and make_distributed_setup).

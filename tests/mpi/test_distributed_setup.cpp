@@ -38,7 +38,8 @@ std::string error_of(const std::function<void()>& f) {
 }
 
 // A scene reading 'data' (written by rank 0 into a directory of this test and rank count).
-std::string write_case(const std::string& name, const std::string& data) {
+std::string write_case(const std::string& name, const std::string& data,
+                       const std::string& scene_extra = "") {
   const auto dir = std::filesystem::temp_directory_path() /
                    ("fabrica-dsetup-" + std::to_string(comm_size()) + "-" + std::string("t"));
   if (comm_rank() == 0) {
@@ -46,7 +47,8 @@ std::string write_case(const std::string& name, const std::string& data) {
     std::ofstream(dir / (name + ".data")) << data;
     std::ofstream(dir / (name + ".toml"))
         << "[particles]\nsource = \"file\"\nfile = \"" << name << ".data\"\n"
-        << "[contact]\nnormal_stiffness = 1.0e6\nfriction = 0.3\n[run]\nsteps = 10\nskin = 0.001\n";
+        << "[contact]\nnormal_stiffness = 1.0e6\nfriction = 0.3\n[run]\nsteps = 10\nskin = 0.001\n"
+        << scene_extra;
   }
   MPI_Barrier(MPI_COMM_WORLD);
   return (dir / (name + ".toml")).string();
@@ -169,6 +171,16 @@ TEST(DistributedSetup, BadDataFilesGiveTheSerialMessages) {
     EXPECT_FALSE(serial.empty());
     EXPECT_EQ(parallel, serial);
   }
+}
+
+// A [cell] size smaller than the file's box: the spheres beyond it are refused with the serial
+// message (io/setup.hpp check_inside_cell), whichever rank read them.
+TEST(DistributedSetup, ParticleOutsideTheSceneCellGivesTheSerialMessage) {
+  const Scene sc = load_scene(write_case("small_cell", lattice_data(6, false), "[cell]\nsize = [0.015, 0.018, 0.018]\n"));
+  const std::string serial = error_of([&] { make_setup(sc); });
+  const std::string parallel = error_of([&] { make_run_setup(sc, MPI_COMM_WORLD, cartesian()); });
+  EXPECT_NE(serial.find("lies outside the cell (coordinate 1 = 0.0165)"), std::string::npos) << serial;
+  EXPECT_EQ(parallel, serial);
 }
 
 // [particles] placement = "regions": each rank makes only its regions, and the specimen is the
