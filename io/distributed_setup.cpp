@@ -418,9 +418,17 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
   apply_scene_run(sc, s);
   double dt = s.particles.n_owned() ? critical_time_step(s.particles, sc.law, false, rmin, rmax) : 1e300;
   if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp); each rank checks its spheres
+    agree(comm, [&] { s.params.walls = scene_walls(sc, s.cell); });
+    // The first wall with an offending sphere on any rank, and on it the smallest id, as the
+    // serial check names it.
+    const WallOffence o = first_wall_offence(sc, s.params.walls, s.particles);
+    std::int64_t first[2] = {std::int64_t(o.wall), std::numeric_limits<std::int64_t>::max()};
+    MPI_Allreduce(MPI_IN_PLACE, &first[0], 1, MPI_INT64_T, MPI_MIN, comm);
+    if (o.wall == std::size_t(first[0]) && o.wall < s.params.walls.size()) first[1] = s.particles.id[o.particle];
+    MPI_Allreduce(MPI_IN_PLACE, &first[1], 1, MPI_INT64_T, MPI_MIN, comm);
     agree(comm, [&] {
-      s.params.walls = scene_walls(sc, s.cell);
-      check_spheres_against_walls(sc, s.params.walls, s.particles);
+      if (o.wall == std::size_t(first[0]) && o.wall < s.params.walls.size() && s.particles.id[o.particle] == first[1])
+        refuse_wall_offence(sc, s.params.walls, s.particles, o);
     });
     dt = std::min(dt, walls_critical_time_step(sc, s.particles, rmin, rmax));
   }

@@ -199,7 +199,8 @@ Setup make_setup(const Scene& sc) {
   s.critical_dt = critical_time_step(s.particles, sc.law, false);
   if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp)
     s.params.walls = scene_walls(sc, s.cell);
-    check_spheres_against_walls(sc, s.params.walls, s.particles);
+    if (const WallOffence o = first_wall_offence(sc, s.params.walls, s.particles); o.wall < s.params.walls.size())
+      refuse_wall_offence(sc, s.params.walls, s.particles, o);
     s.critical_dt = std::min(s.critical_dt, walls_critical_time_step(sc, s.particles, s.particles.min_radius(),
                                                                      s.particles.max_radius()));
   }

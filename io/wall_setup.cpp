@@ -64,21 +64,38 @@ void set_servo_speed_caps(std::vector<Wall>& walls, real_t rmin, real_t dt) {
     if (w.servo() && w.servo_max_speed == 0) w.servo_max_speed = kServoStepFraction * rmin / dt;
 }
 
-void check_spheres_against_walls(const Scene& sc, const std::vector<Wall>& walls, const Particles& p) {
+namespace {
+// How far the centre of sphere i lies in front of wall w, and whether that is an offence.
+real_t wall_distance(const Wall& w, const Particles& p, std::size_t i) { return (p.x[i] - w.point).dot(w.normal); }
+bool offends(const Scene& sc, const Wall& w, const Particles& p, std::size_t i) {
+  const real_t d = wall_distance(w, p, i), R = p.radius[i];
+  return d <= 0 || R - d > sc.max_initial_overlap * R;
+}
+}  // namespace
+
+WallOffence first_wall_offence(const Scene& sc, const std::vector<Wall>& walls, const Particles& p) {
+  for (std::size_t k = 0; k < walls.size(); ++k) {
+    std::size_t first = p.n_owned();
+    for (std::size_t i = 0; i < p.n_owned(); ++i)
+      if (offends(sc, walls[k], p, i) && (first == p.n_owned() || p.id[i] < p.id[first])) first = i;
+    if (first < p.n_owned()) return {k, first};
+  }
+  return {walls.size(), p.n_owned()};
+}
+
+void refuse_wall_offence(const Scene& sc, const std::vector<Wall>& walls, const Particles& p, WallOffence o) {
   const std::string from = sc.source == ParticleSource::File ? sc.data_file : std::string("the generated specimen");
-  for (std::size_t k = 0; k < walls.size(); ++k)
-    for (std::size_t i = 0; i < p.n_owned(); ++i) {
-      const real_t d = (p.x[i] - walls[k].point).dot(walls[k].normal), R = p.radius[i];
-      if (d <= 0)
-        throw InputError(where(sc, k) + "point = " + vec(walls[k].point) + ", normal = " +
-                         vec(walls[k].normal) + ": particle " + std::to_string(p.id[i]) + " of " + from +
-                         " starts beyond the wall (its centre " + number_text(-d) + " m behind the plane)");
-      if (R - d > sc.max_initial_overlap * R)
-        throw InputError(where(sc, k) + "point = " + vec(walls[k].point) + ": particle " +
-                         std::to_string(p.id[i]) + " of " + from + " overlaps the wall by " +
-                         number_text((R - d) / R) + " of its radius, above " + sc.path +
-                         ": [run] max_initial_overlap = " + number_text(sc.max_initial_overlap));
-    }
+  const Wall& w = walls[o.wall];
+  const std::size_t i = o.particle;
+  const real_t d = wall_distance(w, p, i), R = p.radius[i];
+  if (d <= 0)
+    throw InputError(where(sc, o.wall) + "point = " + vec(w.point) + ", normal = " + vec(w.normal) +
+                     ": particle " + std::to_string(p.id[i]) + " of " + from +
+                     " starts beyond the wall (its centre " + number_text(-d) + " m behind the plane)");
+  throw InputError(where(sc, o.wall) + "point = " + vec(w.point) + ": particle " + std::to_string(p.id[i]) +
+                   " of " + from + " overlaps the wall by " + number_text((R - d) / R) +
+                   " of its radius, above " + sc.path + ": [run] max_initial_overlap = " +
+                   number_text(sc.max_initial_overlap));
 }
 
 real_t walls_critical_time_step(const Scene& sc, const Particles& p, real_t rmin, real_t rmax) {

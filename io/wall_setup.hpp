@@ -25,10 +25,17 @@ inline constexpr real_t kServoStepFraction = 1e-3;
 // particles; dt: the run's time step).
 void set_servo_speed_caps(std::vector<Wall>& walls, real_t rmin, real_t dt);
 
-// Throws InputError if a sphere of 'p' (owned ones) starts with its centre on or behind a
-// wall, or overlapping it by more than [run] max_initial_overlap of its radius.
-void check_spheres_against_walls(const Scene& scene, const std::vector<Wall>& walls,
-                                 const Particles& p);
+// A sphere of 'p' (owned ones) that starts with its centre on or behind a wall, or overlapping
+// it by more than [run] max_initial_overlap of its radius: of the first wall with such a
+// sphere, the one with the smallest id (so that the same sphere is named on any rank count);
+// wall = walls.size() if there is none.
+struct WallOffence {
+  std::size_t wall, particle;
+};
+WallOffence first_wall_offence(const Scene& scene, const std::vector<Wall>& walls, const Particles& p);
+// Throws its InputError (file, wall, particle id, value).
+[[noreturn]] void refuse_wall_offence(const Scene& scene, const std::vector<Wall>& walls,
+                                      const Particles& p, WallOffence o);
 
 // The critical time step (core/timestep.hpp) with the walls: the scene's law with a wall as a
 // partner, and each wall's own law; +infinity without walls. rmin, rmax: of all particles.

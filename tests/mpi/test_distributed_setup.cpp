@@ -183,6 +183,24 @@ TEST(DistributedSetup, ParticleOutsideTheSceneCellGivesTheSerialMessage) {
   EXPECT_EQ(parallel, serial);
 }
 
+// A floor through the lattice at z = 4 mm: the spheres of the first layer (centres at 1.5 mm)
+// start beyond it. A floor at z = 1 mm: they overlap it by half their radius. The serial
+// message, the same sphere named, whichever ranks hold them.
+TEST(DistributedSetup, SphereAgainstAWallGivesTheSerialMessage) {
+  struct Case {
+    const char *name, *z, *message;
+  };
+  for (const Case& c : {Case{"wall_beyond", "0.004", "starts beyond the wall"}, Case{"wall_overlap", "0.001", "overlaps the wall"}}) {
+    SCOPED_TRACE(c.name);
+    const std::string wall = std::string("[[wall]]\npoint = [0, 0, ") + c.z + "]\nnormal = [0, 0, 1]\n";
+    const Scene sc = load_scene(write_case(c.name, lattice_data(6, false), wall));
+    const std::string serial = error_of([&] { make_setup(sc); });
+    const std::string parallel = error_of([&] { make_run_setup(sc, MPI_COMM_WORLD, cartesian()); });
+    EXPECT_NE(serial.find(c.message), std::string::npos) << serial;
+    EXPECT_EQ(parallel, serial);
+  }
+}
+
 // [particles] placement = "regions": each rank makes only its regions, and the specimen is the
 // serial one bit for bit (100,000 spheres: 16 regions of about 6,250).
 TEST(DistributedSetup, GeneratedByRegionsIsTheSameOnAnyRankCount) {
