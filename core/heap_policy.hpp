@@ -14,8 +14,8 @@
 // (108,672 spheres on 2 ranks: 31.3 MiB a rank after 100 steps and 32.6 after 3,000, against
 // 29.1 and 29.2 now). The cost is the page faults of fresh mappings at every rebuild, and the
 // mapped arrays all starting at the same place in a page, which slows the first pass of a
-// specimen that sits in the cache: 13,584 spheres on 1 rank about 2 % slower, larger ones within
-// the noise (benchmarks/README.md, "The mmap threshold at 128 KiB").
+// specimen that sits in the cache: 13,584 spheres on 1 rank 1.5-3.5 % slower, larger ones
+// within the noise (benchmarks/README.md, "The mmap threshold at 128 KiB").
 #pragma once
 
 namespace fabrica {
