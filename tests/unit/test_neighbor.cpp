@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <utility>
 #include <map>
 #include <set>
 #include <tuple>
@@ -70,6 +71,23 @@ std::vector<Pair> search_pairs(const Particles& p, const PeriodicCell& cell, rea
 Vec3 random_direction(Random& rng) {
   Vec3 dir(2 * rng.uniform() - 1, 2 * rng.uniform() - 1, 2 * rng.uniform() - 1);
   return dir.normalized();
+}
+
+// n / 2 pairs of spheres (ids 2k, 2k + 1) at random places in 'cell': the first of radius r1,
+// the second of the radius and at the distance from the first's centre (in a random
+// direction, across a periodic face too) that second(id, rng) draws, in that order.
+template <class Second>
+Particles random_pairs(const PeriodicCell& cell, Random& rng, GlobalId n, real_t r1, Second second) {
+  const Vec3 L = cell.lengths();
+  Particles p;
+  for (GlobalId id = 0; id < n; id += 2) {
+    const Vec3 x(L[0] * rng.uniform(), L[1] * rng.uniform(), L[2] * rng.uniform());
+    const Vec3 dir = random_direction(rng);
+    p.add({id, r1, test::kRho, x});
+    const std::pair<real_t, real_t> rd = second(id, rng);
+    p.add({id + 1, rd.first, test::kRho, cell.wrap(x + rd.second * dir)});
+  }
+  return p;
 }
 
 void compare_with_brute_force(const Particles& p, const PeriodicCell& cell, real_t skin,
@@ -176,13 +194,9 @@ TEST(Neighbor, PairsAtTheCutoffDecidedExactly) {
 TEST(Neighbor, MarginBeyondTheCutoffKeepsTheExactList) {
   const PeriodicCell cell(Vec3(4.0, 3.0, 2.0));
   Random rng(9);
-  Particles p;
-  for (GlobalId id = 0; id < 600; id += 2) {
-    const Vec3 x(4.0 * rng.uniform(), 3.0 * rng.uniform(), 2.0 * rng.uniform());
-    const Vec3 dir = random_direction(rng);
-    p.add({id, 1e-6, test::kRho, x});
-    p.add({id + 1, 1e-6, test::kRho, cell.wrap(x + (id % 4 == 0 ? 5e-6 : 1.5e-6) * dir)});
-  }
+  const Particles p = random_pairs(cell, rng, 600, 1e-6, [](GlobalId id, Random&) {
+    return std::pair<real_t, real_t>{1e-6, id % 4 == 0 ? 5e-6 : 1.5e-6};
+  });
   const std::vector<Pair> got = search_pairs(p, cell, 0.0);
   const std::vector<Pair> ref = brute_force_pairs(p, cell, 0.0);
   EXPECT_EQ(got, ref);
@@ -195,13 +209,9 @@ TEST(Neighbor, MarginBeyondTheCutoffKeepsTheExactList) {
 TEST(Neighbor, DiluteSpecimenCapsTheGrid) {
   const PeriodicCell cell(Vec3(64.0, 48.0, 40.0));
   Random rng(5);
-  Particles p;
-  for (GlobalId id = 0; id < 400; id += 2) {
-    const Vec3 x(64.0 * rng.uniform(), 48.0 * rng.uniform(), 40.0 * rng.uniform());
-    const Vec3 dir = random_direction(rng);
-    p.add({id, 0.01, test::kRho, x});
-    p.add({id + 1, 0.005 + 0.01 * rng.uniform(), test::kRho, cell.wrap(x + 0.028 * rng.uniform() * dir)});
-  }
+  const Particles p = random_pairs(cell, rng, 400, 0.01, [](GlobalId, Random& r) {
+    return std::pair<real_t, real_t>{0.005 + 0.01 * r.uniform(), 0.028 * r.uniform()};
+  });
   const std::vector<Pair> got = search_pairs(p, cell, 0.002);
   const std::vector<Pair> ref = brute_force_pairs(p, cell, 0.002);
   EXPECT_EQ(got, ref);
