@@ -1,6 +1,6 @@
 #include "apps/servo.hpp"
 
-#include "core/contact_law.hpp"
+#include "core/specimen_response.hpp"
 
 #include <fmt/core.h>
 
@@ -19,37 +19,11 @@ real_t round6(real_t x) {
   return std::round(x * scale) / scale;
 }
 
-// The sums of M and C (servo.hpp) over this rank's touching contacts, with or without dashpots.
-template <bool Viscous>
-void add_response(const Simulation& sim, double* m) {
-  const Particles& P = sim.particles();
-  const PairList& pl = sim.pairs();
-  const ContactLawParams& law = sim.params().law;
-  const Vec3& L = sim.cell().lengths();
-  for (std::size_t q = 0; q < pl.size(); ++q) {
-    if (!pl.touching[q] || std::size_t(pl.i[q]) >= P.n_owned()) continue;
-    const Index i = pl.i[q], j = pl.j[q];
-    const Vec3 d = P.x[j] + image_offset(pl.image[q], L) - P.x[i];
-    const real_t d2 = d.squaredNorm();
-    if (d2 == 0) continue;
-    const Vec3 n = d / std::sqrt(d2);
-    const PairConstants c = pair_constants<false, Viscous>(law, P.radius[i], P.radius[j], P.mass[i], P.mass[j]);
-    for (int k = 0; k < 3; ++k)
-      for (int l = 0; l < 3; ++l) {
-        const real_t w = d2 * n[k] * n[l];
-        m[3 * k + l] += w * ((c.kn - c.ks) * n[k] * n[l] + (k == l ? c.ks : 0.0));
-        if constexpr (Viscous) m[9 + 3 * k + l] += w * ((c.cn - c.cs) * n[k] * n[l] + (k == l ? c.cs : 0.0));
-      }
-  }
-}
 }  // namespace
 
 SpecimenResponse specimen_response(Simulation& sim) {
   double m[18] = {};
-  if (sim.params().law.viscous())
-    add_response<true>(sim, m);
-  else
-    add_response<false>(sim, m);
+  add_specimen_response(sim.particles(), sim.pairs(), sim.cell(), sim.params().law, m);
   sim.domain().sum_all(std::span<double>(m, 18));
   const real_t V = sim.cell().volume();
   SpecimenResponse r;

@@ -6,9 +6,11 @@
 
 namespace fabrica {
 
-void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
-                             const ContactLawParams& law, const PairList& pairs,
-                             const std::function<void(const ContactRecord&)>& fn) {
+namespace {
+
+template <class Model>
+void contact_records_of(Model, const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
+                        const PairList& pairs, const std::function<void(const ContactRecord&)>& fn) {
   std::array<Vec3, 27> shift;
   for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
   const bool rolling = law.rolling() && pairs.rolling;
@@ -26,20 +28,59 @@ void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
     c.branch = d;
     c.normal = d / dist;
     c.overlap = sum_r - dist;
-    const PairConstants k =
-        pair_constants<true, false>(law, p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
-    c.fn = k.kn * c.overlap;
-    c.ft = pairs.shear_spring(q);
+    const auto k = Model::template constants<true, false>(law, p.radius[i], p.radius[j], p.mass[i], p.mass[j]);
+    c.fn = Model::normal_force(k, c.overlap);
+    c.ft = Model::shear_force(k, c.overlap, pairs.shear_spring(q));
     const real_t cap = law.friction * c.fn;
     c.sliding = at_limit(c.ft.squaredNorm(), cap);  // the force loop's classification
     if (rolling) {
       c.mr = pairs.rolling_spring(q);
-      c.rolling = at_limit(c.mr.squaredNorm(), law.rolling_friction * k.rbar * c.fn);
+      c.rolling = at_limit(c.mr.squaredNorm(), Model::rolling_limit(law, k, c.overlap));
     } else {
       c.rolling = true;  // no rolling resistance: every contact rolls freely (spec section 5)
     }
     fn(c);
   }
+}
+
+template <class Model>
+std::vector<ContactRecord> wall_records_of(Model, const Particles& p, const ContactLawParams& law,
+                                           const std::vector<Wall>& walls, const WallContactList& wl) {
+  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
+  std::vector<ContactRecord> out;
+  for (std::size_t q = 0; q < wl.size(); ++q) {
+    if (!wl.touching[q]) continue;
+    const Index i = wl.i[q];
+    const Wall& W = walls[std::size_t(wl.wall[q])];
+    const ContactLawParams& l = W.own_law ? W.law : law;
+    const real_t R = p.radius[i], dist = (p.x[i] - W.point).dot(W.normal);
+    if (dist >= R) continue;
+    ContactRecord c;
+    c.id1 = p.id[i];
+    c.id2 = -1 - GlobalId(wl.wall[q]);
+    c.normal = -W.normal;
+    c.overlap = R - dist;
+    c.branch = (R - 0.5 * c.overlap) * c.normal;
+    const auto k = Model::template constants<true, false>(l, R, inf, p.mass[i], inf);
+    c.fn = Model::normal_force(k, c.overlap);
+    c.ft = Model::shear_force(k, c.overlap, wl.fs[q]);
+    c.sliding = at_limit(c.ft.squaredNorm(), l.friction * c.fn);
+    if (l.rolling() && wl.mr.size() == wl.size()) {
+      c.mr = wl.mr[q];
+      c.rolling = at_limit(c.mr.squaredNorm(), Model::rolling_limit(l, k, c.overlap));
+    } else {
+      c.rolling = true;
+    }
+    out.push_back(c);
+  }
+  return out;
+}
+}  // namespace
+
+void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
+                             const ContactLawParams& law, const PairList& pairs,
+                             const std::function<void(const ContactRecord&)>& fn) {
+  with_model(law.model, [&](auto m) { contact_records_of(m, p, cell, law, pairs, fn); });
 }
 
 std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell,
@@ -59,34 +100,7 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
 std::vector<ContactRecord> wall_contact_records(const Particles& p, const ContactLawParams& law,
                                                 const std::vector<Wall>& walls,
                                                 const WallContactList& wl) {
-  constexpr real_t inf = std::numeric_limits<real_t>::infinity();
-  std::vector<ContactRecord> out;
-  for (std::size_t q = 0; q < wl.size(); ++q) {
-    if (!wl.touching[q]) continue;
-    const Index i = wl.i[q];
-    const Wall& W = walls[std::size_t(wl.wall[q])];
-    const ContactLawParams& l = W.own_law ? W.law : law;
-    const real_t R = p.radius[i], dist = (p.x[i] - W.point).dot(W.normal);
-    if (dist >= R) continue;
-    ContactRecord c;
-    c.id1 = p.id[i];
-    c.id2 = -1 - GlobalId(wl.wall[q]);
-    c.normal = -W.normal;
-    c.overlap = R - dist;
-    c.branch = (R - 0.5 * c.overlap) * c.normal;
-    const PairConstants k = pair_constants<true, false>(l, R, inf, p.mass[i], inf);
-    c.fn = k.kn * c.overlap;
-    c.ft = wl.fs[q];
-    c.sliding = at_limit(c.ft.squaredNorm(), l.friction * c.fn);
-    if (l.rolling() && wl.mr.size() == wl.size()) {
-      c.mr = wl.mr[q];
-      c.rolling = at_limit(c.mr.squaredNorm(), l.rolling_friction * k.rbar * c.fn);
-    } else {
-      c.rolling = true;
-    }
-    out.push_back(c);
-  }
-  return out;
+  return with_model(law.model, [&](auto m) { return wall_records_of(m, p, law, walls, wl); });
 }
 
 }  // namespace fabrica

@@ -52,6 +52,21 @@ constexpr const auto& kTouchBytes = kPackTables.bytes;
   if (ratio > alarm->ratio) *alarm = OverlapAlarm{ratio, un, radius, a, b};
 }
 
+// One contact of the model, in the scalar form the wall loop uses.
+template <class Model, bool Rolling, bool Viscous>
+ContactResult evaluate_one(const ContactLawParams& law, const typename Model::template Pair<real_t>& c,
+                           const ContactKinematics& k, ContactHistory& h, real_t dt) {
+  using simd::from_vec, simd::to_vec;
+  const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1), from_vec(k.w2),
+                                      k.un_prev};
+  ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr)};
+  const ContactResultL<real_t> rl = Model::template evaluate<Rolling, Viscous, real_t>(law, c, kl, hl, dt);
+  h.fs = to_vec(hl.fs);
+  if constexpr (Rolling) h.mr = to_vec(hl.mr);
+  return ContactResult{rl.fn, to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
+                       rl.e_friction, rl.e_rolling, rl.e_viscous};
+}
+
 // The second line of a 24-byte vector: a quarter of them straddle two cache lines, and a
 // fetch of the first byte alone leaves the second line to a miss. Changes no result.
 inline const char* last_byte(const Vec3* v) { return reinterpret_cast<const char*>(v) + sizeof(Vec3) - 1; }
@@ -85,8 +100,9 @@ bool fetch_all_ahead(std::size_t particles) {
 // that does not measure: the boundary work needs the diagonal of the stress), or everything.
 constexpr int kNone = 0, kVirial = 1, kFull = 2;
 
-template <bool Rolling, bool Viscous, int Measure>
+template <class Model, bool Rolling, bool Viscous, int Measure>
 struct PairKernel {
+  using Pair = typename Model::template Pair<real_t>;
   Particles& P;
   const ForceContext& ctx;
   PairList& pl;
@@ -94,6 +110,7 @@ struct PairKernel {
   std::array<Vec3, 27> shift;
   Vec3 edot;
   std::size_t n_owned;
+  Vec3 unscale = Vec3::Ones();  // 1 / the cell's scaling of this step, exp(-edot dt)
   real_t e_fric = 0, e_roll = 0, e_visc = 0;
   std::size_t next_opening = 0;  // the first opening not yet booked
   static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
@@ -107,11 +124,12 @@ struct PairKernel {
   [[gnu::noinline]] void open_contact(std::size_t q, Index i, Index j, std::size_t nc) {
     const real_t* R = P.radius.data();
     const real_t* m = P.mass.data();
-    const PairConstants c = pair_constants<Rolling, false>(ctx.law, R[i], R[j], m[i], m[j]);
+    // The springs' energy at the opening overlap, u_n = 0 (Hertz-Mindlin: none is left).
+    const Pair c = Model::template constants<Rolling, false>(ctx.law, R[i], R[j], m[i], m[j]);
     const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
     const Index s = pl.slot[q];
-    PairList::Work::Opening o{nc, own_i * 0.5 * pl.spring_fs[s].squaredNorm() / c.ks, 0.0};
-    if constexpr (Rolling) o.e_rolling = own_i * 0.5 * pl.spring_mr[s].squaredNorm() / c.kr;
+    PairList::Work::Opening o{nc, own_i * Model::energy_shear(c, 0.0, pl.spring_fs[s]), 0.0};
+    if constexpr (Rolling) o.e_rolling = own_i * Model::energy_rolling(c, 0.0, pl.spring_mr[s]);
     pl.give_slot(q);
     pl.work.openings.push_back(o);
   }
@@ -301,31 +319,22 @@ struct PairKernel {
     k.w1 = gather3<T>(P.w.data(), ci);
     k.w2 = gather3<T>(P.w.data(), cj);
     const V3<T> e_d{edot[0] * d.x, edot[1] * d.y, edot[2] * d.z};
-    k.vrel = gather3<T>(P.v.data(), cj) - gather3<T>(P.v.data(), ci) + e_d -
-             cross(a2 * k.w2 + a1 * k.w1, k.n);
-    // pair_constants<Rolling, Viscous> of two spheres, lane by lane.
-    PairConstantsL<T> pc;
-    if (law.stiffness_mode == NormalStiffnessMode::Direct) {
-      pc.kn = T{} + law.normal_stiffness;
-    } else {
-      pc.kn = std::numbers::pi * rmin * rmin * law.youngs_modulus / sum_r;
+    const V3<T> vj = gather3<T>(P.v.data(), cj), vi = gather3<T>(P.v.data(), ci);
+    k.vrel = vj - vi + e_d - cross(a2 * k.w2 + a1 * k.w1, k.n);
+    if constexpr (Model::kPreviousOverlap) {
+      // The branch vector before this step's drift: positions drifted by v dt, then scaled with
+      // the cell (core/integrator.cpp), so d_prev = d / s - (v_j - v_i) dt.
+      const V3<T> dp = V3<T>{d.x * unscale[0], d.y * unscale[1], d.z * unscale[2]} - (vj - vi) * ctx.dt;
+      k.un_prev = sum_r - simd::sqrt(squared_norm(dp));
     }
-    pc.ks = pc.kn / law.stiffness_ratio;
-    pc.kr = pc.cn = pc.cs = pc.rbar = T{};
-    if constexpr (Rolling) {
-      pc.rbar = Ri * Rj / sum_r;
-      pc.kr = pc.ks * pc.rbar * pc.rbar;
-    }
-    if constexpr (Viscous) {
-      const T mi = gather<T>(P.mass.data(), ci), mj = gather<T>(P.mass.data(), cj);
-      const T meff = mi * mj / (mi + mj);
-      pc.cn = law.damping_rate_n * meff + 2.0 * law.damping_ratio_n * simd::sqrt(meff * pc.kn);
-      pc.cs = law.damping_rate_s * meff + 2.0 * law.damping_ratio_s * simd::sqrt(meff * pc.ks);
-    }
+    // The model's constants of two spheres, lane by lane.
+    T mi{}, mj{};
+    if constexpr (Viscous) mi = gather<T>(P.mass.data(), ci), mj = gather<T>(P.mass.data(), cj);
+    const auto pc = Model::template pair<Rolling, Viscous, T>(law, Ri, Rj, rmin, sum_r, mi, mj);
     ContactHistoryL<T> h;
     h.fs = gather3<T>(pl.spring_fs.data(), cs);
     if constexpr (Rolling) h.mr = gather3<T>(pl.spring_mr.data(), cs);
-    const ContactResultL<T> r = contact_law_l<Rolling, Viscous>(law, pc, k, h, dt);
+    const ContactResultL<T> r = Model::template evaluate<Rolling, Viscous, T>(law, pc, k, h, dt);
     scatter3(pl.spring_fs.data(), cs, h.fs);
     if constexpr (Rolling) scatter3(pl.spring_mr.data(), cs, h.mr);
 
@@ -374,16 +383,15 @@ struct PairKernel {
       if constexpr (Measure == kFull) {
         const real_t own_i = lane(own, l);
         if (own_i != 0.0) {
-          const PairConstants cl{lane(pc.kn, l), lane(pc.ks, l), lane(pc.kr, l), 0, 0, 0};
-          const ContactHistory hl{lane(h.fs, l), Rolling ? lane(h.mr, l) : Vec3(Vec3::Zero())};
+          const Pair cl = Model::lane(pc, l);
           const real_t un = lane(k.un, l);
           sums->fb.noalias() += Fl * lane(d, l).transpose();
           ++sums->contacts;
           sums->sliding += lane(r.sliding, l);
           sums->rolling += lane(r.rolling, l);
-          sums->e_normal += spring_energy_normal(cl, un);
-          sums->e_shear += spring_energy_shear(cl, hl);
-          if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(cl, hl);
+          sums->e_normal += Model::energy_normal(cl, un);
+          sums->e_shear += Model::energy_shear(cl, un, lane(h.fs, l));
+          if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(cl, un, lane(h.mr, l));
           sums->sum_contact_force += Fl.norm();
           ++sums->contacts_per_particle[i];
           sums->sum_overlap += un;
@@ -434,12 +442,14 @@ struct PairKernel {
   }
 };
 
-template <bool Rolling, bool Viscous, int Measure>
+template <class Model, bool Rolling, bool Viscous, int Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                  Dissipation& diss, ContactSums* sums) {
-  PairKernel<Rolling, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
+  PairKernel<Model, Rolling, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
   for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
   K.fetch_all = ctx.fetch_ahead < 0 ? fetch_all_ahead(P.size()) : ctx.fetch_ahead > 0;
+  if constexpr (Model::kPreviousOverlap)
+    for (int a = 0; a < 3; ++a) K.unscale[a] = std::exp(-K.edot[a] * ctx.dt);
   K.run();
   diss.friction += K.e_fric;
   diss.rolling += K.e_roll;
@@ -448,7 +458,7 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
 
 // Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
 // law or the scene's.
-template <bool Rolling, bool Viscous, int Measure>
+template <class Model, bool Rolling, bool Viscous, int Measure>
 void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss,
                  ContactSums* sums, real_t* wall_power) {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
@@ -462,11 +472,11 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     if (dist >= R) {
       if (wl.touching[q]) {  // the contact opens: the energy left in its springs is lost
         wl.touching[q] = 0;
-        const PairConstants c = pair_constants<Rolling, false>(law, R, inf, P.mass[i], inf);
-        diss.friction += 0.5 * wl.fs[q].squaredNorm() / c.ks;
+        const auto c = Model::template constants<Rolling, false>(law, R, inf, P.mass[i], inf);
+        diss.friction += Model::energy_shear(c, 0.0, wl.fs[q]);
         wl.fs[q].setZero();
         if constexpr (Rolling) {
-          if (c.kr > 0) diss.rolling += 0.5 * wl.mr[q].squaredNorm() / c.kr;
+          diss.rolling += Model::energy_rolling(c, 0.0, wl.mr[q]);
           wl.mr[q].setZero();
         }
       }
@@ -482,11 +492,14 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     k.w1 = P.w[i];
     k.w2 = Vec3::Zero();
     k.vrel = W.velocity - P.v[i] - a1 * P.w[i].cross(k.n);
-    const PairConstants c = pair_constants<Rolling, Viscous>(law, R, inf, P.mass[i], inf);
+    // Before this step's drift the sphere was v dt and the plane W.velocity dt back (walls stand
+    // in a cell at rest).
+    if constexpr (Model::kPreviousOverlap) k.un_prev = k.un + (P.v[i] - W.velocity).dot(W.normal) * ctx.dt;
+    const auto c = Model::template constants<Rolling, Viscous>(law, R, inf, P.mass[i], inf);
     ContactHistory h;
     h.fs = wl.fs[q];
     if constexpr (Rolling) h.mr = wl.mr[q];
-    const ContactResult r = contact_law<Rolling, Viscous>(law, c, k, h, ctx.dt);
+    const ContactResult r = evaluate_one<Model, Rolling, Viscous>(law, c, k, h, ctx.dt);
     wl.fs[q] = h.fs;
     if constexpr (Rolling) wl.mr[q] = h.mr;
     const Vec3 F = r.fn * k.n + r.fs;  // on the wall
@@ -494,10 +507,10 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     P.t[i] -= r.mr + a1 * k.n.cross(r.fs);
     power -= F.dot(W.velocity);
     if (ctx.wall_load) {  // elastic push (the servo's own speed not fed back); a non-finite
-      const real_t push = c.kn * k.un;  // value is left to the guards
+      const real_t push = Model::normal_force(c, k.un);  // value is left to the guards
       if (std::isfinite(push)) {
         ctx.wall_load->add(2 * std::size_t(wl.wall[q]), push);
-        ctx.wall_load->add(2 * std::size_t(wl.wall[q]) + 1, c.kn);
+        ctx.wall_load->add(2 * std::size_t(wl.wall[q]) + 1, Model::normal_stiffness(c, k.un));
       }
     }
     diss.friction += r.e_friction;
@@ -513,32 +526,33 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
         sums->max_overlap_a = P.id[i];
         sums->max_overlap_b = -1 - wl.wall[q];
       }
-      sums->e_normal += spring_energy_normal(c, k.un);
-      sums->e_shear += spring_energy_shear(c, h);
-      if constexpr (Rolling) sums->e_rolling += spring_energy_rolling(c, h);
+      sums->e_normal += Model::energy_normal(c, k.un);
+      sums->e_shear += Model::energy_shear(c, k.un, h.fs);
+      if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(c, k.un, h.mr);
       ++sums->contacts_per_particle[i];
     }
   }
   if (wall_power) *wall_power = power;
 }
 
-template <bool Rolling, bool Viscous, int Measure>
+template <class Model, bool Rolling, bool Viscous, int Measure>
 void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                 WallContactList& wl, Dissipation& diss, ContactSums* sums, real_t* wall_power) {
-  pair_forces<Rolling, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
-  if (wl.size() != 0) wall_forces<Rolling, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
+  pair_forces<Model, Rolling, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
+  if (wl.size() != 0) wall_forces<Model, Rolling, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
   else if (wall_power) *wall_power = 0;
 }
 
 using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&,
                         WallContactList&, Dissipation&, ContactSums*, real_t*);
 
-// Table indexed by rolling * 6 + viscous * 3 + measure (kNone, kVirial, kFull).
+// One table per model, indexed by rolling * 6 + viscous * 3 + measure (kNone, kVirial, kFull).
+template <class Model>
 constexpr std::array<Kernel, 12> kKernels = {
-    all_forces<false, false, kNone>, all_forces<false, false, kVirial>, all_forces<false, false, kFull>,
-    all_forces<false, true, kNone>,  all_forces<false, true, kVirial>,  all_forces<false, true, kFull>,
-    all_forces<true, false, kNone>,  all_forces<true, false, kVirial>,  all_forces<true, false, kFull>,
-    all_forces<true, true, kNone>,   all_forces<true, true, kVirial>,   all_forces<true, true, kFull>,
+    all_forces<Model, false, false, kNone>, all_forces<Model, false, false, kVirial>, all_forces<Model, false, false, kFull>,
+    all_forces<Model, false, true, kNone>,  all_forces<Model, false, true, kVirial>,  all_forces<Model, false, true, kFull>,
+    all_forces<Model, true, false, kNone>,  all_forces<Model, true, false, kVirial>,  all_forces<Model, true, false, kFull>,
+    all_forces<Model, true, true, kNone>,   all_forces<Model, true, true, kVirial>,   all_forces<Model, true, true, kFull>,
 };
 
 }  // namespace
@@ -568,7 +582,10 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
   for (const Wall& w : ctx.walls)
     if (w.own_law) rolling = rolling || w.law.rolling(), viscous = viscous || w.law.viscous();
   const int k = 6 * rolling + 3 * viscous + measure;
-  kKernels[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);
+  // Walls share the scene's model (io/scene.cpp refuses another).
+  with_model(ctx.law.model, [&](auto model) {
+    kKernels<decltype(model)>[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);
+  });
   if (measure == kFull)
     for (std::size_t a = 0; a < p.n_owned(); ++a) sums->sum_particle_force += p.f[a].norm();
 }

@@ -31,3 +31,18 @@ real_t damping_ratio_for_restitution(real_t e);
 real_t shear_damping_ratio_for_restitution(real_t e);
 
 }  // namespace fabrica
+
+namespace fabrica {
+
+// The damped Hertz impact of Hertz-Mindlin (core/contact/hertz_mindlin.hpp) with the no-tension
+// clamp, f = max(0, K u^{3/2} + c(u) u'), c = 2 sqrt(5/6) beta sqrt(m* 3/2 K u^{1/2}). With
+// u = X xi, t = T tau, T = sqrt(m* / K) X^{-1/4} and X chosen so that the approach speed is 1,
+//   xi'' = -xi^{3/2} - sqrt(5) beta xi^{1/4} xi',  xi(0) = 0, xi'(0) = 1,
+// so e depends on beta only (Tsuji et al. 1992), as for the linear dashpot. e is the rebound
+// speed where the force first vanishes (the clamp), integrated with classical Runge-Kutta at
+// d tau = 2e-5 and the vanishing point interpolated (restitution.cpp): to about 1e-9.
+real_t hertz_clamped_restitution(real_t beta);
+// The inverse, for 0 < e <= 1 (bisection to 1e-10 in beta).
+real_t hertz_damping_for_restitution(real_t e);
+
+}  // namespace fabrica

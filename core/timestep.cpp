@@ -3,19 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 namespace fabrica {
 
 namespace {
 real_t damping_factor(real_t beta) { return std::sqrt(1.0 + beta * beta) - beta; }
-}  // namespace
 
-real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls) {
-  return critical_time_step(p, law, walls, p.min_radius(), p.max_radius());
-}
-
-real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls,
-                          real_t rmin, real_t rmax) {
+real_t linear_time_step(const Particles& p, const ContactLawParams& law, bool walls, real_t rmin,
+                        real_t rmax) {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   real_t best = inf;
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
@@ -34,6 +30,30 @@ real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool 
       best = std::min(best, std::sqrt(m / c.ks) * damping_factor(beta_s));
       best = std::min(best, std::sqrt(I / (c.ks * R * R + kr)) * damping_factor(beta_s));
     }
+  }
+  return best;
+}
+}  // namespace
+
+real_t rayleigh_time_step(real_t radius, real_t density, const ContactLawParams& law) {
+  const real_t nu = law.poisson_ratio;
+  const real_t G = law.youngs_modulus / (2.0 * (1.0 + nu));
+  return std::numbers::pi * radius * std::sqrt(density / G) / (0.1631 * nu + 0.8766);
+}
+
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls) {
+  return critical_time_step(p, law, walls, p.min_radius(), p.max_radius());
+}
+
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls,
+                          real_t rmin, real_t rmax) {
+  if (law.model == ContactModel::Linear) return linear_time_step(p, law, walls, rmin, rmax);
+  // Hertz-Mindlin: the Rayleigh time of every sphere of this share (its own density).
+  real_t best = std::numeric_limits<real_t>::infinity();
+  for (std::size_t a = 0; a < p.n_owned(); ++a) {
+    const real_t R = p.radius[a];
+    const real_t rho = p.mass[a] / (4.0 / 3.0 * std::numbers::pi * R * R * R);
+    best = std::min(best, rayleigh_time_step(R, rho, law));
   }
   return best;
 }

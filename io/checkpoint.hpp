@@ -33,9 +33,11 @@ namespace fabrica {
 // Raise the format version with any change of the file's structure. The fields of a section
 // carry their own layout (names and types), so a change of what a section holds is refused by
 // the reader naming the field, in any version.
-inline constexpr std::uint32_t kCheckpointFormat = 7;
+inline constexpr std::uint32_t kCheckpointFormat = 8;
 // The oldest format this build reads: 6 differs from 7 only in its particle records, which
-// carry three values this build derives (io/state_fields.hpp ParticleRecordReader).
+// carry three values this build derives (io/state_fields.hpp ParticleRecordReader); 7 from 8
+// only in the contact law's last two fields (law.model, law.poisson_ratio: io/state_fields.cpp
+// read_law reads a law without them as the linear law).
 inline constexpr std::uint32_t kOldestCheckpointFormat = 6;
 inline constexpr std::size_t kHeaderBytes = 2048;
 

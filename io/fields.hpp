@@ -78,6 +78,11 @@ class FieldReader {
   // For records: reads the next record's values against the schema from its start.
   void rewind_schema() { field_ = 0; }
   std::size_t position() const { return pos_; }
+  // Whether the next field is called 'name' (of any type): for fields a format added, which an
+  // older file lacks.
+  bool next_is(const char* name) const {
+    return field_ < fields_.size() && fields_[field_].rfind(std::string(name) + ":", 0) == 0;
+  }
 
  private:
   void expect(const char* name, const char* type, int n);

@@ -231,6 +231,15 @@ void RunOutput::write_header(const Scene& scene) {
     h5::Dataset s = file_.open_dataset("scene");
     s.set_attr("path", scene.path);
     s.set_attr("unit", std::string("text"));
+    // The scene's contact law as run, one attribute per field of its one list
+    // (core/contact/params.hpp law_fields), and the model by name.
+    struct AttrWriter {
+      const h5::Dataset& d;
+      void field(const char* name, std::uint8_t v) const { d.set_attr(name, std::int64_t(v)); }
+      void field(const char* name, double v) const { d.set_attr(name, v); }
+    } w{s};
+    law_fields(w, scene.law);
+    s.set_attr("law.model_name", std::string(model_name(scene.law.model)));
   }
   file_.create_group("snapshots");
   file_.create_group("series");

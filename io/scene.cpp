@@ -136,14 +136,47 @@ void parse_restitution(Section& s, ContactLawParams& law) {
     if (s.has(k.ratio) || s.has(k.rate))
       s.fail(k.e, number_text(*e, 10), std::string("give ") + k.e + " or " + (s.has(k.ratio) ? k.ratio : k.rate) + ", not both");
     require(s, k.e, *e, *e > 0 && *e <= 1, "must lie in (0, 1] (a coefficient of restitution)");
-    *k.beta = k.normal ? damping_ratio_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
+    if (law.model == ContactModel::HertzMindlin)
+      *k.beta = k.normal ? hertz_damping_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
+    else
+      *k.beta = k.normal ? damping_ratio_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
     *k.eta = 0;
   }
+  // Hertz-Mindlin without restitution_shear nor damping_ratio_shear: the tangential dashpot
+  // has the normal one's beta (LIGGGHTS, Tsuji et al. 1992).
+  if (law.model == ContactModel::HertzMindlin && s.has("restitution_normal") &&
+      !s.has("restitution_shear") && !s.has("damping_ratio_shear"))
+    law.damping_ratio_s = law.damping_ratio_n;
+}
+
+// The keys of one model that another cannot use, refused with the key and the model.
+void refuse_other_model_keys(Section& s, const toml::table* t, const ContactLawParams& law) {
+  if (!t) return;
+  const bool hertz = law.model == ContactModel::HertzMindlin;
+  const char* linear_only[] = {"normal_stiffness", "stiffness_ratio", "damping_rate_normal", "damping_rate_shear"};
+  for (const char* key : linear_only)
+    if (hertz && s.has(key))
+      s.fail(key, Section::node_text(*t->get(key)),
+             "is a parameter of model = \"linear\"; model = \"hertz_mindlin\" takes its stiffness "
+             "from youngs_modulus and poisson_ratio, its dashpots from restitution_normal or damping_ratio_*");
+  if (!hertz && s.has("poisson_ratio"))
+    s.fail("poisson_ratio", Section::node_text(*t->get("poisson_ratio")),
+           "is a parameter of model = \"hertz_mindlin\"; the linear law takes k_n from youngs_modulus or "
+           "normal_stiffness and k_s from stiffness_ratio");
+}
+
+// poisson_ratio of a [contact] or [[wall]] table (Hertz-Mindlin).
+void parse_poisson_ratio(Section& s, ContactLawParams& law) {
+  law.poisson_ratio = s.number("poisson_ratio", law.poisson_ratio);
+  require(s, "poisson_ratio", law.poisson_ratio, law.poisson_ratio > -1 && law.poisson_ratio < 0.5,
+          "must lie in (-1, 0.5) (the Poisson ratio of an isotropic elastic solid)");
 }
 
 // The [contact] keys a [[wall]] table may give to replace the scene's for that wall.
-void parse_wall_law(Section& W, WallSpec& w) {
+void parse_wall_law(Section& W, const toml::table* t, WallSpec& w) {
   ContactLawParams& law = w.law;
+  refuse_other_model_keys(W, t, law);
+  if (law.model == ContactModel::HertzMindlin) parse_poisson_ratio(W, law);
   const auto E = W.number("youngs_modulus"), kn = W.number("normal_stiffness");
   if (E && kn) W.fail("normal_stiffness", number_text(*kn, 10), "give either youngs_modulus or normal_stiffness, not both");
   if (E) {
@@ -171,7 +204,7 @@ void parse_wall_law(Section& W, WallSpec& w) {
     }
   }
   parse_restitution(W, law);
-  for (const char* key : {"youngs_modulus", "normal_stiffness", "stiffness_ratio", "friction",
+  for (const char* key : {"youngs_modulus", "poisson_ratio", "normal_stiffness", "stiffness_ratio", "friction",
                           "rolling_friction", "damping_ratio_normal", "damping_ratio_shear",
                           "restitution_normal", "restitution_shear"})
     w.own_law = w.own_law || W.has(key);
@@ -225,7 +258,7 @@ void parse_walls(const toml::node* node, const std::string& path, Scene& sc) {
         if (W.has(key))
           W.fail(key, Section::node_text(*t->get(key)), "is a setting of the servo: give pressure too");
     }
-    parse_wall_law(W, w);
+    parse_wall_law(W, t, w);
     W.reject_unknown();
     sc.walls.push_back(w);
   }
@@ -396,6 +429,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
 
   Section K(table("contact"), path, "contact");
   ContactLawParams& law = sc.law;
+  if (const auto m = K.string("model")) {
+    if (*m == "linear") law.model = ContactModel::Linear;
+    else if (*m == "hertz_mindlin") law.model = ContactModel::HertzMindlin;
+    else K.fail("model", "\"" + *m + "\"", "must be \"linear\" or \"hertz_mindlin\" (docs/scene.md, \"Contact models\")");
+  }
+  refuse_other_model_keys(K, table("contact"), law);
+  if (law.model == ContactModel::HertzMindlin) parse_poisson_ratio(K, law);
   const auto E = K.number("youngs_modulus");
   const auto kn = K.number("normal_stiffness");
   if (E && kn)

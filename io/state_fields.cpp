@@ -13,24 +13,8 @@ namespace fabrica {
 namespace {
 
 // Each struct's fields, listed once: 'io' is a FieldWriter (with a const struct) or a
-// FieldReader (with a struct to fill), both taking field(name, value).
-template <class Io, class Law>
-void law_fields(Io& io, Law& l) {
-  // The mode as u8: 1 for Direct (k_n given), 0 for Deformability (from E).
-  std::uint8_t direct = l.stiffness_mode == NormalStiffnessMode::Direct ? 1 : 0;
-  io.field("law.stiffness_mode", direct);
-  if constexpr (!std::is_const_v<Law>)
-    l.stiffness_mode = direct ? NormalStiffnessMode::Direct : NormalStiffnessMode::Deformability;
-  io.field("law.youngs_modulus", l.youngs_modulus);
-  io.field("law.normal_stiffness", l.normal_stiffness);
-  io.field("law.stiffness_ratio", l.stiffness_ratio);
-  io.field("law.friction", l.friction);
-  io.field("law.rolling_friction", l.rolling_friction);
-  io.field("law.damping_ratio_n", l.damping_ratio_n);
-  io.field("law.damping_ratio_s", l.damping_ratio_s);
-  io.field("law.damping_rate_n", l.damping_rate_n);
-  io.field("law.damping_rate_s", l.damping_rate_s);
-}
+// FieldReader (with a struct to fill), both taking field(name, value). The law's list is
+// core/contact/params.hpp's law_fields.
 
 template <class Io, class D>
 void dissipation_fields(Io& io, D& d) {
@@ -89,7 +73,11 @@ void macro_fields(Io& io, M& m) {
 void write_law(FieldWriter& w, const ContactLawParams& l) { law_fields(w, l); }
 ContactLawParams read_law(FieldReader& r) {
   ContactLawParams l;
-  law_fields(r, l);
+  // Formats 6 and 7 end the law before law.model: the linear law, the only one then.
+  law_fields(r, l, [](const FieldReader& in) { return in.next_is("law.model"); });
+  if (std::uint8_t(l.model) > std::uint8_t(ContactModel::HertzMindlin))
+    throw InputError("checkpoint field law.model = " + std::to_string(int(l.model)) +
+                     ": not a contact model of this build (a corrupt file or a newer version)");
   return l;
 }
 

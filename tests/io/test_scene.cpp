@@ -2,6 +2,7 @@
 // that names the file, the field and the value.
 #include "io/scene.hpp"
 #include "io/setup.hpp"
+#include "core/restitution.hpp"
 
 #include <gtest/gtest.h>
 
@@ -391,4 +392,24 @@ TEST(Scene, StagesWithWallsOrDrivenParticlesAreRefused) {
                {"[[stage]] and [[wall]] both given"});
   expect_error("[particles]\ncount = 100\n" + stage + "[[driven]]\nids = [1]\n",
                {"[[stage]] and [[driven]] both given"});
+}
+
+// [contact] model (docs/scene.md, "Contact models"): the keys of one model refused with the other.
+TEST(Scene, HertzMindlinModelAndItsKeys) {
+  const Scene s = parse_scene("[contact]\nmodel = \"hertz_mindlin\"\nyoungs_modulus = 7e10\npoisson_ratio = 0.3\n"
+                              "restitution_normal = 0.5\nfriction = 0.4\n", "h.toml");
+  EXPECT_EQ(s.law.model, ContactModel::HertzMindlin);
+  EXPECT_EQ(s.law.youngs_modulus, 7e10);
+  EXPECT_EQ(s.law.poisson_ratio, 0.3);
+  EXPECT_NEAR(hertz_clamped_restitution(s.law.damping_ratio_n), 0.5, 1e-8);
+  EXPECT_EQ(s.law.damping_ratio_s, s.law.damping_ratio_n);  // LIGGGHTS: one beta for both
+  EXPECT_EQ(parse_scene("[contact]\nfriction = 0.4\n", "l.toml").law.model, ContactModel::Linear);
+  expect_error("[contact]\nmodel = \"hertz\"\n", {"[contact]", "model", "\"hertz\"", "hertz_mindlin"});
+  expect_error("[contact]\nmodel = \"hertz_mindlin\"\nnormal_stiffness = 1e5\n",
+               {"[contact]", "normal_stiffness", "100000", "model = \"linear\""});
+  expect_error("[contact]\nmodel = \"hertz_mindlin\"\nstiffness_ratio = 2\n", {"stiffness_ratio", "2"});
+  expect_error("[contact]\nmodel = \"hertz_mindlin\"\ndamping_rate_normal = 20\n", {"damping_rate_normal", "20"});
+  expect_error("[contact]\npoisson_ratio = 0.3\n", {"[contact]", "poisson_ratio", "0.3", "hertz_mindlin"});
+  expect_error("[contact]\nmodel = \"hertz_mindlin\"\npoisson_ratio = 0.5\n", {"poisson_ratio", "0.5", "(-1, 0.5)"});
+  expect_error("[contact]\nmodel = \"hertz_mindlin\"\npoisson_ratio = -1\n", {"poisson_ratio", "-1", "(-1, 0.5)"});
 }

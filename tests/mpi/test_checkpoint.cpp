@@ -19,6 +19,8 @@
 #include "io/setup.hpp"
 #include "parallel/mpi_domain.hpp"
 
+#include "core/timestep.hpp"
+
 #include <gtest/gtest.h>
 #include <mpi.h>
 
@@ -203,6 +205,47 @@ TEST(Checkpoint, BitwiseContinuation) {
   // and the same decomposition at the end as the uninterrupted run
   EXPECT_EQ(domain.decomposition_record().cuts, domain_full.decomposition_record().cuts);
   EXPECT_EQ(domain.decomposition_record().since_check, domain_full.decomposition_record().since_check);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (domain.rank() == 0) std::filesystem::remove(path);
+}
+
+// The same continuation with Hertz-Mindlin contacts (their tangential springs are displacements)
+// and rolling resistance: the law, its model and the springs come back from the file, and the
+// restarted run is the uninterrupted one bit for bit.
+TEST(Checkpoint, HertzMindlinBitwiseContinuation) {
+  fabrica::Setup s = dense_setup();
+  ContactLawParams& law = s.params.law;
+  law.model = ContactModel::HertzMindlin;
+  law.youngs_modulus = 1e9;
+  law.poisson_ratio = 0.2;
+  law.damping_rate_n = law.damping_rate_s = 0;
+  law.damping_ratio_n = 0.1;
+  s.params.dt = 0.25 * critical_time_step(s.particles, law, false);
+  const std::string text = dense_text();
+  Simulation ref(s.particles, s.cell, s.params);
+  deform(ref);
+  run_to(ref, kSteps);
+  const std::string path = checkpoint_path("hertz");
+  {
+    MpiDomain domain(MPI_COMM_WORLD);
+    Simulation first(s.particles, s.cell, s.params, &domain);
+    deform(first);
+    run_to_rebuild(first, kSteps / 2);
+    CheckpointWriter w(MPI_COMM_WORLD, scene_fingerprint(text), "run");
+    w.add_simulation("sim", first);
+    w.write(path);
+  }
+  Checkpoint::Expect ex;
+  ex.scene_text = &text;
+  ex.app = "run";
+  const Checkpoint c = Checkpoint::read(MPI_COMM_WORLD, path, ex);
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
+  EXPECT_EQ(restarted.params().law.model, ContactModel::HertzMindlin);
+  EXPECT_EQ(restarted.params().law.poisson_ratio, 0.2);
+  run_to(restarted, kSteps);
+  expect_same_trajectory(restarted, ref);
+  EXPECT_GT(ref.macro().dissipated.rolling, 0.0);
   MPI_Barrier(MPI_COMM_WORLD);
   if (domain.rank() == 0) std::filesystem::remove(path);
 }

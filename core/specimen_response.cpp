@@ -1,0 +1,48 @@
+#include "core/specimen_response.hpp"
+
+#include "core/contact/models.hpp"
+
+#include <cmath>
+
+namespace fabrica {
+
+namespace {
+template <class Model, bool Viscous>
+void add_response(const Particles& P, const PairList& pl, const PeriodicCell& cell,
+                  const ContactLawParams& law, double* m) {
+  const Vec3& L = cell.lengths();
+  for (std::size_t q = 0; q < pl.size(); ++q) {
+    if (!pl.touching[q] || std::size_t(pl.i[q]) >= P.n_owned()) continue;
+    const Index i = pl.i[q], j = pl.j[q];
+    const Vec3 d = P.x[j] + image_offset(pl.image[q], L) - P.x[i];
+    const real_t d2 = d.squaredNorm();
+    if (d2 == 0) continue;
+    const real_t dist = std::sqrt(d2);
+    const Vec3 n = d / dist;
+    const real_t un = std::max(0.0, P.radius[i] + P.radius[j] - dist);
+    const auto c = Model::template constants<false, Viscous>(law, P.radius[i], P.radius[j], P.mass[i], P.mass[j]);
+    const real_t kn = Model::normal_stiffness(c, un), ks = Model::shear_stiffness(c, un);
+    real_t cn = 0, cs = 0;
+    if constexpr (Viscous) cn = Model::normal_dashpot(c, un), cs = Model::shear_dashpot(c, un);
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l) {
+        const real_t w = d2 * n[k] * n[l];
+        m[3 * k + l] += w * ((kn - ks) * n[k] * n[l] + (k == l ? ks : 0.0));
+        if constexpr (Viscous) m[9 + 3 * k + l] += w * ((cn - cs) * n[k] * n[l] + (k == l ? cs : 0.0));
+      }
+  }
+}
+}  // namespace
+
+void add_specimen_response(const Particles& p, const PairList& pairs, const PeriodicCell& cell,
+                           const ContactLawParams& law, double m[18]) {
+  with_model(law.model, [&](auto model) {
+    using Model = decltype(model);
+    if (law.viscous())
+      add_response<Model, true>(p, pairs, cell, law, m);
+    else
+      add_response<Model, false>(p, pairs, cell, law, m);
+  });
+}
+
+}  // namespace fabrica
