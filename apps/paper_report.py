@@ -67,6 +67,7 @@ def scene_section(run):
         ("diameters", f"{p.get('d_min', '?')} - {p.get('d_max', '?')}", "m"),
         ("fractal dimension D", p.get("fractal_dimension", "?"), ""),
         ("contact model", c.get("model", "linear"), ""),
+        ("rolling resistance model", c.get("rolling_model", "elastic_plastic"), ""),
         ("Young's modulus E", c.get("youngs_modulus", "?"), "Pa"),
         ("mu_s (shear)", run.mu_s, ""),
         ("mu_s (consolidation)", run.consolidation_mu_s, ""),

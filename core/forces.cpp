@@ -53,14 +53,15 @@ constexpr const auto& kTouchBytes = kPackTables.bytes;
 }
 
 // One contact of the model, in the scalar form the wall loop uses.
-template <class Model, bool Rolling, bool Viscous>
+template <class Model, int Roll, bool Viscous>
 ContactResult evaluate_one(const ContactLawParams& law, const typename Model::template Pair<real_t>& c,
                            const ContactKinematics& k, ContactHistory& h, real_t dt) {
+  constexpr bool Rolling = Roll != kNoRolling;
   using simd::from_vec, simd::to_vec;
   const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1), from_vec(k.w2),
                                       k.un_prev};
   ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr)};
-  const ContactResultL<real_t> rl = Model::template evaluate<Rolling, Viscous, real_t>(law, c, kl, hl, dt);
+  const ContactResultL<real_t> rl = Model::template evaluate<Roll, Viscous, real_t>(law, c, kl, hl, dt);
   h.fs = to_vec(hl.fs);
   if constexpr (Rolling) h.mr = to_vec(hl.mr);
   return ContactResult{rl.fn, to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
@@ -100,8 +101,9 @@ bool fetch_all_ahead(std::size_t particles) {
 // that does not measure: the boundary work needs the diagonal of the stress), or everything.
 constexpr int kNone = 0, kVirial = 1, kFull = 2;
 
-template <class Model, bool Rolling, bool Viscous, int Measure>
+template <class Model, int Roll, bool Viscous, int Measure>
 struct PairKernel {
+  static constexpr bool Rolling = Roll != kNoRolling;
   using Pair = typename Model::template Pair<real_t>;
   Particles& P;
   const ForceContext& ctx;
@@ -125,11 +127,11 @@ struct PairKernel {
     const real_t* R = P.radius.data();
     const real_t* m = P.mass.data();
     // The springs' energy at the opening overlap, u_n = 0 (Hertz-Mindlin: none is left).
-    const Pair c = Model::template constants<Rolling, false>(ctx.law, R[i], R[j], m[i], m[j]);
+    const Pair c = Model::template constants<Roll, false>(ctx.law, R[i], R[j], m[i], m[j]);
     const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
     const Index s = pl.slot[q];
     PairList::Work::Opening o{nc, own_i * Model::energy_shear(c, 0.0, pl.spring_fs[s]), 0.0};
-    if constexpr (Rolling) o.e_rolling = own_i * Model::energy_rolling(c, 0.0, pl.spring_mr[s]);
+    if constexpr (Rolling) o.e_rolling = own_i * Model::energy_rolling(ctx.law, c, 0.0, pl.spring_mr[s]);
     pl.give_slot(q);
     pl.work.openings.push_back(o);
   }
@@ -330,11 +332,11 @@ struct PairKernel {
     // The model's constants of two spheres, lane by lane.
     T mi{}, mj{};
     if constexpr (Viscous) mi = gather<T>(P.mass.data(), ci), mj = gather<T>(P.mass.data(), cj);
-    const auto pc = Model::template pair<Rolling, Viscous, T>(law, Ri, Rj, rmin, sum_r, mi, mj);
+    const auto pc = Model::template pair<Roll, Viscous, T>(law, Ri, Rj, rmin, sum_r, mi, mj);
     ContactHistoryL<T> h;
     h.fs = gather3<T>(pl.spring_fs.data(), cs);
     if constexpr (Rolling) h.mr = gather3<T>(pl.spring_mr.data(), cs);
-    const ContactResultL<T> r = Model::template evaluate<Rolling, Viscous, T>(law, pc, k, h, dt);
+    const ContactResultL<T> r = Model::template evaluate<Roll, Viscous, T>(law, pc, k, h, dt);
     scatter3(pl.spring_fs.data(), cs, h.fs);
     if constexpr (Rolling) scatter3(pl.spring_mr.data(), cs, h.mr);
 
@@ -391,7 +393,7 @@ struct PairKernel {
           sums->rolling += lane(r.rolling, l);
           sums->e_normal += Model::energy_normal(cl, un);
           sums->e_shear += Model::energy_shear(cl, un, lane(h.fs, l));
-          if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(cl, un, lane(h.mr, l));
+          if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(law, cl, un, lane(h.mr, l));
           sums->sum_contact_force += Fl.norm();
           ++sums->contacts_per_particle[i];
           sums->sum_overlap += un;
@@ -442,10 +444,10 @@ struct PairKernel {
   }
 };
 
-template <class Model, bool Rolling, bool Viscous, int Measure>
+template <class Model, int Roll, bool Viscous, int Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                  Dissipation& diss, ContactSums* sums) {
-  PairKernel<Model, Rolling, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
+  PairKernel<Model, Roll, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
   for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
   K.fetch_all = ctx.fetch_ahead < 0 ? fetch_all_ahead(P.size()) : ctx.fetch_ahead > 0;
   if constexpr (Model::kPreviousOverlap)
@@ -458,9 +460,10 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
 
 // Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
 // law or the scene's.
-template <class Model, bool Rolling, bool Viscous, int Measure>
+template <class Model, int Roll, bool Viscous, int Measure>
 void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss,
                  ContactSums* sums, real_t* wall_power) {
+  constexpr bool Rolling = Roll != kNoRolling;
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   real_t power = 0;
   for (std::size_t q = 0; q < wl.size(); ++q) {
@@ -472,11 +475,11 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     if (dist >= R) {
       if (wl.touching[q]) {  // the contact opens: the energy left in its springs is lost
         wl.touching[q] = 0;
-        const auto c = Model::template constants<Rolling, false>(law, R, inf, P.mass[i], inf);
+        const auto c = Model::template constants<Roll, false>(law, R, inf, P.mass[i], inf);
         diss.friction += Model::energy_shear(c, 0.0, wl.fs[q]);
         wl.fs[q].setZero();
         if constexpr (Rolling) {
-          diss.rolling += Model::energy_rolling(c, 0.0, wl.mr[q]);
+          diss.rolling += Model::energy_rolling(law, c, 0.0, wl.mr[q]);
           wl.mr[q].setZero();
         }
       }
@@ -495,11 +498,11 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     // Before this step's drift the sphere was v dt and the plane W.velocity dt back (walls stand
     // in a cell at rest).
     if constexpr (Model::kPreviousOverlap) k.un_prev = k.un + (P.v[i] - W.velocity).dot(W.normal) * ctx.dt;
-    const auto c = Model::template constants<Rolling, Viscous>(law, R, inf, P.mass[i], inf);
+    const auto c = Model::template constants<Roll, Viscous>(law, R, inf, P.mass[i], inf);
     ContactHistory h;
     h.fs = wl.fs[q];
     if constexpr (Rolling) h.mr = wl.mr[q];
-    const ContactResult r = evaluate_one<Model, Rolling, Viscous>(law, c, k, h, ctx.dt);
+    const ContactResult r = evaluate_one<Model, Roll, Viscous>(law, c, k, h, ctx.dt);
     wl.fs[q] = h.fs;
     if constexpr (Rolling) wl.mr[q] = h.mr;
     const Vec3 F = r.fn * k.n + r.fs;  // on the wall
@@ -528,32 +531,35 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
       }
       sums->e_normal += Model::energy_normal(c, k.un);
       sums->e_shear += Model::energy_shear(c, k.un, h.fs);
-      if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(c, k.un, h.mr);
+      if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(law, c, k.un, h.mr);
       ++sums->contacts_per_particle[i];
     }
   }
   if (wall_power) *wall_power = power;
 }
 
-template <class Model, bool Rolling, bool Viscous, int Measure>
+template <class Model, int Roll, bool Viscous, int Measure>
 void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                 WallContactList& wl, Dissipation& diss, ContactSums* sums, real_t* wall_power) {
-  pair_forces<Model, Rolling, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
-  if (wl.size() != 0) wall_forces<Model, Rolling, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
+  pair_forces<Model, Roll, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
+  if (wl.size() != 0) wall_forces<Model, Roll, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
   else if (wall_power) *wall_power = 0;
 }
 
 using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&,
                         WallContactList&, Dissipation&, ContactSums*, real_t*);
 
-// One table per model, indexed by rolling * 6 + viscous * 3 + measure (kNone, kVirial, kFull).
-template <class Model>
-constexpr std::array<Kernel, 12> kKernels = {
-    all_forces<Model, false, false, kNone>, all_forces<Model, false, false, kVirial>, all_forces<Model, false, false, kFull>,
-    all_forces<Model, false, true, kNone>,  all_forces<Model, false, true, kVirial>,  all_forces<Model, false, true, kFull>,
-    all_forces<Model, true, false, kNone>,  all_forces<Model, true, false, kVirial>,  all_forces<Model, true, false, kFull>,
-    all_forces<Model, true, true, kNone>,   all_forces<Model, true, true, kVirial>,   all_forces<Model, true, true, kFull>,
+// One table per model, indexed by roll * 6 + viscous * 3 + measure (roll: kNoRolling or a
+// rolling model, core/contact/rolling.hpp; measure: kNone, kVirial, kFull).
+template <class Model, int Roll>
+constexpr std::array<Kernel, 6> kRollKernels = {
+    all_forces<Model, Roll, false, kNone>, all_forces<Model, Roll, false, kVirial>, all_forces<Model, Roll, false, kFull>,
+    all_forces<Model, Roll, true, kNone>,  all_forces<Model, Roll, true, kVirial>,  all_forces<Model, Roll, true, kFull>,
 };
+template <class Model>
+constexpr std::array<const std::array<Kernel, 6>*, 4> kKernels = {
+    &kRollKernels<Model, kNoRolling>, &kRollKernels<Model, kElasticPlastic>, &kRollKernels<Model, kEpsd>,
+    &kRollKernels<Model, kConstantTorque>};
 
 }  // namespace
 
@@ -578,13 +584,16 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
   }
   // A wall's own law may need rolling resistance or dashpots that the scene's does not: the
   // pair loop then runs with them at the scene's zero values (mu_r = 0: no rolling moment).
+  // Walls share the scene's rolling model (io/scene.cpp).
   bool rolling = ctx.law.rolling(), viscous = ctx.law.viscous();
   for (const Wall& w : ctx.walls)
     if (w.own_law) rolling = rolling || w.law.rolling(), viscous = viscous || w.law.viscous();
-  const int k = 6 * rolling + 3 * viscous + measure;
+  const int roll = rolling ? 1 + int(ctx.law.rolling_model) : kNoRolling;
+  const int k = 3 * viscous + measure;
   // Walls share the scene's model (io/scene.cpp refuses another).
   with_model(ctx.law.model, [&](auto model) {
-    kKernels<decltype(model)>[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);
+    (*kKernels<decltype(model)>[std::size_t(roll)])[std::size_t(k)](p, cell, ctx, pairs, wall_contacts, diss, sums,
+                                                                   wall_power);
   });
   if (measure == kFull)
     for (std::size_t a = 0; a < p.n_owned(); ++a) sums->sum_particle_force += p.f[a].norm();

@@ -36,8 +36,9 @@ namespace fabrica {
 inline constexpr std::uint32_t kCheckpointFormat = 8;
 // The oldest format this build reads: 6 differs from 7 only in its particle records, which
 // carry three values this build derives (io/state_fields.hpp ParticleRecordReader); 7 from 8
-// only in the contact law's last two fields (law.model, law.poisson_ratio: io/state_fields.cpp
-// read_law reads a law without them as the linear law).
+// only in the contact law's last four fields (law.model, law.poisson_ratio, law.rolling_model,
+// law.rolling_damping: io/state_fields.cpp read_law reads a law without them as the linear law
+// with the elastic-plastic rolling spring).
 inline constexpr std::uint32_t kOldestCheckpointFormat = 6;
 inline constexpr std::size_t kHeaderBytes = 2048;
 

@@ -240,6 +240,7 @@ void RunOutput::write_header(const Scene& scene) {
     } w{s};
     law_fields(w, scene.law);
     s.set_attr("law.model_name", std::string(model_name(scene.law.model)));
+    s.set_attr("law.rolling_model_name", std::string(rolling_model_name(scene.law.rolling_model)));
   }
   file_.create_group("snapshots");
   file_.create_group("series");

@@ -454,6 +454,19 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(K, "friction", law.friction, law.friction >= 0, "must be >= 0");
   law.rolling_friction = K.number("rolling_friction", law.rolling_friction);
   require(K, "rolling_friction", law.rolling_friction, law.rolling_friction >= 0, "must be >= 0");
+  if (const auto m = K.string("rolling_model")) {
+    if (*m == "elastic_plastic") law.rolling_model = RollingModel::ElasticPlastic;
+    else if (*m == "epsd") law.rolling_model = RollingModel::Epsd;
+    else if (*m == "constant_torque") law.rolling_model = RollingModel::ConstantTorque;
+    else K.fail("rolling_model", "\"" + *m + "\"",
+                "must be \"elastic_plastic\", \"epsd\" or \"constant_torque\" (docs/scene.md, \"Rolling resistance models\")");
+  }
+  if (const auto eta = K.number("rolling_damping")) {
+    if (law.rolling_model != RollingModel::Epsd)
+      K.fail("rolling_damping", number_text(*eta, 10), "is the dashpot of rolling_model = \"epsd\" only");
+    require(K, "rolling_damping", *eta, *eta >= 0 && *eta < 1, "must lie in [0, 1) (a fraction of the critical rolling damping)");
+    law.rolling_damping = *eta;
+  }
   const auto bn = K.number("damping_ratio_normal"), bs = K.number("damping_ratio_shear");
   const auto en = K.number("damping_rate_normal"), es = K.number("damping_rate_shear");
   if (bn && en) K.fail("damping_rate_normal", number_text(*en, 10), "give damping_ratio_normal or damping_rate_normal, not both");

@@ -78,6 +78,9 @@ ContactLawParams read_law(FieldReader& r) {
   if (std::uint8_t(l.model) > std::uint8_t(ContactModel::HertzMindlin))
     throw InputError("checkpoint field law.model = " + std::to_string(int(l.model)) +
                      ": not a contact model of this build (a corrupt file or a newer version)");
+  if (std::uint8_t(l.rolling_model) > std::uint8_t(RollingModel::ConstantTorque))
+    throw InputError("checkpoint field law.rolling_model = " + std::to_string(int(l.rolling_model)) +
+                     ": not a rolling model of this build (a corrupt file or a newer version)");
   return l;
 }
 

@@ -12,7 +12,8 @@
 //   k_n = df_n/du_n = 2 E* sqrt(R* u_n),   k_t = 8 G* sqrt(R* u_n)                        [N/m]
 //   c_n = 2 sqrt(5/6) beta_n sqrt(m* k_n),  c_t = 2 sqrt(5/6) beta_s sqrt(m* k_t)        [N s/m]
 //   f_t <- s rot(f_t) - k_t du_t,  |f_t| <= mu_s f_n,el                                     [N]
-//   k_r = k_t Rbar^2 (Rbar = R*), m_r <- s rot(m_r) - k_r dtheta_r, |m_r| <= mu_r Rbar f_n,el
+//   the rolling resistance of core/contact/rolling.hpp with k_n, k_t above (elastic_plastic:
+//   k_r = k_t Rbar^2, Rbar = R*), its stored moment scaled as f_t: m_r <- s rot(m_r) - k_r dtheta_r
 //
 // The tangential spring is Mindlin's no-slip spring in incremental form, stored as a force
 // (ContactHistory::fs, as the linear law's): each increment is taken at the current stiffness
@@ -35,6 +36,7 @@
 // clamp (docs/verification.md); without restitution_shear, beta_s = beta_n (LIGGGHTS).
 #pragma once
 #include "core/contact/lanes.hpp"
+#include "core/contact/rolling.hpp"
 #include "core/contact/params.hpp"
 
 #include <cmath>
@@ -49,6 +51,7 @@ template <class T> struct HertzPairL {
   T dn;    // 2 sqrt(5/6) beta_n sqrt(m*): c_n = dn sqrt(k_n) [kg^0.5]
   T ds;    // 2 sqrt(5/6) beta_s sqrt(m*)
   T rbar;  // R* [m] (with rolling resistance)
+  T ir;    // I_r of the epsd rolling dashpot [kg m^2] (epsd with dashpots only)
 };
 
 struct HertzMindlin {
@@ -67,7 +70,7 @@ struct HertzMindlin {
   }
   static constexpr real_t kTsuji = 1.8257418583505538;  // 2 sqrt(5/6)
 
-  template <bool Rolling, bool Viscous, class T>
+  template <int Roll, bool Viscous, class T>
   [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj,
                                              const T&, const T& sum_r, const T& mi, const T& mj) {
     Pair<T> c;
@@ -75,33 +78,40 @@ struct HertzMindlin {
     const T sr = simd::sqrt(rstar);
     c.kn0 = (2.0 * effective_modulus(law)) * sr;
     c.kt0 = (8.0 * effective_shear_modulus(law)) * sr;
-    c.dn = c.ds = c.rbar = T{};
-    if constexpr (Rolling) c.rbar = rstar;
+    c.dn = c.ds = c.rbar = c.ir = T{};
+    if constexpr (Roll != kNoRolling) c.rbar = rstar;
     if constexpr (Viscous) {
       const T sm = simd::sqrt(mi * mj / (mi + mj));
       c.dn = (kTsuji * law.damping_ratio_n) * sm;
       c.ds = (kTsuji * law.damping_ratio_s) * sm;
+      if constexpr (Roll == kEpsd) c.ir = rolling_inertia(mi, Ri, mj, Rj);
     }
     return c;
   }
-  template <bool Rolling, bool Viscous>
+  template <int Roll, bool Viscous>
   static Pair<real_t> constants(const ContactLawParams& law, real_t R1, real_t R2, real_t m1, real_t m2) {
-    if (!std::isinf(R2)) return pair<Rolling, Viscous, real_t>(law, R1, R2, std::min(R1, R2), R1 + R2, m1, m2);
+    if (!std::isinf(R2)) return pair<Roll, Viscous, real_t>(law, R1, R2, std::min(R1, R2), R1 + R2, m1, m2);
     Pair<real_t> c;  // a wall: R* = R1, m* = m1
     const real_t sr = std::sqrt(R1);
     c.kn0 = (2.0 * effective_modulus(law)) * sr;
     c.kt0 = (8.0 * effective_shear_modulus(law)) * sr;
-    c.rbar = Rolling ? R1 : 0.0;
+    c.rbar = Roll != kNoRolling ? R1 : 0.0;
     c.dn = Viscous ? (kTsuji * law.damping_ratio_n) * std::sqrt(m1) : 0.0;
     c.ds = Viscous ? (kTsuji * law.damping_ratio_s) * std::sqrt(m1) : 0.0;
+    c.ir = Roll == kEpsd && Viscous ? rolling_inertia_wall(m1, R1) : 0.0;
     return c;
   }
   static Pair<real_t> lane(const Pair<simd::d4>& c, int l) {
-    return {c.kn0[l], c.kt0[l], c.dn[l], c.ds[l], c.rbar[l]};
+    return {c.kn0[l], c.kt0[l], c.dn[l], c.ds[l], c.rbar[l], c.ir[l]};
+  }
+  // k_r / k_t of the rolling model (a constant of the pair: both stiffnesses grow as sqrt(u_n)).
+  template <int Roll, class T>
+  static T rolling_per_shear(const ContactLawParams& law, const Pair<T>& c) {
+    return rolling_stiffness<Roll>(law, c.kn0, c.kt0, c.rbar) / c.kt0;
   }
   static Pair<real_t> lane(const Pair<real_t>& c, int) { return c; }
 
-  template <bool Rolling, bool Viscous, class T>
+  template <int Roll, bool Viscous, class T>
   [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
                                                            const ContactKinematicsL<T>& k,
                                                            ContactHistoryL<T>& h, real_t dt) {
@@ -140,7 +150,7 @@ struct HertzMindlin {
     const T ktp_safe = select(was, ktp, T{} + 1.0), kt_safe = select(kt > 0.0, kt, T{} + 1.0);
     const T sc = select(unload, kt / ktp_safe, T{} + 1.0);
     // The energy a spring of stiffness k_prev (k now) and squared length f2 loses.
-    auto lost = [&](const T& f2, const T& r2) {  // r2 = Rbar^2 for the rolling spring, else 1
+    auto lost = [&](const T& f2, const T& r2) {  // r2 = k_r / k_t for the rolling spring, else 1
       const T before = select(was, 0.5 * f2 / (ktp_safe * r2), T{});
       const T after = select(unload, 0.5 * f2 * kt / (ktp_safe * ktp_safe * r2),
                              select(kt > 0.0, 0.5 * f2 / (kt_safe * r2), T{}));
@@ -160,16 +170,18 @@ struct HertzMindlin {
       r.e_viscous = select(capped, r.e_viscous, r.e_viscous + ct * squared_norm(vt) * dt);
     }
 
-    if constexpr (Rolling) {
-      // k_r from the current k_t, the stored moment scaled as the shear spring; at u_n = 0 (a
-      // contact that touches to rounding) k_r = 0 and the cap is 0: the floor keeps the slip's
-      // energy finite there.
-      const T r2 = c.rbar * c.rbar;
-      const T e_lost = lost(squared_norm(h.mr), r2);
+    if constexpr (Roll == kConstantTorque) {
+      rolling_l<Roll, Viscous>(law, T{}, T{}, c.rbar, fn_el, k, h, twist, dt, r);
+    } else if constexpr (Roll != kNoRolling) {
+      // k_r from the current stiffnesses, the stored moment scaled as the shear spring; at
+      // u_n = 0 (a contact that touches to rounding) k_r = 0 and the cap is 0: the floor keeps
+      // the slip's energy finite there.
+      const T q = rolling_per_shear<Roll>(law, c);
+      const T e_lost = lost(squared_norm(h.mr), q);
       h.mr = h.mr * sc;
-      const T kr = kt * r2;
+      const T kr = kt * q;
       const T kr_safe = select(kr > 0.0, kr, T{} + std::numeric_limits<real_t>::min());
-      rolling_spring_l(law.rolling_friction, kr_safe, c.rbar, fn_el, k, h, twist, dt, r);
+      rolling_l<Roll, Viscous>(law, kr_safe, c.ir, c.rbar, fn_el, k, h, twist, dt, r);
       r.e_rolling = r.e_rolling + e_lost;
     } else {
       r.rolling = all_true<T>();
@@ -197,8 +209,11 @@ struct HertzMindlin {
     const real_t kt = shear_stiffness(c, un);
     return kt > 0 ? 0.5 * stored.squaredNorm() / kt : 0.0;
   }
-  static real_t energy_rolling(const Pair<real_t>& c, real_t un, const Vec3& mr) {
-    const real_t kr = shear_stiffness(c, un) * c.rbar * c.rbar;
+  static real_t energy_rolling(const ContactLawParams& law, const Pair<real_t>& c, real_t un, const Vec3& mr) {
+    real_t q = 0;  // k_r / k_t; the constant torque stores no energy
+    if (law.rolling_model == RollingModel::ElasticPlastic) q = rolling_per_shear<kElasticPlastic>(law, c);
+    if (law.rolling_model == RollingModel::Epsd) q = rolling_per_shear<kEpsd>(law, c);
+    const real_t kr = shear_stiffness(c, un) * q;
     return kr > 0 ? 0.5 * mr.squaredNorm() / kr : 0.0;
   }
 };

@@ -115,33 +115,4 @@ template <class T>
   return capped;
 }
 
-// The elastic-plastic rolling spring (Iwashita & Oda 1998; Jiang, Yu & Harris 2005; Ai et al.
-// 2011 type C; PFC rrlinear), the same for every normal model: the bending part of the
-// relative rotation loads m_r <- rot(m_r) - k_r dtheta_r, capped at mu_r Rbar f_n (f_n the
-// elastic normal force), the energy of the rolling slip booked in r.e_rolling. 'twist' is the
-// angle the stored moment is turned by with the contact plane.
-template <class T>
-[[gnu::always_inline]] inline void rolling_spring_l(real_t mu_r, const T& kr, const T& rbar, const T& fn_el,
-                                                    const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
-                                                    const T& twist, real_t dt, ContactResultL<T>& r) {
-  using namespace simd;
-  const V3<T>& n = k.n;
-  const V3<T> mr_rot = carry_with_plane(h.mr, n, twist);
-  V3<T> dth = (k.w2 - k.w1) * dt;
-  dth = dth - dot(dth, n) * n;
-  V3<T> mr = mr_rot - kr * dth;
-  const T rcap = mu_r * rbar * fn_el;
-  const T mr2 = squared_norm(mr);
-  r.rolling = at_limit_l(mr2, rcap);  // as for sliding
-  const mask_t<T> rcapped = mr2 > rcap * rcap;
-  if (any(rcapped)) {
-    const V3<T> mr_cap = mr * (rcap / simd::sqrt(mr2));
-    const V3<T> slip = dth + (mr_cap - mr_rot) / kr;
-    r.e_rolling = select(rcapped, -0.5 * dot(mr_rot + mr_cap, slip), r.e_rolling);
-    mr = select(rcapped, mr_cap, mr);
-  }
-  h.mr = mr;
-  r.mr = mr;
-}
-
 }  // namespace fabrica

@@ -22,6 +22,7 @@
 // viscous damping are template switches so that a kernel built without them contains none of it.
 #pragma once
 #include "core/contact/lanes.hpp"
+#include "core/contact/rolling.hpp"
 #include "core/contact/params.hpp"
 
 #include <algorithm>
@@ -67,12 +68,14 @@ inline PairConstants pair_constants(const ContactLawParams& p, real_t R1, real_t
 
 template <class T> struct PairConstantsL {
   T kn, ks, kr, cn, cs, rbar;
+  T ir{};  // I_r of the epsd rolling dashpot [kg m^2] (epsd with dashpots only)
 };
 
 // Inlined into the pair loop: returned through memory, the result of four lanes (some 450
 // bytes) and the arguments cost a store and a load each (benchmarks/README.md). Under
 // -ffp-contract=off inlining changes no bit.
-template <bool Rolling, bool Viscous, class T>
+// Roll: the rolling model (core/contact/rolling.hpp; true = elastic-plastic, false = none).
+template <int Roll, bool Viscous, class T>
 [[gnu::always_inline]] inline ContactResultL<T> contact_law_l(const ContactLawParams& p, const PairConstantsL<T>& c,
                                        const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
                                        real_t dt) {
@@ -106,8 +109,8 @@ template <bool Rolling, bool Viscous, class T>
     r.e_viscous = select(capped, r.e_viscous, r.e_viscous + c.cs * squared_norm(vt) * dt);
   }
 
-  if constexpr (Rolling) {
-    rolling_spring_l(p.rolling_friction, c.kr, c.rbar, fn_el, k, h, twist, dt, r);
+  if constexpr (Roll != kNoRolling) {
+    rolling_l<Roll, Viscous>(p, c.kr, c.ir, c.rbar, fn_el, k, h, twist, dt, r);
   } else {
     r.rolling = all_true<T>();  // no resistance: every contact rolls freely (spec section 5)
     r.mr = zero3<T>();
@@ -116,17 +119,17 @@ template <bool Rolling, bool Viscous, class T>
 }
 
 // One contact, in the form the tests use.
-template <bool Rolling, bool Viscous>
+template <int Roll, bool Viscous>
 inline ContactResult contact_law(const ContactLawParams& p, const PairConstants& c,
                                  const ContactKinematics& k, ContactHistory& h, real_t dt) {
   using simd::from_vec, simd::to_vec;
-  const PairConstantsL<real_t> cl{c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar};
+  const PairConstantsL<real_t> cl{c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar, 0.0};
   const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1),
                                       from_vec(k.w2), k.un_prev};
   ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr)};
-  const ContactResultL<real_t> rl = contact_law_l<Rolling, Viscous>(p, cl, kl, hl, dt);
+  const ContactResultL<real_t> rl = contact_law_l<Roll, Viscous>(p, cl, kl, hl, dt);
   h.fs = to_vec(hl.fs);
-  if constexpr (Rolling) h.mr = to_vec(hl.mr);
+  if constexpr (Roll != kNoRolling) h.mr = to_vec(hl.mr);
   return ContactResult{rl.fn, to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
                        rl.e_friction, rl.e_rolling, rl.e_viscous};
 }
@@ -149,7 +152,7 @@ struct LinearRolling {
 
   // Two spheres, lane by lane (rmin = min(Ri, Rj), sum_r = Ri + Rj; mi, mj only if Viscous):
   // the operations of pair_constants, so that both give the same bits.
-  template <bool Rolling, bool Viscous, class T>
+  template <int Roll, bool Viscous, class T>
   [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj,
                                              const T& rmin, const T& sum_r, const T& mi, const T& mj) {
     Pair<T> pc;
@@ -160,33 +163,39 @@ struct LinearRolling {
     }
     pc.ks = pc.kn / law.stiffness_ratio;
     pc.kr = pc.cn = pc.cs = pc.rbar = T{};
-    if constexpr (Rolling) {
+    pc.ir = T{};
+    if constexpr (Roll != kNoRolling) {
       pc.rbar = Ri * Rj / sum_r;
-      pc.kr = pc.ks * pc.rbar * pc.rbar;
+      pc.kr = rolling_stiffness<Roll>(law, pc.kn, pc.ks, pc.rbar);
     }
     if constexpr (Viscous) {
       const T meff = mi * mj / (mi + mj);
       pc.cn = law.damping_rate_n * meff + 2.0 * law.damping_ratio_n * simd::sqrt(meff * pc.kn);
       pc.cs = law.damping_rate_s * meff + 2.0 * law.damping_ratio_s * simd::sqrt(meff * pc.ks);
+      if constexpr (Roll == kEpsd) pc.ir = rolling_inertia(mi, Ri, mj, Rj);
     }
     return pc;
   }
   // One contact; body 2 a wall when R2 = m2 = infinity.
-  template <bool Rolling, bool Viscous>
+  template <int Roll, bool Viscous>
   static Pair<real_t> constants(const ContactLawParams& law, real_t R1, real_t R2, real_t m1, real_t m2) {
-    const PairConstants c = pair_constants<Rolling, Viscous>(law, R1, R2, m1, m2);
-    return {c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar};
+    const PairConstants c = pair_constants<Roll != kNoRolling, Viscous>(law, R1, R2, m1, m2);
+    Pair<real_t> p{c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar, 0.0};
+    if constexpr (Roll != kNoRolling && Roll != kElasticPlastic) p.kr = rolling_stiffness<Roll>(law, p.kn, p.ks, p.rbar);
+    if constexpr (Roll == kEpsd && Viscous)
+      p.ir = std::isinf(m2) ? rolling_inertia_wall(m1, R1) : rolling_inertia(m1, R1, m2, R2);
+    return p;
   }
   static Pair<real_t> lane(const Pair<simd::d4>& c, int l) {
-    return {c.kn[l], c.ks[l], c.kr[l], c.cn[l], c.cs[l], c.rbar[l]};
+    return {c.kn[l], c.ks[l], c.kr[l], c.cn[l], c.cs[l], c.rbar[l], c.ir[l]};
   }
   static Pair<real_t> lane(const Pair<real_t>& c, int) { return c; }
 
-  template <bool Rolling, bool Viscous, class T>
+  template <int Roll, bool Viscous, class T>
   [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
                                                            const ContactKinematicsL<T>& k,
                                                            ContactHistoryL<T>& h, real_t dt) {
-    return contact_law_l<Rolling, Viscous>(law, c, k, h, dt);
+    return contact_law_l<Roll, Viscous>(law, c, k, h, dt);
   }
 
   // The state of one contact of overlap un with stored springs h.
@@ -205,7 +214,8 @@ struct LinearRolling {
   static real_t energy_shear(const Pair<real_t>& c, real_t, const Vec3& stored) {
     return 0.5 * stored.squaredNorm() / c.ks;
   }
-  static real_t energy_rolling(const Pair<real_t>& c, real_t, const Vec3& mr) {
+  // c.kr is that of the pair's rolling model (0 for the constant torque: no spring).
+  static real_t energy_rolling(const ContactLawParams&, const Pair<real_t>& c, real_t, const Vec3& mr) {
     return c.kr > 0 ? 0.5 * mr.squaredNorm() / c.kr : 0.0;
   }
 };

@@ -413,3 +413,17 @@ TEST(Scene, HertzMindlinModelAndItsKeys) {
   expect_error("[contact]\nmodel = \"hertz_mindlin\"\npoisson_ratio = 0.5\n", {"poisson_ratio", "0.5", "(-1, 0.5)"});
   expect_error("[contact]\nmodel = \"hertz_mindlin\"\npoisson_ratio = -1\n", {"poisson_ratio", "-1", "(-1, 0.5)"});
 }
+
+// [contact] rolling_model and rolling_damping (docs/scene.md, "Rolling resistance models").
+TEST(Scene, RollingModelsAndTheirKeys) {
+  const Scene s = parse_scene("[contact]\nrolling_friction = 0.1\nrolling_model = \"epsd\"\nrolling_damping = 0.3\n", "r.toml");
+  EXPECT_EQ(s.law.rolling_model, RollingModel::Epsd);
+  EXPECT_EQ(s.law.rolling_damping, 0.3);
+  EXPECT_TRUE(s.law.viscous());  // the rolling dashpot needs the masses
+  EXPECT_EQ(parse_scene("[contact]\nrolling_model = \"constant_torque\"\n", "c.toml").law.rolling_model,
+            RollingModel::ConstantTorque);
+  EXPECT_EQ(parse_scene("[contact]\n", "d.toml").law.rolling_model, RollingModel::ElasticPlastic);
+  expect_error("[contact]\nrolling_model = \"epsd2\"\n", {"[contact]", "rolling_model", "\"epsd2\"", "constant_torque"});
+  expect_error("[contact]\nrolling_damping = 0.3\n", {"[contact]", "rolling_damping", "0.3", "epsd"});
+  expect_error("[contact]\nrolling_model = \"epsd\"\nrolling_damping = 1.2\n", {"rolling_damping", "1.2", "[0, 1)"});
+}

@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <cstdio>
 #include <numbers>
 #include <random>
@@ -54,7 +55,7 @@ void law_lanes_case(const char* label) {
       const real_t scale = std::pow(10.0, 2 * u(g));  // from deep stick to sliding
       k1[l] = {simd::from_vec(n), un, simd::from_vec(0.1 * scale * Vec3(u(g), u(g), u(g))),
                simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g))),
-               simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g)))};
+               simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g))), un};
       const bool zero = (g() & 3) == 0;
       const real_t fcap = p.friction * c.kn * un;
       const Vec3 fs = zero ? Vec3::Zero() : Vec3(fcap * 1.2 * Vec3(u(g), u(g), u(g)));
@@ -69,10 +70,11 @@ void law_lanes_case(const char* label) {
     };
     const PairConstantsL<d4> c4{pack([&](int l) { return c1[l].kn; }), pack([&](int l) { return c1[l].ks; }),
                                 pack([&](int l) { return c1[l].kr; }), pack([&](int l) { return c1[l].cn; }),
-                                pack([&](int l) { return c1[l].cs; }), pack([&](int l) { return c1[l].rbar; })};
+                                pack([&](int l) { return c1[l].cs; }), pack([&](int l) { return c1[l].rbar; }),
+                                pack([&](int l) { return c1[l].ir; })};
     const ContactKinematicsL<d4> k4{pack3([&](int l) { return k1[l].n; }), pack([&](int l) { return k1[l].un; }),
                                     pack3([&](int l) { return k1[l].vrel; }), pack3([&](int l) { return k1[l].w1; }),
-                                    pack3([&](int l) { return k1[l].w2; })};
+                                    pack3([&](int l) { return k1[l].w2; }), pack([&](int l) { return k1[l].un_prev; })};
     ContactHistoryL<d4> h4{pack3([&](int l) { return h1[l].fs; }), pack3([&](int l) { return h1[l].mr; })};
     const ContactResultL<d4> r4 = contact_law_l<Rolling, Viscous>(p, c4, k4, h4, dt);
     for (int l = 0; l < 4; ++l) {
@@ -237,6 +239,29 @@ TEST(ForcesSimd, RunBitwiseDirectStiffness) {
   ContactLawParams law = test::direct_law(2e5, 0.4, 0.05, 1.25);
   law.damping_rate_n = 50.0;
   run_case(law, "direct stiffness, rolling, mass-proportional dashpot");
+}
+
+// Each contact and rolling model through the same loop, 1 and 4 lanes bitwise (the model's one
+// lane-generic source, core/contact/): the rolling models with the linear law and dashpots, and
+// Hertz-Mindlin (whose kernel also computes the previous overlap) with each rolling model.
+TEST(ForcesSimd, RunBitwiseEveryModel) {
+  for (RollingModel rm : {RollingModel::Epsd, RollingModel::ConstantTorque}) {
+    ContactLawParams law = law_of(true, true);
+    law.rolling_model = rm;
+    law.rolling_damping = 0.3;
+    run_case(law, rolling_model_name(rm));
+  }
+  for (RollingModel rm : {RollingModel::ElasticPlastic, RollingModel::Epsd, RollingModel::ConstantTorque}) {
+    ContactLawParams law = law_of(true, true);
+    law.model = ContactModel::HertzMindlin;
+    law.youngs_modulus = 1e8;
+    law.poisson_ratio = 0.3;
+    law.damping_rate_n = law.damping_rate_s = 0;
+    law.damping_ratio_n = law.damping_ratio_s = 0.1;
+    law.rolling_model = rm;
+    law.rolling_damping = 0.3;
+    run_case(law, (std::string("Hertz-Mindlin, ") + rolling_model_name(rm)).c_str());
+  }
 }
 
 // The springs live in pools by slot (core/contact_list.hpp): a slot given back is handed out
