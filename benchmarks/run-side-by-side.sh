@@ -2,6 +2,15 @@
 # Fabrica against LAMMPS and LIGGGHTS on the shared dense-13584 scene, in one sitting.
 #
 #   REPS=5 benchmarks/run-side-by-side.sh            (about 1 minute per round)
+#   MODEL=hertz_mindlin benchmarks/run-side-by-side.sh (the same with Hertz-Mindlin contacts)
+#
+# MODEL=linear (the default) runs benchmarks/dense-13584.toml against the shared decks;
+# MODEL=hertz_mindlin runs benchmarks/dense-13584-hertz.toml against a copy of the shared
+# directory whose contact_lammps.in and contact_liggghts.in are those of benchmarks/hertz/.
+#
+# Every 1-rank run is bound to core 0: the peers' by mpirun -np 1 (Open MPI binds a rank to a
+# core), Fabrica's by taskset -c 0, so that no ratio is taken across two cores (on this kind of
+# machine the same run measured 0.0616 against 0.0515 us on cores 0 and 1 in one sitting).
 #
 # Each of the REPS rounds runs, back to back: Fabrica's bench_dense (one repetition, 1 rank),
 # Fabrica on 2 ranks (bench_scaling strong, MPI domain decomposition; skipped when
@@ -19,7 +28,8 @@
 # for 2 s); the load average at the start of each round is printed with its times.
 #
 # Environment: REPS (5), BUILD (build-bench at the repository root), PEERS (the shared bench
-# directory), DIAG (1: run the diagnostics), QUIET (1), MAXWAIT (300), FABRICA2 (1).
+# directory), DIAG (1: run the diagnostics), QUIET (1), MAXWAIT (300), FABRICA2 (1), MODEL
+# (linear).
 set -euo pipefail
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
@@ -33,6 +43,12 @@ DIAG=${DIAG:-1}
 QUIET=${QUIET:-1}
 MAXWAIT=${MAXWAIT:-300}
 FABRICA2=${FABRICA2:-1}
+MODEL=${MODEL:-linear}
+case "$MODEL" in
+  linear) scene=$here/dense-13584.toml ;;
+  hertz_mindlin) scene=$here/dense-13584-hertz.toml ;;
+  *) echo "MODEL=$MODEL: linear or hertz_mindlin" >&2; exit 2 ;;
+esac
 bench=$BUILD/benchmarks/bench_dense
 scaling=$BUILD/benchmarks/bench_scaling
 [ -x "$scaling" ] || FABRICA2=0
@@ -60,42 +76,47 @@ wait_idle() {
 
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-echo "dense-13584 side by side, $(date -u '+%Y-%m-%d %H:%M UTC'), $(lscpu | sed -n 's/^Model name: *//p'), $(nproc) cores"
+if [ "$MODEL" = hertz_mindlin ]; then  # the peers' decks with the Hertz contact files
+  cp -r "$PEERS" "$out/peers"
+  cp "$here/hertz/contact_lammps.in" "$here/hertz/contact_liggghts.in" "$out/peers/"
+  PEERS=$out/peers
+fi
+echo "dense-13584 ($MODEL) side by side, $(date -u '+%Y-%m-%d %H:%M UTC'), $(lscpu | sed -n 's/^Model name: *//p'), $(nproc) cores"
 echo "Fabrica $(git -C "$root" describe --always --dirty 2>/dev/null || echo '?'), $bench"
 echo "load before: $(uptime | sed 's/.*load average: //')"
 for rep in $(seq 1 "$REPS"); do
   wait_idle
   echo "round $rep, load $(cut -d' ' -f1-3 /proc/loadavg)"
-  "$bench" 1 0 > "$out/fab.$rep"
+  taskset -c 0 "$bench" 1 0 "$scene" > "$out/fab.$rep"
   fab=$(sed -n 's/^RESULT .*us_per_particle_step_median=\([0-9.]*\).*/\1/p' "$out/fab.$rep")
   echo "ranks=1 rep=$rep fabrica_us=$fab" | tee -a "$out/times"
   if [ "$FABRICA2" = 1 ]; then
-    fab2=$(mpirun -np 2 "$scaling" strong 1 "$STEPS" | sed -n 's/^RESULT .*us_per_particle_step_median=\([0-9.]*\).*/\1/p')
+    fab2=$(mpirun -np 2 "$scaling" strong 1 "$STEPS" "$scene" | sed -n 's/^RESULT .*us_per_particle_step_median=\([0-9.]*\).*/\1/p')
     echo "ranks=2 rep=$rep fabrica_us=$fab2" | tee -a "$out/times"
   fi
   REPS=1 "$PEERS/run-peers.sh" | sed "s/rep=1/rep=$rep/" | tee -a "$out/times"
 done
 echo "load after: $(uptime | sed 's/.*load average: //')"
 
-# Median and min of one engine's column at a rank count.
+# Median, min and max of one engine's column at a rank count.
 stats() {  # engine ranks
   sed -n "s/^ranks=$2 .*$1_us=\([0-9.]*\).*/\1/p" "$out/times" | sort -g |
-    awk '{v[NR] = $1} END {if (NR == 0) {print "- -"; exit}
-         m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.4f %.4f\n", m, v[1]}'
+    awk '{v[NR] = $1} END {if (NR == 0) {print "- - -"; exit}
+         m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.4f %.4f %.4f\n", m, v[1], v[NR]}'
 }
-read -r fab_med fab_min < <(stats fabrica 1)
-read -r fab2_med fab2_min < <(stats fabrica 2)
+read -r fab_med fab_min fab_max < <(stats fabrica 1)
+read -r fab2_med fab2_min fab2_max < <(stats fabrica 2)
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {if (a + 0 > 0 && b + 0 > 0) printf "%.2f", a / b; else printf "-"}'; }
 echo
-echo "us per particle-step over $REPS rounds (median / min); ratio = Fabrica / peer at the same"
-echo "rank count (below 1: Fabrica faster)"
-printf "%-34s %-17s %-17s %-14s %s\n" "engine" "1 rank" "2 ranks" "ratio 1 rank" "ratio 2 ranks"
-printf "%-34s %-17s %-17s %-14s %s\n" "Fabrica" "$fab_med / $fab_min" "$fab2_med / $fab2_min" "(median, min)" "(median, min)"
+echo "us per particle-step over $REPS rounds (median / min / max); ratio = Fabrica / peer at the"
+echo "same rank count (below 1: Fabrica faster)"
+printf "%-34s %-24s %-24s %-14s %s\n" "engine" "1 rank" "2 ranks" "ratio 1 rank" "ratio 2 ranks"
+printf "%-34s %-24s %-24s %-14s %s\n" "Fabrica" "$fab_med / $fab_min / $fab_max" "$fab2_med / $fab2_min / $fab2_max" "(median, min)" "(median, min)"
 for e in liggghts lammps; do
-  read -r m1 n1 < <(stats $e 1)
-  read -r m2 n2 < <(stats $e 2)
+  read -r m1 n1 x1 < <(stats $e 1)
+  read -r m2 n2 x2 < <(stats $e 2)
   name=$([ $e = liggghts ] && echo "LIGGGHTS-PUBLIC (bin, newton off)" || echo "LAMMPS (bin, newton on)")
-  printf "%-34s %-17s %-17s %-14s %s\n" "$name" "$m1 / $n1" "$m2 / $n2" \
+  printf "%-34s %-24s %-24s %-14s %s\n" "$name" "$m1 / $n1 / $x1" "$m2 / $n2 / $x2" \
     "$(ratio "$fab_med" "$m1"), $(ratio "$fab_min" "$n1")" "$(ratio "$fab2_med" "$m2"), $(ratio "$fab2_min" "$n2")"
 done
 grep -h '^RESULT' "$out/fab.1"
