@@ -2,6 +2,7 @@
 
 #include "core/contact/models.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace fabrica {

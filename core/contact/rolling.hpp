@@ -29,10 +29,8 @@ namespace fabrica {
 
 // The rolling resistance a kernel is built for: none, or one of the models (a template
 // argument, so that a kernel contains only its own).
+// kNoRolling, or 1 + the scene's RollingModel (core/forces.cpp picks the kernel by it).
 enum : int { kNoRolling = 0, kElasticPlastic = 1, kEpsd = 2, kConstantTorque = 3 };
-inline int rolling_kind(const ContactLawParams& law) {
-  return law.rolling() ? 1 + int(law.rolling_model) : int(kNoRolling);
-}
 
 // k_r [N m/rad] from the contact's current k_n, k_s [N/m] and Rbar [m] (0 for the constant torque).
 template <int Roll, class T>
@@ -42,7 +40,8 @@ inline T rolling_stiffness(const ContactLawParams& law, const T& kn, const T& ks
   else return ks * rbar * rbar;
 }
 
-// I_r [kg m^2] of the epsd dashpot: solid spheres, I + m R^2 = 7/5 m R^2; m2 infinite for a wall.
+// I_r [kg m^2] of the epsd dashpot: solid spheres, I + m R^2 = 7/5 m R^2 (a wall:
+// rolling_inertia_wall, the sphere's term alone).
 template <class T>
 inline T rolling_inertia(const T& m1, const T& R1, const T& m2, const T& R2) {
   const T a = 1.4 * m1 * R1 * R1, b = 1.4 * m2 * R2 * R2;
