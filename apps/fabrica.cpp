@@ -236,6 +236,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
     ContactLawParams prep = law;
     prep.friction = scene.compress.friction;
     prep.rolling_friction = 0;
+    prep.twisting_friction = 0;
     s.params.law = prep;
   }
   const Vec3 l0 = s.cell.lengths();  // the strain reference of the snapshots (also on a restart)

@@ -102,7 +102,7 @@ void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
 }
 
 void StageRun::apply_contact(const StageSpec& st) {
-  if (st.friction || st.rolling_friction || st.damping_ratio_normal || st.damping_ratio_shear)
+  if (st.law.any())
     sim_.set_law(stage_law(sim_.params().law, st));
   if (st.local_damping) sim_.set_local_damping(*st.local_damping);
 }

@@ -36,7 +36,8 @@ Scene triaxial_setup_scene(const Scene& scene) {
   for (real_t mur : scene.triaxial.rolling_friction_cases)
     sized.law.rolling_friction = std::max(sized.law.rolling_friction, mur);
   for (const StageSpec& st : scene.stages)
-    if (st.rolling_friction) sized.law.rolling_friction = std::max(sized.law.rolling_friction, *st.rolling_friction);
+    if (const auto mur = st.law.get(&ContactLawParams::rolling_friction))
+      sized.law.rolling_friction = std::max(sized.law.rolling_friction, *mur);
   // Damping shortens the critical time step: the estimate takes the strongest dashpots any
   // stage sets (a stage's damping_ratio_normal / _shear).
   sized.law = most_damped_law(sized.law, scene.stages);

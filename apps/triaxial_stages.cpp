@@ -19,16 +19,21 @@ StageSpec isotropic(const Scene& scene, const char* name) {
 
 StageSpec consolidation_stage(const Scene& scene) {
   StageSpec st = isotropic(scene, "consolidation");
-  st.friction = scene.triaxial.consolidation_friction;
-  st.rolling_friction = 0;
+  st.law.set(&ContactLawParams::friction, scene.triaxial.consolidation_friction);
+  st.law.set(&ContactLawParams::rolling_friction, 0);
+  st.law.set(&ContactLawParams::twisting_friction, 0);  // no rotational resistance, as for rolling
   st.fabric = StageFabric::AtEnd;
   return st;
 }
 
 StageSpec equilibration_stage(const Scene& scene, real_t rolling_friction) {
   StageSpec st = isotropic(scene, "equilibration");
-  st.friction = scene.law.friction;
-  st.rolling_friction = rolling_friction;
+  st.law.set(&ContactLawParams::friction, scene.law.friction);
+  st.law.set(&ContactLawParams::rolling_friction, rolling_friction);
+  // Twisting resistance as rolling resistance: the case's from the equilibration of a case, else
+  // from the shear.
+  st.law.set(&ContactLawParams::twisting_friction,
+             scene.triaxial.equilibration == TriaxialSpec::Equilibration::Case ? scene.law.twisting_friction : 0.0);
   return st;
 }
 
@@ -40,8 +45,9 @@ StageSpec shear_stage(const Scene& scene, real_t rolling_friction) {
   const TriaxialSpec& tx = scene.triaxial;
   StageSpec st;
   if (tx.equilibration != TriaxialSpec::Equilibration::Case) {  // switched here, not before
-    st.friction = scene.law.friction;
-    st.rolling_friction = rolling_friction;
+    st.law.set(&ContactLawParams::friction, scene.law.friction);
+    st.law.set(&ContactLawParams::rolling_friction, rolling_friction);
+    st.law.set(&ContactLawParams::twisting_friction, scene.law.twisting_friction);
   }
   st.name = "shear";
   st.where = "[triaxial]";

@@ -32,8 +32,10 @@ struct PairList {
   std::vector<Index> slot;
   std::vector<Vec3> spring_fs;  // shear springs (N), by slot
   std::vector<Vec3> spring_mr;  // rolling springs (N m), by slot; used only with rolling
+  std::vector<real_t> spring_mt;  // twisting springs (N m), by slot; used only with twisting
   std::vector<Index> free_slots;
   bool rolling = false;         // whether spring_mr is kept (mu_r > 0)
+  bool twisting = false;        // whether spring_mt is kept (mu_t > 0)
 
   // The springs of pair q (zero while it does not touch).
   Vec3 shear_spring(std::size_t q) const {
@@ -42,6 +44,7 @@ struct PairList {
   Vec3 rolling_spring(std::size_t q) const {
     return touching[q] && rolling ? spring_mr[slot[q]] : Vec3(Vec3::Zero());
   }
+  real_t twisting_spring(std::size_t q) const { return touching[q] && twisting ? spring_mt[slot[q]] : 0.0; }
   // Gives pair q (not touching) a slot with zero springs; the caller sets touching[q].
   void take_slot(std::size_t q) {
     Index s;
@@ -50,15 +53,18 @@ struct PairList {
       free_slots.pop_back();
       spring_fs[s].setZero();
       if (rolling) spring_mr[s].setZero();
+      if (twisting) spring_mt[s] = 0;
     } else {
       s = Index(spring_fs.size());
       if (spring_fs.size() == spring_fs.capacity()) {  // an eighth more, not double (memory)
         const std::size_t room = spring_fs.size() + spring_fs.size() / 8 + 64;
         spring_fs.reserve(room);
         if (rolling) spring_mr.reserve(room);
+        if (twisting) spring_mt.reserve(room);
       }
       spring_fs.push_back(Vec3::Zero());
       if (rolling) spring_mr.push_back(Vec3::Zero());
+      if (twisting) spring_mt.push_back(0);
     }
     slot[q] = s;
   }
@@ -71,15 +77,23 @@ struct PairList {
     if (on) spring_mr.assign(spring_fs.size(), Vec3::Zero());
     else std::vector<Vec3>().swap(spring_mr);
   }
+  // Twisting springs likewise (a stage may switch mu_t on or off).
+  void set_twisting(bool on) {
+    twisting = on;
+    if (on) spring_mt.assign(spring_fs.size(), 0.0);
+    else std::vector<real_t>().swap(spring_mt);
+  }
   // After a rebuild: no pair touches yet, room for 'expected' touching pairs.
   void reset_springs(std::size_t expected) {
     touching.assign(size(), 0);
     slot.assign(size(), 0);
     spring_fs.clear();
     spring_mr.clear();
+    spring_mt.clear();
     free_slots.clear();
     spring_fs.reserve(expected);
     if (rolling) spring_mr.reserve(expected);
+    if (twisting) spring_mt.reserve(expected);
   }
 
   // Work arrays of the force loop (core/forces.cpp), refilled by every call and meaningless
@@ -92,7 +106,7 @@ struct PairList {
     std::vector<real_t> dx, dy, dz, r2;
     struct Opening {
       std::size_t before;
-      real_t e_friction, e_rolling;
+      real_t e_friction, e_rolling;  // e_rolling: the rolling and twisting springs'
     };
     std::vector<Opening> openings;
     void resize(std::size_t n) {
@@ -106,7 +120,7 @@ struct PairList {
   std::size_t size() const { return i.size(); }
   void clear() {
     i.clear(); j.clear(); image.clear(); touching.clear(); slot.clear();
-    spring_fs.clear(); spring_mr.clear(); free_slots.clear();
+    spring_fs.clear(); spring_mr.clear(); spring_mt.clear(); free_slots.clear();
   }
 };
 
@@ -134,10 +148,11 @@ struct WallContactList {
   std::vector<Index> i;              // particle
   std::vector<std::int32_t> wall;    // wall index
   std::vector<std::uint8_t> touching;
-  std::vector<Vec3> fs, mr;
+  std::vector<Vec3> fs, mr;          // mr with rolling only
+  std::vector<real_t> mt;            // with twisting only
 
   std::size_t size() const { return i.size(); }
-  void clear() { i.clear(); wall.clear(); touching.clear(); fs.clear(); mr.clear(); }
+  void clear() { i.clear(); wall.clear(); touching.clear(); fs.clear(); mr.clear(); mt.clear(); }
 };
 
 }  // namespace fabrica

@@ -39,6 +39,7 @@ void contact_records_of(Model, const Particles& p, const PeriodicCell& cell, con
     } else {
       c.rolling = true;  // no rolling resistance: every contact rolls freely (spec section 5)
     }
+    if (pairs.twisting) c.mr += pairs.twisting_spring(q) * c.normal;  // its twisting moment
     fn(c);
   }
 }
@@ -71,6 +72,7 @@ std::vector<ContactRecord> wall_records_of(Model, const Particles& p, const Cont
     } else {
       c.rolling = true;
     }
+    if (wl.mt.size() == wl.size()) c.mr += wl.mt[q] * c.normal;
     out.push_back(c);
   }
   return out;

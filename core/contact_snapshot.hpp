@@ -24,7 +24,8 @@ struct ContactRecord {
   real_t overlap = 0;            // u_n [m]
   real_t fn = 0;                 // normal force on body 2 along +normal (>= 0) [N]
   Vec3 ft = Vec3::Zero();        // tangential force on body 2 [N]
-  Vec3 mr = Vec3::Zero();        // rolling moment on body 2 [N m] (zero when mu_r = 0)
+  Vec3 mr = Vec3::Zero();        // spring moment on body 2 [N m]: rolling (zero when mu_r = 0)
+                                 // plus twisting along the normal (mu_t > 0)
   bool sliding = false;          // |f_t| at the Coulomb limit mu_s f_n (at_limit, contact_law.hpp;
                                  // always true if mu_s = 0)
   bool rolling = false;          // |m_r| at the rolling limit mu_r Rbar f_n (always true if mu_r = 0)

@@ -6,6 +6,7 @@
 #include <array>
 #include <limits>
 #include <numbers>
+#include <utility>
 
 #include <unistd.h>
 
@@ -53,19 +54,20 @@ constexpr const auto& kTouchBytes = kPackTables.bytes;
 }
 
 // One contact of the model, in the scalar form the wall loop uses.
-template <class Model, int Roll, bool Viscous>
+template <class Model, int Roll, bool Twist, bool Viscous>
 ContactResult evaluate_one(const ContactLawParams& law, const typename Model::template Pair<real_t>& c,
                            const ContactKinematics& k, ContactHistory& h, real_t dt) {
   constexpr bool Rolling = Roll != kNoRolling;
   using simd::from_vec, simd::to_vec;
   const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1), from_vec(k.w2),
                                       k.un_prev};
-  ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr)};
-  const ContactResultL<real_t> rl = Model::template evaluate<Roll, Viscous, real_t>(law, c, kl, hl, dt);
+  ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr), h.mt};
+  const ContactResultL<real_t> rl = Model::template evaluate<Roll, Viscous, real_t, Twist>(law, c, kl, hl, dt);
   h.fs = to_vec(hl.fs);
   if constexpr (Rolling) h.mr = to_vec(hl.mr);
+  if constexpr (Twist) h.mt = hl.mt;
   return ContactResult{rl.fn, to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
-                       rl.e_friction, rl.e_rolling, rl.e_viscous};
+                       rl.e_friction, rl.e_rolling, rl.e_viscous, rl.mt};
 }
 
 // The second line of a 24-byte vector: a quarter of them straddle two cache lines, and a
@@ -101,9 +103,10 @@ bool fetch_all_ahead(std::size_t particles) {
 // that does not measure: the boundary work needs the diagonal of the stress), or everything.
 constexpr int kNone = 0, kVirial = 1, kFull = 2;
 
-template <class Model, int Roll, bool Viscous, int Measure>
+template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
 struct PairKernel {
   static constexpr bool Rolling = Roll != kNoRolling;
+  static constexpr bool Moments = Rolling || Twist;  // a moment beside the shear force's
   using Pair = typename Model::template Pair<real_t>;
   Particles& P;
   const ForceContext& ctx;
@@ -132,6 +135,7 @@ struct PairKernel {
     const Index s = pl.slot[q];
     PairList::Work::Opening o{nc, own_i * Model::energy_shear(c, 0.0, pl.spring_fs[s]), 0.0};
     if constexpr (Rolling) o.e_rolling = own_i * Model::energy_rolling(ctx.law, c, 0.0, pl.spring_mr[s]);
+    if constexpr (Twist) o.e_rolling += own_i * Model::energy_twisting(c, 0.0, pl.spring_mt[s]);
     pl.give_slot(q);
     pl.work.openings.push_back(o);
   }
@@ -260,7 +264,7 @@ struct PairKernel {
     const auto& o = pl.work.openings;
     for (; next_opening < o.size() && o[next_opening].before <= c; ++next_opening) {
       e_fric += o[next_opening].e_friction;
-      if constexpr (Rolling) e_roll += o[next_opening].e_rolling;
+      if constexpr (Moments) e_roll += o[next_opening].e_rolling;
     }
     next_before = next_opening < o.size() ? o[next_opening].before : kNone;
   }
@@ -301,6 +305,7 @@ struct PairKernel {
             __builtin_prefetch(&pl.spring_mr[sl], 1);
             __builtin_prefetch(last_byte(&pl.spring_mr[sl]), 1);
           }
+          if constexpr (Twist) __builtin_prefetch(&pl.spring_mt[sl], 1);
         }
       }
     const V3<T> d{load<T>(W.dx.data() + c), load<T>(W.dy.data() + c), load<T>(W.dz.data() + c)};
@@ -336,15 +341,17 @@ struct PairKernel {
     ContactHistoryL<T> h;
     h.fs = gather3<T>(pl.spring_fs.data(), cs);
     if constexpr (Rolling) h.mr = gather3<T>(pl.spring_mr.data(), cs);
-    const ContactResultL<T> r = Model::template evaluate<Roll, Viscous, T>(law, pc, k, h, dt);
+    if constexpr (Twist) h.mt = gather<T>(pl.spring_mt.data(), cs);
+    const ContactResultL<T> r = Model::template evaluate<Roll, Viscous, T, Twist>(law, pc, k, h, dt);
     scatter3(pl.spring_fs.data(), cs, h.fs);
     if constexpr (Rolling) scatter3(pl.spring_mr.data(), cs, h.mr);
+    if constexpr (Twist) scatter(pl.spring_mt.data(), cs, h.mt);
 
     const V3<T> F = r.fn * k.n + r.fs;  // on j
     const V3<T> nxfs = cross(k.n, r.fs);
-    // Added to t_j and subtracted from t_i (without rolling: subtracted from both).
+    // Added to t_j and subtracted from t_i (without a moment: subtracted from both).
     V3<T> tj, ti;
-    if constexpr (Rolling) {
+    if constexpr (Moments) {
       tj = r.mr - a2 * nxfs;
       ti = r.mr + a1 * nxfs;
     } else {
@@ -363,7 +370,7 @@ struct PairKernel {
     for (int l = 0; l < kLanes; ++l) set_lane(own, l, std::size_t(ci[l]) < n_owned ? 1.0 : 0.0);
     alignas(32) real_t ef[kLanes], er[kLanes], ev[kLanes];
     store(ef, own * r.e_friction);
-    if constexpr (Rolling) store(er, own * r.e_rolling);
+    if constexpr (Moments) store(er, own * r.e_rolling);
     if constexpr (Viscous) store(ev, own * r.e_viscous);
     Vec3* f = P.f.data();
     Vec3* t = P.t.data();
@@ -373,11 +380,11 @@ struct PairKernel {
       const Eigen::Map<const Vec3> Fl(rows_f + 4 * l), Tj(rows_tj + 4 * l), Ti(rows_ti + 4 * l);
       f[j] += Fl;
       f[i] -= Fl;
-      if constexpr (Rolling) t[j] += Tj;
+      if constexpr (Moments) t[j] += Tj;
       else t[j] -= Tj;
       t[i] -= Ti;
       e_fric += ef[l];
-      if constexpr (Rolling) e_roll += er[l];
+      if constexpr (Moments) e_roll += er[l];
       if constexpr (Viscous) e_visc += ev[l];
       if constexpr (Measure == kVirial) {  // the same sum, in the same order, as below
         if (lane(own, l) != 0.0) sums->fb.noalias() += Fl * lane(d, l).transpose();
@@ -394,6 +401,7 @@ struct PairKernel {
           sums->e_normal += Model::energy_normal(cl, un);
           sums->e_shear += Model::energy_shear(cl, un, lane(h.fs, l));
           if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(law, cl, un, lane(h.mr, l));
+          if constexpr (Twist) sums->e_rolling += Model::energy_twisting(cl, un, lane(h.mt, l));
           sums->sum_contact_force += Fl.norm();
           ++sums->contacts_per_particle[i];
           sums->sum_overlap += un;
@@ -444,10 +452,10 @@ struct PairKernel {
   }
 };
 
-template <class Model, int Roll, bool Viscous, int Measure>
+template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                  Dissipation& diss, ContactSums* sums) {
-  PairKernel<Model, Roll, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
+  PairKernel<Model, Roll, Twist, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
   for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
   K.fetch_all = ctx.fetch_ahead < 0 ? fetch_all_ahead(P.size()) : ctx.fetch_ahead > 0;
   if constexpr (Model::kPreviousOverlap)
@@ -460,7 +468,7 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
 
 // Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
 // law or the scene's.
-template <class Model, int Roll, bool Viscous, int Measure>
+template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
 void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss,
                  ContactSums* sums, real_t* wall_power) {
   constexpr bool Rolling = Roll != kNoRolling;
@@ -482,6 +490,10 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
           diss.rolling += Model::energy_rolling(law, c, 0.0, wl.mr[q]);
           wl.mr[q].setZero();
         }
+        if constexpr (Twist) {
+          diss.rolling += Model::energy_twisting(c, 0.0, wl.mt[q]);
+          wl.mt[q] = 0;
+        }
       }
       continue;
     }
@@ -502,9 +514,11 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
     ContactHistory h;
     h.fs = wl.fs[q];
     if constexpr (Rolling) h.mr = wl.mr[q];
-    const ContactResult r = evaluate_one<Model, Roll, Viscous>(law, c, k, h, ctx.dt);
+    if constexpr (Twist) h.mt = wl.mt[q];
+    const ContactResult r = evaluate_one<Model, Roll, Twist, Viscous>(law, c, k, h, ctx.dt);
     wl.fs[q] = h.fs;
     if constexpr (Rolling) wl.mr[q] = h.mr;
+    if constexpr (Twist) wl.mt[q] = h.mt;
     const Vec3 F = r.fn * k.n + r.fs;  // on the wall
     P.f[i] -= F;
     P.t[i] -= r.mr + a1 * k.n.cross(r.fs);
@@ -532,34 +546,32 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
       sums->e_normal += Model::energy_normal(c, k.un);
       sums->e_shear += Model::energy_shear(c, k.un, h.fs);
       if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(law, c, k.un, h.mr);
+      if constexpr (Twist) sums->e_rolling += Model::energy_twisting(c, k.un, h.mt);
       ++sums->contacts_per_particle[i];
     }
   }
   if (wall_power) *wall_power = power;
 }
 
-template <class Model, int Roll, bool Viscous, int Measure>
+template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
 void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
                 WallContactList& wl, Dissipation& diss, ContactSums* sums, real_t* wall_power) {
-  pair_forces<Model, Roll, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
-  if (wl.size() != 0) wall_forces<Model, Roll, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
+  pair_forces<Model, Roll, Twist, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
+  if (wl.size() != 0) wall_forces<Model, Roll, Twist, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
   else if (wall_power) *wall_power = 0;
 }
 
 using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&,
                         WallContactList&, Dissipation&, ContactSums*, real_t*);
 
-// One table per model, indexed by roll * 6 + viscous * 3 + measure (roll: kNoRolling or a
-// rolling model, core/contact/rolling.hpp; measure: kNone, kVirial, kFull).
-template <class Model, int Roll>
-constexpr std::array<Kernel, 6> kRollKernels = {
-    all_forces<Model, Roll, false, kNone>, all_forces<Model, Roll, false, kVirial>, all_forces<Model, Roll, false, kFull>,
-    all_forces<Model, Roll, true, kNone>,  all_forces<Model, Roll, true, kVirial>,  all_forces<Model, Roll, true, kFull>,
-};
+// One table per model, indexed by ((roll * 2 + twist) * 2 + viscous) * 3 + measure (roll:
+// kNoRolling or a rolling model, core/contact/rolling.hpp; measure: kNone, kVirial, kFull).
+template <class Model, std::size_t... K>
+constexpr std::array<Kernel, sizeof...(K)> make_kernels(std::index_sequence<K...>) {
+  return {all_forces<Model, int(K / 12), (K / 6) % 2 == 1, (K / 3) % 2 == 1, int(K % 3)>...};
+}
 template <class Model>
-constexpr std::array<const std::array<Kernel, 6>*, 4> kKernels = {
-    &kRollKernels<Model, kNoRolling>, &kRollKernels<Model, kElasticPlastic>, &kRollKernels<Model, kEpsd>,
-    &kRollKernels<Model, kConstantTorque>};
+constexpr std::array<Kernel, 48> kKernels = make_kernels<Model>(std::make_index_sequence<48>{});
 
 }  // namespace
 
@@ -585,15 +597,16 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
   // A wall's own law may need rolling resistance or dashpots that the scene's does not: the
   // pair loop then runs with them at the scene's zero values (mu_r = 0: no rolling moment).
   // Walls share the scene's rolling model (io/scene.cpp).
-  bool rolling = ctx.law.rolling(), viscous = ctx.law.viscous();
+  bool rolling = ctx.law.rolling(), twisting = ctx.law.twisting(), viscous = ctx.law.viscous();
   for (const Wall& w : ctx.walls)
-    if (w.own_law) rolling = rolling || w.law.rolling(), viscous = viscous || w.law.viscous();
+    if (w.own_law)
+      rolling = rolling || w.law.rolling(), twisting = twisting || w.law.twisting(),
+      viscous = viscous || w.law.viscous();
   const int roll = rolling ? 1 + int(ctx.law.rolling_model) : kNoRolling;
-  const int k = 3 * viscous + measure;
+  const std::size_t k = std::size_t(((roll * 2 + twisting) * 2 + viscous) * 3 + measure);
   // Walls share the scene's model (io/scene.cpp refuses another).
   with_model(ctx.law.model, [&](auto model) {
-    (*kKernels<decltype(model)>[std::size_t(roll)])[std::size_t(k)](p, cell, ctx, pairs, wall_contacts, diss, sums,
-                                                                   wall_power);
+    kKernels<decltype(model)>[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);
   });
   if (measure == kFull)
     for (std::size_t a = 0; a < p.n_owned(); ++a) sums->sum_particle_force += p.f[a].norm();

@@ -27,23 +27,28 @@ class HistoryMap {
  public:
   static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
-  // Empties the map, with room for 'expected' contacts before it grows. Rolling springs kept.
-  void reset(std::size_t expected) {
+  // Empties the map, with room for 'expected' contacts before it grows. Rolling springs kept,
+  // and twisting springs if 'twisting'.
+  void reset(std::size_t expected, bool twisting) {
     clear_keys(expected);
     fs_.clear();
     mr_.clear();
+    mt_.clear();
     fs_.reserve(expected);
     mr_.reserve(expected);
+    if (twisting) mt_.reserve(expected);
     rolling_ = true;
+    twisting_ = twisting;
     rehash(expected);
   }
 
   // Empties the map and takes over the spring pools of a contact list (the slots of its
   // touching contacts are then keyed with insert_slot). Without rolling, 'mr' is ignored and
-  // every rolling spring reads zero. The table that finds the keys is made by index() (or by
-  // the first insert()), so that the caller can free the list first (the rebuild's peak at
-  // large N: the table is 8 bytes per contact).
-  void adopt_pools(std::vector<Vec3>&& fs, std::vector<Vec3>&& mr, bool rolling) {
+  // every rolling spring reads zero; without twisting, 'mt' likewise. The table that finds the
+  // keys is made by index() (or by the first insert()), so that the caller can free the list
+  // first (the rebuild's peak at large N: the table is 8 bytes per contact).
+  void adopt_pools(std::vector<Vec3>&& fs, std::vector<Vec3>&& mr, bool rolling, std::vector<real_t>&& mt,
+                   bool twisting) {
     fs_ = std::move(fs);
     rolling_ = rolling;
     if (rolling) {
@@ -51,6 +56,13 @@ class HistoryMap {
       mr_.resize(fs_.size(), Vec3::Zero());
     } else {
       std::vector<Vec3>().swap(mr_);
+    }
+    twisting_ = twisting;
+    if (twisting) {
+      mt_ = std::move(mt);
+      mt_.resize(fs_.size(), 0.0);
+    } else {
+      std::vector<real_t>().swap(mt_);
     }
     clear_keys(0);
     keys_.resize(fs_.size());
@@ -69,6 +81,7 @@ class HistoryMap {
     std::vector<std::uint32_t>().swap(slots_);
     std::vector<Vec3>().swap(fs_);
     std::vector<Vec3>().swap(mr_);
+    std::vector<real_t>().swap(mt_);
     mask_ = 0;
     count_ = 0;
   }
@@ -91,12 +104,14 @@ class HistoryMap {
       s = std::uint32_t(fs_.size());
       fs_.push_back(h.fs);
       if (rolling_) mr_.push_back(h.mr);
+      if (twisting_) mt_.push_back(h.mt);
       keys_.push_back({a, b});
       keyed_.push_back(true);
       ++count_;
     } else {
       fs_[s] = h.fs;
       if (rolling_) mr_[s] = h.mr;
+      if (twisting_) mt_[s] = h.mt;
     }
   }
 
@@ -115,20 +130,23 @@ class HistoryMap {
 
   // The springs at a slot of the pools.
   ContactHistory at(std::uint32_t slot) const {
-    return {fs_[slot], rolling_ ? mr_[slot] : Vec3(Vec3::Zero())};
+    return {fs_[slot], rolling_ ? mr_[slot] : Vec3(Vec3::Zero()), twisting_ ? mt_[slot] : 0.0};
   }
 
   std::size_t size() const { return count_; }
   // Slots in the pools (keyed or not).
   std::size_t pool_size() const { return fs_.size(); }
   bool rolling() const { return rolling_; }
+  bool twisting() const { return twisting_; }
 
   // Moves the pools out (the map keeps its keys, whose slots name places in them).
-  void take_pools(std::vector<Vec3>& fs, std::vector<Vec3>& mr) {
+  void take_pools(std::vector<Vec3>& fs, std::vector<Vec3>& mr, std::vector<real_t>& mt) {
     fs = std::move(fs_);
     mr = std::move(mr_);
+    mt = std::move(mt_);
     fs_.clear();
     mr_.clear();
+    mt_.clear();
   }
 
   // Calls fn(a, b, history) for every contact, in the order of their slots.
@@ -186,7 +204,9 @@ class HistoryMap {
   std::vector<bool> keyed_;        // which slots are keyed
   std::vector<std::uint32_t> slots_;  // the table: keyed slots, kEmpty where none
   std::vector<Vec3> fs_, mr_;      // the springs, by slot
+  std::vector<real_t> mt_;         // the twisting springs, by slot
   bool rolling_ = true;            // mr_ kept
+  bool twisting_ = false;          // mt_ kept
   std::size_t mask_ = 0;
   std::size_t count_ = 0;          // keyed slots
 };

@@ -157,5 +157,9 @@ inline void scatter3(Vec3* a, const Index* idx, const V3<double>& v) { a[idx[0]]
 inline void scatter3(Vec3* a, const Index* idx, const V3<d4>& v) {
   for (int l = 0; l < 4; ++l) a[idx[l]] = lane(v, l);
 }
+inline void scatter(real_t* a, const Index* idx, double v) { a[idx[0]] = v; }
+inline void scatter(real_t* a, const Index* idx, d4 v) {
+  for (int l = 0; l < 4; ++l) a[idx[l]] = v[l];
+}
 
 }  // namespace fabrica::simd

@@ -262,7 +262,7 @@ void Simulation::set_skin(real_t skin) {
 }
 
 void Simulation::set_law(const ContactLawParams& law) {
-  const bool had_rolling = par_.rolling();
+  const bool had_rolling = par_.rolling(), had_twisting = par_.twisting();
   par_.law = law;
   if (par_.rolling() && !had_rolling) {
     pairs_.set_rolling(true);
@@ -270,6 +270,13 @@ void Simulation::set_law(const ContactLawParams& law) {
   } else if (!par_.rolling()) {
     pairs_.set_rolling(false);
     walls_.mr.clear();
+  }
+  if (par_.twisting() && !had_twisting) {
+    pairs_.set_twisting(true);
+    walls_.mt.assign(walls_.size(), 0.0);
+  } else if (!par_.twisting()) {
+    pairs_.set_twisting(false);
+    walls_.mt.clear();
   }
 }
 
@@ -352,7 +359,7 @@ void Simulation::set_overlap_guard(real_t max_ratio) {
 
 void Simulation::rebuild(bool forces_spent) {
   if (guard_.empty()) check_cell_still_fits();
-  const bool rolling = par_.rolling();
+  const bool rolling = par_.rolling(), twisting = par_.twisting();
   // The displacement reference is made anew at the end: free it for the rebuild's peak.
   std::vector<Vec3>().swap(s_ref_);
   // 1. Keep the springs of touching contacts, keyed by global ids (local indices change): the
@@ -372,17 +379,17 @@ void Simulation::rebuild(bool forces_spent) {
     }
   }
   std::vector<Vec3> fs = std::move(pairs_.spring_fs), mr = std::move(pairs_.spring_mr);
-  const bool pairs_rolling = pairs_.rolling;
+  std::vector<real_t> mt = std::move(pairs_.spring_mt);
+  const bool pairs_rolling = pairs_.rolling, pairs_twisting = pairs_.twisting;
   pairs_ = PairList();  // freed (memory at large N)
-  carry_.adopt_pools(std::move(fs), std::move(mr), rolling && pairs_rolling);
+  carry_.adopt_pools(std::move(fs), std::move(mr), rolling && pairs_rolling, std::move(mt),
+                     twisting && pairs_twisting);
   for (std::size_t s = 0; s < bodies.size(); ++s)
     if (bodies[s][0] != Index(-1))
       carry_.insert_slot(p_.id[bodies[s][0]], p_.id[bodies[s][1]], std::uint32_t(s));
   std::vector<std::array<Index, 2>>().swap(bodies);
   for (std::size_t q = 0; q < walls_.size(); ++q)
-    if (walls_.touching[q])
-      carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q],
-                    {walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+    if (walls_.touching[q]) carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q], wall_history(q));
   walls_ = WallContactList();
   carry_.index();
   rebuild_lists(forces_spent);
@@ -394,11 +401,12 @@ void Simulation::rebuild(bool forces_spent) {
 // takes (contacts that opened, the walls', those of particles gone to other ranks) are dropped.
 // The carry is released (empty) at the end.
 void Simulation::attach_springs() {
-  const bool rolling = par_.rolling();
+  const bool rolling = par_.rolling(), twisting = par_.twisting();
   const std::size_t np = pairs_.size();
   const std::size_t m = carry_.pool_size();
-  const bool had_rolling = carry_.rolling();
+  const bool had_rolling = carry_.rolling(), had_twisting = carry_.twisting();
   pairs_.rolling = rolling;
+  pairs_.twisting = twisting;
   pairs_.touching.assign(np, 0);
   pairs_.slot.assign(np, 0);
   pairs_.free_slots.clear();
@@ -414,7 +422,8 @@ void Simulation::attach_springs() {
       }
   std::vector<Vec3>& fs = pairs_.spring_fs;
   std::vector<Vec3>& mr = pairs_.spring_mr;
-  carry_.take_pools(fs, mr);
+  std::vector<real_t>& mt = pairs_.spring_mt;
+  carry_.take_pools(fs, mr, mt);
   // The keys are done with: free them before the pools may grow below (the rebuild's peak; at
   // 869,376 spheres 33 MB of keys beside a pool in two copies while it grows).
   carry_.release();
@@ -422,18 +431,21 @@ void Simulation::attach_springs() {
   // puts one spring in its final place.
   for (std::uint32_t s = 0, next = used; s < m; ++s)
     if (dest[s] == HistoryMap::kNone) dest[s] = next++;
-  const bool move_mr = had_rolling && rolling;
+  const bool move_mr = had_rolling && rolling, move_mt = had_twisting && twisting;
   for (std::size_t s = 0; s < m; ++s)
     while (dest[s] != s) {
       const std::uint32_t d = dest[s];
       std::swap(fs[s], fs[d]);
       if (move_mr) std::swap(mr[s], mr[d]);
+      if (move_mt) std::swap(mt[s], mt[d]);
       std::swap(dest[s], dest[d]);
     }
   std::vector<std::uint32_t>().swap(dest);
   fs.resize(used);
   if (rolling) mr.resize(used, Vec3::Zero());  // zero if rolling was off in the old list
   else std::vector<Vec3>().swap(mr);
+  if (twisting) mt.resize(used, 0.0);  // zero if twisting was off in the old list
+  else std::vector<real_t>().swap(mt);
   // Room for contacts that close before the next rebuild (the pools grow if they are more).
   // Without carried springs (the first list, a restart without history) every contact opens
   // in the next force pass: room for the pairs touching now, counted here, so that the pools
@@ -452,6 +464,7 @@ void Simulation::attach_springs() {
   const std::size_t room = expect + expect / 16 + 64;
   fs.reserve(room);
   if (rolling) mr.reserve(room);
+  if (twisting) mt.reserve(room);
 }
 
 void Simulation::check_cell_still_fits() {
@@ -479,7 +492,7 @@ void Simulation::check_cell_still_fits() {
 }
 
 void Simulation::rebuild_lists(bool forces_spent) {
-  const bool rolling = par_.rolling();
+  const bool rolling = par_.rolling(), twisting = par_.twisting();
   // 2. Wrap into the cell, move particles that left this subdomain (with their springs), sort
   //    the owned ones in space, and bring in the ghosts.
   p_.clear_ghosts();
@@ -507,6 +520,7 @@ void Simulation::rebuild_lists(bool forces_spent) {
   walls_.touching.assign(nw, 0);
   walls_.fs.assign(nw, Vec3::Zero());
   if (rolling) walls_.mr.assign(nw, Vec3::Zero()); else walls_.mr.clear();
+  if (twisting) walls_.mt.assign(nw, 0.0); else walls_.mt.clear();
   for (std::size_t q = 0; q < nw; ++q)
     if (const std::uint32_t s = carry_.find_slot(p_.id[walls_.i[q]], -1 - walls_.wall[q]);
         s != HistoryMap::kNone) {
@@ -514,6 +528,7 @@ void Simulation::rebuild_lists(bool forces_spent) {
       walls_.touching[q] = 1;
       walls_.fs[q] = h.fs;
       if (rolling) walls_.mr[q] = h.mr;
+      if (twisting) walls_.mt[q] = h.mt;
     }
   search_.build(p_, cell_, par_.skin, pairs_);
   attach_springs();  // releases the carry: the springs live in the lists until the next rebuild

@@ -40,6 +40,11 @@ struct SimulationParams {
     for (const Wall& w : walls) r = r || (w.own_law && w.law.rolling());
     return r;
   }
+  bool twisting() const {
+    bool t = law.twisting();
+    for (const Wall& w : walls) t = t || (w.own_law && w.law.twisting());
+    return t;
+  }
   bool viscous() const {
     bool v = law.viscous();
     for (const Wall& w : walls) v = v || (w.own_law && w.law.viscous());
@@ -205,15 +210,11 @@ class Simulation {
   // lower-id body is owned by this rank (walls: b = -1 - wall index).
   template <class F>
   void for_each_contact(F&& fn) const {
-    const bool rolling = par_.rolling();
     for (std::size_t q = 0; q < pairs_.size(); ++q)
       if (pairs_.touching[q] && std::size_t(pairs_.i[q]) < p_.n_owned())
-        fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
-           ContactHistory{pairs_.shear_spring(q), rolling ? pairs_.rolling_spring(q) : Vec3::Zero()});
+        fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]], pair_history(q));
     for (std::size_t q = 0; q < walls_.size(); ++q)
-      if (walls_.touching[q])
-        fn(p_.id[walls_.i[q]], GlobalId(-1 - walls_.wall[q]),
-           ContactHistory{walls_.fs[q], rolling ? walls_.mr[q] : Vec3::Zero()});
+      if (walls_.touching[q]) fn(p_.id[walls_.i[q]], GlobalId(-1 - walls_.wall[q]), wall_history(q));
   }
 
   // Contacts [first, first + n) of for_each_contact's order. 'at' carries the place in the
@@ -226,21 +227,16 @@ class Simulation {
   template <class F>
   void for_each_contact_in(std::uint64_t first, std::uint64_t n, ContactCursor& at, F&& fn) const {
     if (first < at.k) at = {};
-    const bool rolling = par_.rolling();
     const std::size_t np = pairs_.size(), nq = np + walls_.size();
     for (; at.q < nq && at.k < first + n; ++at.q) {
       const std::size_t q = at.q;
       if (q < np) {
         if (!pairs_.touching[q] || std::size_t(pairs_.i[q]) >= p_.n_owned()) continue;
-        if (at.k++ >= first)
-          fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]],
-             ContactHistory{pairs_.shear_spring(q), rolling ? pairs_.rolling_spring(q) : Vec3::Zero()});
+        if (at.k++ >= first) fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]], pair_history(q));
       } else {
         const std::size_t w = q - np;
         if (!walls_.touching[w]) continue;
-        if (at.k++ >= first)
-          fn(p_.id[walls_.i[w]], GlobalId(-1 - walls_.wall[w]),
-             ContactHistory{walls_.fs[w], rolling ? walls_.mr[w] : Vec3::Zero()});
+        if (at.k++ >= first) fn(p_.id[walls_.i[w]], GlobalId(-1 - walls_.wall[w]), wall_history(w));
       }
     }
   }
@@ -267,6 +263,15 @@ class Simulation {
 
  private:
   Simulation(const Simulation&) = default;  // member-wise, for the branching constructor only
+
+  // The springs of touching pair q and wall contact q (those the law keeps; the others zero).
+  ContactHistory pair_history(std::size_t q) const {
+    return {pairs_.shear_spring(q), pairs_.rolling_spring(q), pairs_.twisting_spring(q)};
+  }
+  ContactHistory wall_history(std::size_t q) const {
+    return {walls_.fs[q], walls_.mr.size() == walls_.size() ? walls_.mr[q] : Vec3(Vec3::Zero()),
+            walls_.mt.size() == walls_.size() ? walls_.mt[q] : 0.0};
+  }
 
   // Forces at the current positions; the contact springs advance by the relative motion over
   // dt (0 for the initial forces, which must not change the contact history).

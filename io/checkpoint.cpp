@@ -263,8 +263,9 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
     have_step_ = true;
   }
   const SimulationParams& par = sim.params();
+  const bool twisting = par.twisting();
   FieldWriter g;
-  g.text("particle_record", particle_record_schema()).text("contact_record", contact_record_schema());
+  g.text("particle_record", particle_record_schema()).text("contact_record", contact_record_schema(twisting));
   g.vec3("cell.lengths", sim.cell().lengths()).vec3("cell.strain_rate", sim.cell().strain_rate());
   write_law(g, par.law);
   g.f64("dt", par.dt).f64("skin", par.skin).vec3("gravity", par.gravity);
@@ -304,14 +305,14 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   };
   staged_.push_back(std::move(parts));
   Staged contacts{prefix + ".contacts", SectionKind::Distributed,
-                  std::uint32_t(contact_record_bytes()), {}};
+                  std::uint32_t(contact_record_bytes(twisting)), {}};
   sim.for_each_contact([&](GlobalId, GlobalId, const ContactHistory&) { ++contacts.records; });
   // Records [first, first + n) of the contacts in for_each_contact's order; the cursor makes
   // the blocks, written in order, one pass over the lists in all.
-  contacts.produce = [&sim, at = Simulation::ContactCursor{}](std::uint64_t first, std::uint64_t n,
-                                                               std::string& out) mutable {
+  contacts.produce = [&sim, twisting, at = Simulation::ContactCursor{}](std::uint64_t first, std::uint64_t n,
+                                                                         std::string& out) mutable {
     sim.for_each_contact_in(first, n, at, [&](GlobalId a, GlobalId b, const ContactHistory& h) {
-      write_contact(a, b, h, out);
+      write_contact(a, b, h, twisting, out);
     });
   };
   staged_.push_back(std::move(contacts));
@@ -590,9 +591,12 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   FieldReader g = fields(prefix + ".global");
   const std::string prec = g.text("particle_record"), crec = g.text("contact_record");
   const ParticleRecordReader particle_records(prec, where + ".global");
-  if (crec != contact_record_schema())
+  // The twisting spring is in the records of a scene with twisting resistance only.
+  const bool twisting = crec == contact_record_schema(true);
+  if (!twisting && crec != contact_record_schema(false))
     throw InputError(where + ".global: written by a build with other contact records ('" + crec +
-                     "'; this build: '" + contact_record_schema() + "')");
+                     "'; this build: '" + contact_record_schema(false) + "' or '" + contact_record_schema(true) +
+                     "')");
   snap.cell = PeriodicCell(g.vec3("cell.lengths"));
   snap.cell.set_strain_rate(g.vec3("cell.strain_rate"));
   SimulationParams& par = snap.params;
@@ -664,10 +668,10 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   };
   const std::string& parts = records(prefix + ".particles", particle_records.bytes());
   particle_records.read(parts.data(), parts.size() / particle_records.bytes(), snap.particles);
-  const std::string& contacts = records(prefix + ".contacts", contact_record_bytes());
-  const std::size_t nc = contacts.size() / contact_record_bytes();
-  snap.history.reset(nc);
-  read_contacts(contacts.data(), nc, snap.history);
+  const std::string& contacts = records(prefix + ".contacts", contact_record_bytes(twisting));
+  const std::size_t nc = contacts.size() / contact_record_bytes(twisting);
+  snap.history.reset(nc, twisting);
+  read_contacts(contacts.data(), nc, twisting, snap.history);
 
   // Per-rank records: the same ranks' when the rank count is unchanged, else the totals to rank 0.
   auto per_rank = [&](const std::string& name, std::uint32_t bytes) -> const std::string& {

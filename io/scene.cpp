@@ -149,65 +149,64 @@ void parse_restitution(Section& s, ContactLawParams& law) {
     law.damping_ratio_s = law.damping_ratio_n;
 }
 
-// The keys of one model that another cannot use, refused with the key and the model.
+// The keys of one model that another cannot use, refused with the key and the model
+// (kLawParameters' 'model').
 void refuse_other_model_keys(Section& s, const toml::table* t, const ContactLawParams& law) {
   if (!t) return;
-  const bool hertz = law.model == ContactModel::HertzMindlin;
-  const char* linear_only[] = {"normal_stiffness", "stiffness_ratio", "damping_rate_normal", "damping_rate_shear"};
-  for (const char* key : linear_only)
-    if (hertz && s.has(key))
-      s.fail(key, Section::node_text(*t->get(key)),
-             "is a parameter of model = \"linear\"; model = \"hertz_mindlin\" takes its stiffness "
-             "from youngs_modulus and poisson_ratio, its dashpots from restitution_normal or damping_ratio_*");
-  if (!hertz && s.has("poisson_ratio"))
-    s.fail("poisson_ratio", Section::node_text(*t->get("poisson_ratio")),
-           "is a parameter of model = \"hertz_mindlin\"; the linear law takes k_n from youngs_modulus or "
-           "normal_stiffness and k_s from stiffness_ratio");
+  const ForModel mine = law.model == ContactModel::HertzMindlin ? ForModel::HertzMindlin : ForModel::Linear;
+  for (const LawParameter& p : kLawParameters) {
+    if (!p.key || p.model == ForModel::Any || p.model == mine || !s.has(p.key)) continue;
+    s.fail(p.key, Section::node_text(*t->get(p.key)),
+           p.model == ForModel::Linear
+               ? "is a parameter of model = \"linear\"; model = \"hertz_mindlin\" takes its stiffness "
+                 "from youngs_modulus and poisson_ratio, its dashpots from restitution_normal or damping_ratio_*"
+               : "is a parameter of model = \"hertz_mindlin\"; the linear law takes k_n from youngs_modulus or "
+                 "normal_stiffness and k_s from stiffness_ratio");
+  }
 }
 
-// poisson_ratio of a [contact] or [[wall]] table (Hertz-Mindlin).
-void parse_poisson_ratio(Section& s, ContactLawParams& law) {
-  law.poisson_ratio = s.number("poisson_ratio", law.poisson_ratio);
-  require(s, "poisson_ratio", law.poisson_ratio, law.poisson_ratio > -1 && law.poisson_ratio < 0.5,
-          "must lie in (-1, 0.5) (the Poisson ratio of an isotropic elastic solid)");
+// The law's numbers a [contact] table (wall = false) or a [[wall]] table (wall = true) gives,
+// over the declared list (core/contact/params.hpp kLawParameters): each checked by its bound
+// and put in 'law' (a damping ratio also setting its rate form to 0), after the rules between
+// keys: another model's keys refused, youngs_modulus or normal_stiffness (which sets the
+// stiffness mode), a damping ratio or its rate, rolling_damping with "epsd" only. Returns
+// whether any was given.
+bool parse_law_numbers(Section& s, const toml::table* t, ContactLawParams& law, bool wall) {
+  refuse_other_model_keys(s, t, law);
+  const auto both = [&](const char* a, const char* b, const std::string& why) {
+    if (s.has(a) && s.has(b)) s.fail(b, Section::node_text(*t->get(b)), why);
+  };
+  both("youngs_modulus", "normal_stiffness", "give either youngs_modulus or normal_stiffness, not both");
+  both("damping_ratio_normal", "damping_rate_normal", "give damping_ratio_normal or damping_rate_normal, not both");
+  both("damping_ratio_shear", "damping_rate_shear", "give damping_ratio_shear or damping_rate_shear, not both");
+  if (s.has("rolling_damping") && law.rolling_model != RollingModel::Epsd)
+    s.fail("rolling_damping", Section::node_text(*t->get("rolling_damping")),
+           "is the dashpot of rolling_model = \"epsd\" only");
+  bool given = false;
+  for (const LawParameter& p : kLawParameters) {
+    if (!p.key || (wall && !p.wall)) continue;
+    if (p.model != ForModel::Any &&
+        (p.model == ForModel::HertzMindlin) != (law.model == ContactModel::HertzMindlin))
+      continue;  // refused above if given
+    const auto v = s.number(p.key);
+    if (!v) continue;
+    std::string why = bound_text(p.bound);
+    if (p.member == &ContactLawParams::rolling_damping) why += " (a fraction of the critical rolling damping)";
+    require(s, p.key, *v, within(p.bound, *v), why);
+    law.*p.member = *v;
+    if (p.clears) law.*p.clears = 0;
+    given = true;
+  }
+  if (s.has("normal_stiffness")) law.stiffness_mode = NormalStiffnessMode::Direct;
+  else if (s.has("youngs_modulus")) law.stiffness_mode = NormalStiffnessMode::Deformability;
+  return given;
 }
 
 // The [contact] keys a [[wall]] table may give to replace the scene's for that wall.
 void parse_wall_law(Section& W, const toml::table* t, WallSpec& w) {
-  ContactLawParams& law = w.law;
-  refuse_other_model_keys(W, t, law);
-  if (law.model == ContactModel::HertzMindlin) parse_poisson_ratio(W, law);
-  const auto E = W.number("youngs_modulus"), kn = W.number("normal_stiffness");
-  if (E && kn) W.fail("normal_stiffness", number_text(*kn, 10), "give either youngs_modulus or normal_stiffness, not both");
-  if (E) {
-    require(W, "youngs_modulus", *E, *E > 0, "must be positive");
-    law.stiffness_mode = NormalStiffnessMode::Deformability;
-    law.youngs_modulus = *E;
-  }
-  if (kn) {
-    require(W, "normal_stiffness", *kn, *kn > 0, "must be positive");
-    law.stiffness_mode = NormalStiffnessMode::Direct;
-    law.normal_stiffness = *kn;
-  }
-  law.stiffness_ratio = W.number("stiffness_ratio", law.stiffness_ratio);
-  require(W, "stiffness_ratio", law.stiffness_ratio, law.stiffness_ratio > 0, "must be positive");
-  law.friction = W.number("friction", law.friction);
-  require(W, "friction", law.friction, law.friction >= 0, "must be >= 0");
-  law.rolling_friction = W.number("rolling_friction", law.rolling_friction);
-  require(W, "rolling_friction", law.rolling_friction, law.rolling_friction >= 0, "must be >= 0");
-  for (const char* key : {"damping_ratio_normal", "damping_ratio_shear"}) {
-    if (const auto b = W.number(key)) {
-      require(W, key, *b, *b >= 0 && *b < 1, "must lie in [0, 1)");
-      const bool normal = key[14] == 'n';
-      (normal ? law.damping_ratio_n : law.damping_ratio_s) = *b;
-      (normal ? law.damping_rate_n : law.damping_rate_s) = 0;
-    }
-  }
-  parse_restitution(W, law);
-  for (const char* key : {"youngs_modulus", "poisson_ratio", "normal_stiffness", "stiffness_ratio", "friction",
-                          "rolling_friction", "damping_ratio_normal", "damping_ratio_shear",
-                          "restitution_normal", "restitution_shear"})
-    w.own_law = w.own_law || W.has(key);
+  const bool given = parse_law_numbers(W, t, w.law, true);
+  parse_restitution(W, w.law);
+  w.own_law = w.own_law || given || W.has("restitution_normal") || W.has("restitution_shear");
 }
 
 // [[wall]] tables: planes of the periodic cell, perpendicular to a cell axis (the cell stays
@@ -434,26 +433,6 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     else if (*m == "hertz_mindlin") law.model = ContactModel::HertzMindlin;
     else K.fail("model", "\"" + *m + "\"", "must be \"linear\" or \"hertz_mindlin\" (docs/scene.md, \"Contact models\")");
   }
-  refuse_other_model_keys(K, table("contact"), law);
-  if (law.model == ContactModel::HertzMindlin) parse_poisson_ratio(K, law);
-  const auto E = K.number("youngs_modulus");
-  const auto kn = K.number("normal_stiffness");
-  if (E && kn)
-    K.fail("normal_stiffness", number_text(*kn, 10), "give either youngs_modulus or normal_stiffness, not both");
-  if (kn) {
-    require(K, "normal_stiffness", *kn, *kn > 0, "must be positive");
-    law.stiffness_mode = NormalStiffnessMode::Direct;
-    law.normal_stiffness = *kn;
-  } else {
-    law.youngs_modulus = E.value_or(law.youngs_modulus);
-    require(K, "youngs_modulus", law.youngs_modulus, law.youngs_modulus > 0, "must be positive");
-  }
-  law.stiffness_ratio = K.number("stiffness_ratio", law.stiffness_ratio);
-  require(K, "stiffness_ratio", law.stiffness_ratio, law.stiffness_ratio > 0, "must be positive");
-  law.friction = K.number("friction", law.friction);
-  require(K, "friction", law.friction, law.friction >= 0, "must be >= 0");
-  law.rolling_friction = K.number("rolling_friction", law.rolling_friction);
-  require(K, "rolling_friction", law.rolling_friction, law.rolling_friction >= 0, "must be >= 0");
   if (const auto m = K.string("rolling_model")) {
     if (*m == "elastic_plastic") law.rolling_model = RollingModel::ElasticPlastic;
     else if (*m == "epsd") law.rolling_model = RollingModel::Epsd;
@@ -461,24 +440,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     else K.fail("rolling_model", "\"" + *m + "\"",
                 "must be \"elastic_plastic\", \"epsd\" or \"constant_torque\" (docs/scene.md, \"Rolling resistance models\")");
   }
-  if (const auto eta = K.number("rolling_damping")) {
-    if (law.rolling_model != RollingModel::Epsd)
-      K.fail("rolling_damping", number_text(*eta, 10), "is the dashpot of rolling_model = \"epsd\" only");
-    require(K, "rolling_damping", *eta, *eta >= 0 && *eta < 1, "must lie in [0, 1) (a fraction of the critical rolling damping)");
-    law.rolling_damping = *eta;
-  }
-  const auto bn = K.number("damping_ratio_normal"), bs = K.number("damping_ratio_shear");
-  const auto en = K.number("damping_rate_normal"), es = K.number("damping_rate_shear");
-  if (bn && en) K.fail("damping_rate_normal", number_text(*en, 10), "give damping_ratio_normal or damping_rate_normal, not both");
-  if (bs && es) K.fail("damping_rate_shear", number_text(*es, 10), "give damping_ratio_shear or damping_rate_shear, not both");
-  law.damping_ratio_n = bn.value_or(0);
-  require(K, "damping_ratio_normal", law.damping_ratio_n, law.damping_ratio_n >= 0 && law.damping_ratio_n < 1, "must lie in [0, 1)");
-  law.damping_ratio_s = bs.value_or(0);
-  require(K, "damping_ratio_shear", law.damping_ratio_s, law.damping_ratio_s >= 0 && law.damping_ratio_s < 1, "must lie in [0, 1)");
-  law.damping_rate_n = en.value_or(0);
-  require(K, "damping_rate_normal", law.damping_rate_n, law.damping_rate_n >= 0, "must be >= 0");
-  law.damping_rate_s = es.value_or(0);
-  require(K, "damping_rate_shear", law.damping_rate_s, law.damping_rate_s >= 0, "must be >= 0");
+  parse_law_numbers(K, table("contact"), law, false);
   parse_restitution(K, law);
   K.reject_unknown();
 

@@ -238,15 +238,11 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
   unused("axial_strain_rate", ty >= 3 && ty <= 9);
   unused("stress", ty == 2);
   parse_end(s, file, st, ty == 8 || ty == 9);
-  if (auto v = s.number("friction")) st.friction = s.checked("friction", *v, *v >= 0, "must be >= 0");
-  if (auto v = s.number("rolling_friction"))
-    st.rolling_friction = s.checked("rolling_friction", *v, *v >= 0, "must be >= 0");
+  for (const LawParameter& p : kLawParameters)  // the contact parameters a stage may set
+    if (p.stage)
+      if (auto v = s.number(p.key)) st.law.set(p.member, s.checked(p.key, *v, within(p.bound, *v), bound_text(p.bound)));
   if (auto v = s.number("local_damping"))
     st.local_damping = s.checked("local_damping", *v, *v >= 0 && *v < 1, "must lie in [0, 1)");
-  if (auto v = s.number("damping_ratio_normal"))
-    st.damping_ratio_normal = s.checked("damping_ratio_normal", *v, *v >= 0 && *v < 1, "must lie in [0, 1)");
-  if (auto v = s.number("damping_ratio_shear"))
-    st.damping_ratio_shear = s.checked("damping_ratio_shear", *v, *v >= 0 && *v < 1, "must lie in [0, 1)");
   st.reset_strain = s.boolean("reset_strain").value_or(false);
   st.fabric = StageFabric::AtRows;  // with [fabric] enabled: at every row of every stage
   st.track_peak = true;             // the peak q/p and stress error of stages.csv

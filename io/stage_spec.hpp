@@ -70,10 +70,11 @@ struct StageSpec {
   real_t amplitude = 0;        // cyclic: of eps_1 (strain) or of q (stress, Pa)
   std::int64_t cycles = 0;     // cyclic
   StageEnd end;
-  // Contact parameters set at the start of the stage (the others are kept). A damping ratio
-  // replaces the dashpot of that direction, rate form included (stage_law).
-  std::optional<real_t> friction, rolling_friction, local_damping;
-  std::optional<real_t> damping_ratio_normal, damping_ratio_shear;
+  // Contact parameters set at the start of the stage (the others are kept): those of
+  // kLawParameters marked 'stage' (core/contact/params.hpp). A damping ratio replaces the dashpot
+  // of that direction, rate form included (stage_law).
+  LawChanges law;
+  std::optional<real_t> local_damping;
   bool reset_strain = false;  // the series' strains measured from this stage's start
   StageFabric fabric = StageFabric::None;
   bool track_peak = false;    // the result's peak q/p and lateral error over the rows
@@ -82,13 +83,7 @@ struct StageSpec {
 };
 
 // The contact law in force during stage 'st', given the law before it.
-inline ContactLawParams stage_law(ContactLawParams law, const StageSpec& st) {
-  if (st.friction) law.friction = *st.friction;
-  if (st.rolling_friction) law.rolling_friction = *st.rolling_friction;
-  if (st.damping_ratio_normal) law.damping_ratio_n = *st.damping_ratio_normal, law.damping_rate_n = 0;
-  if (st.damping_ratio_shear) law.damping_ratio_s = *st.damping_ratio_shear, law.damping_rate_s = 0;
-  return law;
-}
+inline ContactLawParams stage_law(const ContactLawParams& law, const StageSpec& st) { return st.law.applied_to(law); }
 
 // A law whose dashpots are at least as strong as those of the scene's law and of every stage's
 // (the largest damping ratio and the largest rate of each direction): the critical time step

@@ -73,8 +73,9 @@ void macro_fields(Io& io, M& m) {
 void write_law(FieldWriter& w, const ContactLawParams& l) { law_fields(w, l); }
 ContactLawParams read_law(FieldReader& r) {
   ContactLawParams l;
-  // Formats 6 and 7 end the law before law.model: the linear law, the only one then.
-  law_fields(r, l, [](const FieldReader& in) { return in.next_is("law.model"); });
+  // Formats 6 and 7 end the law before law.model (the linear law, the only one then), format 8
+  // before law.twisting_friction (no twisting resistance then).
+  law_fields(r, l, [](const FieldReader& in, const char* name) { return in.next_is(name); });
   if (std::uint8_t(l.model) > std::uint8_t(ContactModel::HertzMindlin))
     throw InputError("checkpoint field law.model = " + std::to_string(int(l.model)) +
                      ": not a contact model of this build (a corrupt file or a newer version)");
@@ -220,17 +221,20 @@ void ParticleRecordReader::read(const char* in, std::size_t n, Particles& p) con
     }
 }
 
-std::string contact_record_schema() { return "a:i64;b:i64;fs:f64[3];mr:f64[3]"; }
-std::size_t contact_record_bytes() { return 64; }
+std::string contact_record_schema(bool twisting) {
+  return twisting ? "a:i64;b:i64;fs:f64[3];mr:f64[3];mt:f64" : "a:i64;b:i64;fs:f64[3];mr:f64[3]";
+}
+std::size_t contact_record_bytes(bool twisting) { return twisting ? 72 : 64; }
 
-void write_contact(GlobalId a, GlobalId b, const ContactHistory& h, std::string& out) {
+void write_contact(GlobalId a, GlobalId b, const ContactHistory& h, bool twisting, std::string& out) {
   put_value(out, a);
   put_value(out, b);
   put_value(out, h.fs);
   put_value(out, h.mr);
+  if (twisting) put_value(out, h.mt);
 }
 
-void read_contacts(const char* in, std::size_t n, HistoryMap& history) {
+void read_contacts(const char* in, std::size_t n, bool twisting, HistoryMap& history) {
   for (std::size_t k = 0; k < n; ++k) {
     GlobalId a, b;
     ContactHistory h;
@@ -238,6 +242,7 @@ void read_contacts(const char* in, std::size_t n, HistoryMap& history) {
     in = get_value(in, b);
     in = get_value(in, h.fs);
     in = get_value(in, h.mr);
+    if (twisting) in = get_value(in, h.mt);
     history.insert(a, b, h);
   }
 }

@@ -47,10 +47,12 @@ class ParticleRecordReader {
   std::size_t bytes_ = 0;
 };
 
-// Contact records: the two ids (walls: -1 - wall index) and the shear and rolling springs.
-std::string contact_record_schema();
-std::size_t contact_record_bytes();
-void write_contact(GlobalId a, GlobalId b, const ContactHistory& h, std::string& out);
-void read_contacts(const char* in, std::size_t n, HistoryMap& history);
+// Contact records: the two ids (walls: -1 - wall index), the shear and rolling springs and,
+// in a scene with twisting resistance (and only there: format 9), the twisting spring.
+std::string contact_record_schema(bool twisting);
+std::size_t contact_record_bytes(bool twisting);
+void write_contact(GlobalId a, GlobalId b, const ContactHistory& h, bool twisting, std::string& out);
+// Into 'history' (reset before, with its twisting springs kept if 'twisting').
+void read_contacts(const char* in, std::size_t n, bool twisting, HistoryMap& history);
 
 }  // namespace fabrica

@@ -258,6 +258,7 @@ void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap*
       put(out[dir(b)], HistoryRecord{a, b, h});
     }
   });
+  const bool twisting = history->twisting();
   history->release();
   in = exchange_all(comm_, out);
   for (auto& b : out) release(b);
@@ -291,7 +292,7 @@ void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap*
   release(out);
   std::size_t n = 0;
   for (const auto& b : in) n += b.size() / sizeof(HistoryRecord);
-  history->reset(n);
+  history->reset(n, twisting);
   for (const auto& b : in)
     for (const char *c = b.data(), *e = c + b.size(); c < e;) {
       const auto h = get<HistoryRecord>(c);

@@ -13,7 +13,8 @@
 //   c_n = 2 sqrt(5/6) beta_n sqrt(m* k_n),  c_t = 2 sqrt(5/6) beta_s sqrt(m* k_t)        [N s/m]
 //   f_t <- s rot(f_t) - k_t du_t,  |f_t| <= mu_s f_n,el                                     [N]
 //   the rolling resistance of core/contact/rolling.hpp with k_n, k_t above (elastic_plastic:
-//   k_r = k_t Rbar^2, Rbar = R*), its stored moment scaled as f_t: m_r <- s rot(m_r) - k_r dtheta_r
+//   k_r = k_t Rbar^2, Rbar = R*), its stored moment scaled as f_t: m_r <- s rot(m_r) - k_r dtheta_r;
+//   the twisting spring likewise: m_t <- s m_t - k_t Rbar^2 dtheta_t, |m_t| <= mu_t Rbar f_n,el
 //
 // The tangential spring is Mindlin's no-slip spring in incremental form, stored as a force
 // (ContactHistory::fs, as the linear law's): each increment is taken at the current stiffness
@@ -50,7 +51,7 @@ template <class T> struct HertzPairL {
   T kt0;   // 8 G* sqrt(R*): k_t = kt0 sqrt(u_n) [N/m^1.5]
   T dn;    // 2 sqrt(5/6) beta_n sqrt(m*): c_n = dn sqrt(k_n) [kg^0.5]
   T ds;    // 2 sqrt(5/6) beta_s sqrt(m*)
-  T rbar;  // R* [m] (with rolling resistance)
+  T rbar;  // R* [m]
   T ir;    // I_r of the epsd rolling dashpot [kg m^2] (epsd with dashpots only)
 };
 
@@ -78,8 +79,8 @@ struct HertzMindlin {
     const T sr = simd::sqrt(rstar);
     c.kn0 = (2.0 * effective_modulus(law)) * sr;
     c.kt0 = (8.0 * effective_shear_modulus(law)) * sr;
-    c.dn = c.ds = c.rbar = c.ir = T{};
-    if constexpr (Roll != kNoRolling) c.rbar = rstar;
+    c.dn = c.ds = c.ir = T{};
+    c.rbar = rstar;
     if constexpr (Viscous) {
       const T sm = simd::sqrt(mi * mj / (mi + mj));
       c.dn = (kTsuji * law.damping_ratio_n) * sm;
@@ -95,7 +96,7 @@ struct HertzMindlin {
     const real_t sr = std::sqrt(R1);
     c.kn0 = (2.0 * effective_modulus(law)) * sr;
     c.kt0 = (8.0 * effective_shear_modulus(law)) * sr;
-    c.rbar = Roll != kNoRolling ? R1 : 0.0;
+    c.rbar = R1;
     c.dn = Viscous ? (kTsuji * law.damping_ratio_n) * std::sqrt(m1) : 0.0;
     c.ds = Viscous ? (kTsuji * law.damping_ratio_s) * std::sqrt(m1) : 0.0;
     c.ir = Roll == kEpsd && Viscous ? rolling_inertia_wall(m1, R1) : 0.0;
@@ -111,7 +112,7 @@ struct HertzMindlin {
   }
   static Pair<real_t> lane(const Pair<real_t>& c, int) { return c; }
 
-  template <int Roll, bool Viscous, class T>
+  template <int Roll, bool Viscous, class T, bool Twist = false>
   [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
                                                            const ContactKinematicsL<T>& k,
                                                            ContactHistoryL<T>& h, real_t dt) {
@@ -187,6 +188,16 @@ struct HertzMindlin {
       r.rolling = all_true<T>();
       r.mr = zero3<T>();
     }
+    if constexpr (Twist) {  // k_t,w = k_t R*^2, its stored moment scaled as the shear spring's
+      const T r2 = c.rbar * c.rbar;
+      const T e_lost = lost(h.mt * h.mt, r2);
+      h.mt = h.mt * sc;
+      const T ktw = kt * r2;
+      const T ktw_safe = select(ktw > 0.0, ktw, T{} + std::numeric_limits<real_t>::min());
+      twisting_l(law.twisting_friction, ktw_safe, c.rbar, fn_el, k, h, dt, r);
+      r.e_rolling = r.e_rolling + e_lost;
+      r.mr = r.mr + r.mt * n;
+    }
     return r;
   }
 
@@ -215,6 +226,10 @@ struct HertzMindlin {
     if (law.rolling_model == RollingModel::Epsd) q = rolling_per_shear<kEpsd>(law, c);
     const real_t kr = shear_stiffness(c, un) * q;
     return kr > 0 ? 0.5 * mr.squaredNorm() / kr : 0.0;
+  }
+  static real_t energy_twisting(const Pair<real_t>& c, real_t un, real_t mt) {
+    const real_t ktw = shear_stiffness(c, un) * c.rbar * c.rbar;
+    return ktw > 0 ? 0.5 * mt * mt / ktw : 0.0;
   }
 };
 

@@ -11,13 +11,13 @@
 
 namespace fabrica {
 
-// Shear and rolling springs of one contact; oriented from the body with the lower id to the
-// other (the canonical order), so that every rank stores the same numbers. What 'fs' holds is
-// the model's: the linear law stores the shear spring force [N], Hertz-Mindlin the tangential
-// spring displacement [m] (its force is k_t fs at the current stiffness).
+// Shear, rolling and twisting springs of one contact; oriented from the body with the lower id
+// to the other (the canonical order), so that every rank stores the same numbers. Every model
+// stores the springs' forces and moments (Hertz-Mindlin's incremental, at its current stiffness).
 struct ContactHistory {
-  Vec3 fs = Vec3::Zero();  // shear spring (model's quantity, see above), acting on body 2
+  Vec3 fs = Vec3::Zero();  // shear spring force acting on body 2 [N]
   Vec3 mr = Vec3::Zero();  // rolling spring moment acting on body 2 [N m]
+  real_t mt = 0;           // twisting spring moment acting on body 2, along n [N m]
 };
 
 struct ContactKinematics {
@@ -45,12 +45,13 @@ inline bool at_limit(real_t norm2, real_t limit) {
 struct ContactResult {
   real_t fn;          // normal force (elastic + dashpot, >= 0) on body 2 along n [N]
   Vec3 fs;            // total shear force on body 2 (spring + dashpot) [N]
-  Vec3 mr;            // rolling moment on body 2 [N m]
+  Vec3 mr;            // moment on body 2 [N m]: rolling, plus the twisting mt n
   bool sliding;       // the shear spring at the Coulomb limit (at_limit)
   bool rolling;       // the rolling spring at its limit (at_limit; always true when mu_r = 0)
   real_t e_friction;  // energy dissipated by slip this step [J]
-  real_t e_rolling;   // energy dissipated by rolling slip this step [J]
+  real_t e_rolling;   // energy dissipated by rolling (and twisting) slip this step [J]
   real_t e_viscous;   // energy dissipated by the dashpots this step [J]
+  real_t mt = 0;      // the twisting moment on body 2 along n (included in mr) [N m]
 };
 
 template <class T> struct ContactKinematicsL {
@@ -61,12 +62,14 @@ template <class T> struct ContactKinematicsL {
 };
 template <class T> struct ContactHistoryL {
   simd::V3<T> fs, mr;
+  T mt{};
 };
 template <class T> struct ContactResultL {
   T fn;
   simd::V3<T> fs, mr;
   simd::mask_t<T> sliding, rolling;
   T e_friction, e_rolling, e_viscous;
+  T mt{};
 };
 
 // Keeps |a| after projecting onto the plane normal to n and turning it about n by angle phi.

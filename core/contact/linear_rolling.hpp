@@ -9,6 +9,7 @@
 //   f_s <- rot(f_s) - k_s du_s, |f_s| <= mu_s k_n u_n   (sliding when capped)          [N]
 //   1/Rbar = 1/R1 + 1/R2, k_r = k_s Rbar^2                                            [N m/rad]
 //   m_r <- rot(m_r) - k_r dtheta_r, |m_r| <= mu_r Rbar k_n u_n (rolling when capped)  [N m]
+//   with twisting_friction: m_t <- m_t - k_s Rbar^2 dtheta_t, |m_t| <= mu_t Rbar k_n u_n  [N m]
 //
 // rot() carries a stored spring vector with the contact plane: it is projected onto the new
 // plane with its length kept, then turned about the normal by the mean spin of the pair.
@@ -54,10 +55,8 @@ inline PairConstants pair_constants(const ContactLawParams& p, real_t R1, real_t
     c.kn = std::numbers::pi * r * r * p.youngs_modulus / (R1 + R2);
   }
   c.ks = c.kn / p.stiffness_ratio;
-  if constexpr (Rolling) {
-    c.rbar = wall ? R1 : R1 * R2 / (R1 + R2);
-    c.kr = c.ks * c.rbar * c.rbar;
-  }
+  c.rbar = wall ? R1 : R1 * R2 / (R1 + R2);
+  if constexpr (Rolling) c.kr = c.ks * c.rbar * c.rbar;
   if constexpr (Viscous) {
     const real_t meff = std::isinf(m2) ? m1 : m1 * m2 / (m1 + m2);
     c.cn = p.damping_rate_n * meff + 2.0 * p.damping_ratio_n * std::sqrt(meff * c.kn);
@@ -74,8 +73,9 @@ template <class T> struct PairConstantsL {
 // Inlined into the pair loop: returned through memory, the result of four lanes (some 450
 // bytes) and the arguments cost a store and a load each (benchmarks/README.md). Under
 // -ffp-contract=off inlining changes no bit.
-// Roll: the rolling model (core/contact/rolling.hpp; true = elastic-plastic, false = none).
-template <int Roll, bool Viscous, class T>
+// Roll: the rolling model (core/contact/rolling.hpp; true = elastic-plastic, false = none);
+// Twist: the twisting spring-slider.
+template <int Roll, bool Viscous, class T, bool Twist = false>
 [[gnu::always_inline]] inline ContactResultL<T> contact_law_l(const ContactLawParams& p, const PairConstantsL<T>& c,
                                        const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
                                        real_t dt) {
@@ -115,23 +115,28 @@ template <int Roll, bool Viscous, class T>
     r.rolling = all_true<T>();  // no resistance: every contact rolls freely (spec section 5)
     r.mr = zero3<T>();
   }
+  if constexpr (Twist) {
+    twisting_l(p.twisting_friction, c.ks * c.rbar * c.rbar, c.rbar, fn_el, k, h, dt, r);
+    r.mr = r.mr + r.mt * n;
+  }
   return r;
 }
 
 // One contact, in the form the tests use.
-template <int Roll, bool Viscous>
+template <int Roll, bool Viscous, bool Twist = false>
 inline ContactResult contact_law(const ContactLawParams& p, const PairConstants& c,
                                  const ContactKinematics& k, ContactHistory& h, real_t dt) {
   using simd::from_vec, simd::to_vec;
   const PairConstantsL<real_t> cl{c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar, 0.0};
   const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1),
                                       from_vec(k.w2), k.un_prev};
-  ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr)};
-  const ContactResultL<real_t> rl = contact_law_l<Roll, Viscous>(p, cl, kl, hl, dt);
+  ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr), h.mt};
+  const ContactResultL<real_t> rl = contact_law_l<Roll, Viscous, real_t, Twist>(p, cl, kl, hl, dt);
   h.fs = to_vec(hl.fs);
   if constexpr (Roll != kNoRolling) h.mr = to_vec(hl.mr);
+  if constexpr (Twist) h.mt = hl.mt;
   return ContactResult{rl.fn, to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
-                       rl.e_friction, rl.e_rolling, rl.e_viscous};
+                       rl.e_friction, rl.e_rolling, rl.e_viscous, rl.mt};
 }
 
 // Elastic energy stored in the three springs of one contact [J].
@@ -162,12 +167,10 @@ struct LinearRolling {
       pc.kn = std::numbers::pi * rmin * rmin * law.youngs_modulus / sum_r;
     }
     pc.ks = pc.kn / law.stiffness_ratio;
-    pc.kr = pc.cn = pc.cs = pc.rbar = T{};
+    pc.kr = pc.cn = pc.cs = T{};
     pc.ir = T{};
-    if constexpr (Roll != kNoRolling) {
-      pc.rbar = Ri * Rj / sum_r;
-      pc.kr = rolling_stiffness<Roll>(law, pc.kn, pc.ks, pc.rbar);
-    }
+    pc.rbar = Ri * Rj / sum_r;  // (left out of a kernel that reads it nowhere)
+    if constexpr (Roll != kNoRolling) pc.kr = rolling_stiffness<Roll>(law, pc.kn, pc.ks, pc.rbar);
     if constexpr (Viscous) {
       const T meff = mi * mj / (mi + mj);
       pc.cn = law.damping_rate_n * meff + 2.0 * law.damping_ratio_n * simd::sqrt(meff * pc.kn);
@@ -191,11 +194,11 @@ struct LinearRolling {
   }
   static Pair<real_t> lane(const Pair<real_t>& c, int) { return c; }
 
-  template <int Roll, bool Viscous, class T>
+  template <int Roll, bool Viscous, class T, bool Twist = false>
   [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
                                                            const ContactKinematicsL<T>& k,
                                                            ContactHistoryL<T>& h, real_t dt) {
-    return contact_law_l<Roll, Viscous>(law, c, k, h, dt);
+    return contact_law_l<Roll, Viscous, T, Twist>(law, c, k, h, dt);
   }
 
   // The state of one contact of overlap un with stored springs h.
@@ -217,6 +220,9 @@ struct LinearRolling {
   // c.kr is that of the pair's rolling model (0 for the constant torque: no spring).
   static real_t energy_rolling(const ContactLawParams&, const Pair<real_t>& c, real_t, const Vec3& mr) {
     return c.kr > 0 ? 0.5 * mr.squaredNorm() / c.kr : 0.0;
+  }
+  static real_t energy_twisting(const Pair<real_t>& c, real_t, real_t mt) {
+    return 0.5 * mt * mt / (c.ks * c.rbar * c.rbar);
   }
 };
 

@@ -19,6 +19,16 @@
 //
 // The stored rolling spring (ContactHistory::mr) holds m_r; for "constant_torque" it holds the
 // last moment, read by the contact records and the sub-network classification only.
+//
+// Twisting resistance ([contact] twisting_friction mu_t > 0), with any rolling model or none: a
+// spring-slider on the twist, the relative spin about the normal w_t = (w2 - w1) . n (Iwashita &
+// Oda 1998's rotational springs about the normal; Jiang, Shen & Wang 2015, Comput. Geotech.
+// 65:147; LAMMPS' twisting sds with its stiffness and limit given as here):
+//       m_t <- m_t - k_t,w w_t dt,  |m_t| <= mu_t Rbar f_n,  k_t,w = k_s Rbar^2
+// (k_s the model's current tangential stiffness), acting on body 2 along n (and its opposite on
+// body 1), stored in ContactHistory::mt. Its slip is booked with the rolling slip and its
+// elastic energy with the rolling springs'. Its stiffness is within the rotational bound of the
+// critical time step (k_s R^2 + k_r, core/timestep.cpp) since Rbar <= R.
 #pragma once
 #include "core/contact/lanes.hpp"
 #include "core/contact/params.hpp"
@@ -78,6 +88,27 @@ template <class T>
   r.mr = mr;
 }
 
+
+// The twisting spring-slider (above): stiffness ktw = k_s Rbar^2 (> 0), cap mu_t Rbar f_n,el; the
+// slip's energy added to r.e_rolling, the moment to r.mt (the caller adds mt n to r.mr).
+template <class T>
+[[gnu::always_inline]] inline void twisting_l(real_t mu_t, const T& ktw, const T& rbar, const T& fn_el,
+                                              const ContactKinematicsL<T>& k, ContactHistoryL<T>& h, real_t dt,
+                                              ContactResultL<T>& r) {
+  using namespace simd;
+  const T dth = dot(k.w2 - k.w1, k.n) * dt;
+  T mt = h.mt - ktw * dth;
+  const T cap = mu_t * rbar * fn_el;
+  const mask_t<T> capped = mt * mt > cap * cap;
+  if (any(capped)) {
+    const T mt_cap = select(mt > 0.0, cap, -cap);
+    const T slip = dth + (mt_cap - h.mt) / ktw;
+    r.e_rolling = select(capped, r.e_rolling - 0.5 * (h.mt + mt_cap) * slip, r.e_rolling);
+    mt = select(capped, mt_cap, mt);
+  }
+  h.mt = mt;
+  r.mt = mt;
+}
 
 // The rolling resistance of model Roll (not kNoRolling), with the contact's k_r and, for the
 // epsd dashpot (Viscous), I_r.

@@ -278,10 +278,12 @@ end = { q_p = 0.2 })");
 
 // A contact parameter set by a stage is the simulation's from then on.
 TEST(Stages, StageSetsContactParameters) {
-  LatticeRun r("type = \"hold\"\nfriction = 0.25\nrolling_friction = 0.05\nlocal_damping = 0.3\n"
-               "damping_ratio_normal = 0.2\ndamping_ratio_shear = 0.1\nend = { steps = 4 }");
+  LatticeRun r("type = \"hold\"\nfriction = 0.25\nrolling_friction = 0.05\ntwisting_friction = 0.02\n"
+               "local_damping = 0.3\ndamping_ratio_normal = 0.2\ndamping_ratio_shear = 0.1\nend = { steps = 4 }");
   EXPECT_EQ(r.sim.params().law.friction, 0.25);
   EXPECT_EQ(r.sim.params().law.rolling_friction, 0.05);
+  EXPECT_EQ(r.sim.params().law.twisting_friction, 0.02);
+  EXPECT_TRUE(r.sim.pairs().twisting);  // its springs kept from then on
   EXPECT_EQ(r.sim.params().local_damping, 0.3);
   EXPECT_EQ(r.sim.params().law.damping_ratio_n, 0.2);
   EXPECT_EQ(r.sim.params().law.damping_ratio_s, 0.1);
@@ -294,7 +296,7 @@ TEST(Stages, StageLawReplacesTheDashpot) {
   law.damping_rate_n = 50;
   law.damping_rate_s = 20;
   StageSpec st;
-  st.damping_ratio_normal = 0.3;
+  st.law.set(&ContactLawParams::damping_ratio_n, 0.3);
   const ContactLawParams a = stage_law(law, st);
   EXPECT_EQ(a.damping_ratio_n, 0.3);
   EXPECT_EQ(a.damping_rate_n, 0.0);

@@ -8,7 +8,9 @@
 
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 using namespace fabrica;
 
@@ -289,11 +291,11 @@ end = { strain = -0.01, strain_axis = 1 }
   EXPECT_EQ(a.where, "stage[1]");
   EXPECT_EQ(a.stress, Vec3::Constant(1e5));
   EXPECT_TRUE(a.end.at_rest);
-  EXPECT_EQ(*a.friction, 1.0);
-  EXPECT_FALSE(a.rolling_friction);
+  EXPECT_EQ(*a.law.get(&ContactLawParams::friction), 1.0);
+  EXPECT_FALSE(a.law.get(&ContactLawParams::rolling_friction));
   EXPECT_EQ(*a.local_damping, 0.7);
-  EXPECT_EQ(*a.damping_ratio_normal, 0.4);
-  EXPECT_FALSE(a.damping_ratio_shear);
+  EXPECT_EQ(*a.law.get(&ContactLawParams::damping_ratio_n), 0.4);
+  EXPECT_FALSE(a.law.get(&ContactLawParams::damping_ratio_s));
   const StageSpec& m = s.stages[1];
   EXPECT_EQ(m.name, "by hand");
   EXPECT_EQ(m.mode[0], AxisMode::StrainRate);
@@ -426,4 +428,62 @@ TEST(Scene, RollingModelsAndTheirKeys) {
   expect_error("[contact]\nrolling_model = \"epsd2\"\n", {"[contact]", "rolling_model", "\"epsd2\"", "constant_torque"});
   expect_error("[contact]\nrolling_damping = 0.3\n", {"[contact]", "rolling_damping", "0.3", "epsd"});
   expect_error("[contact]\nrolling_model = \"epsd\"\nrolling_damping = 1.2\n", {"rolling_damping", "1.2", "[0, 1)"});
+}
+
+// [contact] twisting_friction (docs/scene.md, "Twisting resistance"), a wall's own and a stage's.
+TEST(Scene, TwistingFrictionAndItsKeys) {
+  EXPECT_FALSE(parse_scene("[contact]\n", "d.toml").law.twisting());
+  const Scene s = parse_scene("[contact]\nmodel = \"hertz_mindlin\"\ntwisting_friction = 0.05\n", "t.toml");
+  EXPECT_EQ(s.law.twisting_friction, 0.05);
+  EXPECT_TRUE(s.law.twisting());
+  EXPECT_FALSE(s.law.rolling());  // one without the other
+  const Scene w = parse_scene("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\ntwisting_friction = 0.2\n", "w.toml");
+  ASSERT_EQ(w.walls.size(), 1u);
+  EXPECT_TRUE(w.walls[0].own_law);
+  EXPECT_EQ(w.walls[0].law.twisting_friction, 0.2);
+  EXPECT_FALSE(w.law.twisting());
+  expect_error("[contact]\ntwisting_friction = -0.1\n", {"[contact]", "twisting_friction", "-0.1", ">= 0"});
+  expect_error("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\ntwisting_friction = -2\n",
+               {"[wall #1]", "twisting_friction", "-2", ">= 0"});
+}
+
+// The law's declared parameters (core/contact/params.hpp kLawParameters): every scene key is in
+// docs/scene.md's [contact] table with its unit, and its bound refuses a value outside it in
+// [contact] by name (each key with its model), in [[wall]] where a wall may give it, and in
+// [[stage]] where a stage may; the checkpoint's and HDF5's field list is the same list.
+TEST(Scene, LawParametersAreDeclaredOnce) {
+  std::ifstream in(std::string(FABRICA_SOURCE_DIR) + "/docs/scene.md");
+  ASSERT_TRUE(in) << "docs/scene.md";
+  std::stringstream doc;
+  doc << in.rdbuf();
+  const std::string text = doc.str();
+  const std::size_t from = text.find("## `[contact]`"), to = text.find("\n## ", from + 1);
+  ASSERT_NE(from, std::string::npos);
+  const std::string contact = text.substr(from, to - from);
+  struct Names {
+    std::vector<std::string> v;
+    void field(const char* n, std::uint8_t) { v.push_back(n); }
+    void field(const char* n, real_t) { v.push_back(n); }
+  } names;
+  const ContactLawParams law;
+  law_fields(names, law);
+  ASSERT_EQ(names.v.size(), std::size(kLawParameters));
+  std::size_t k = 0;
+  for (const LawParameter& p : kLawParameters) {
+    EXPECT_EQ(names.v[k++], p.field);
+    if (!p.key) continue;
+    const std::string row = "| `" + std::string(p.key) + "` | " + p.unit + " |";
+    EXPECT_NE(contact.find(row), std::string::npos) << "docs/scene.md [contact] lacks the row " << row;
+    // A value outside the bound: -1 fails every bound but Poisson's, which -2 fails.
+    const std::string bad = p.bound == Bound::Poisson ? "-2" : "-1";
+    const std::string model = p.model == ForModel::HertzMindlin ? "model = \"hertz_mindlin\"\n" : "";
+    const std::string epsd = p.member == &ContactLawParams::rolling_damping ? "rolling_model = \"epsd\"\n" : "";
+    expect_error("[contact]\n" + model + epsd + p.key + " = " + bad + "\n", {"[contact]", p.key, bad, bound_text(p.bound)});
+    if (p.wall)
+      expect_error("[contact]\n" + model + "[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n" + p.key + " = " + bad + "\n",
+                   {"[wall #1]", p.key, bad, bound_text(p.bound)});
+    if (p.stage)
+      expect_error("[[stage]]\ntype = \"hold\"\n" + std::string(p.key) + " = " + bad + "\nend = { steps = 1 }\n",
+                   {std::string("stage[1].") + p.key, bad, bound_text(p.bound)});
+  }
 }

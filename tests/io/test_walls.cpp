@@ -264,6 +264,110 @@ TEST(Walls, RollingModelsOnPlaneAndIncline) {
   }
 }
 
+// Twisting resistance (core/contact/rolling.hpp, twisting_friction mu_t): a sphere resting
+// under gravity on the floor (a wall) or on a fixed sphere (the pair kernel), spinning about the
+// contact normal at w0. No other force turns it, so the twisting moment mu_t Rbar m g stops it
+// at the constant rate a = mu_t Rbar m g / I: t_stop = w0 / a, turned through w0^2 / (2 a)
+// (Rbar = R on the wall, R / 2 on the equal fixed sphere). Then the spring holds it: the spin
+// stays within the free oscillation of the spring loaded to the cap, cap / sqrt(k_t,w I), the
+// angle within 2 cap / k_t,w of where it stopped, and it does not slip on (below 2e-6 of the
+// energy the spin had). Tolerances: 2e-3 on t_stop and the angle (the spring's elastic start
+// and one step), 1e-3 on the energy account, 1 % on the spin's bound.
+struct TwistResult {
+  real_t t_stop, turned;  // s, rad
+  real_t energy_error;    // |books - input| / input at the stop
+  real_t rest_spin;       // rad/s, the largest |w_z| over 20,000 steps of rest
+  real_t rest_turn;       // rad, the largest |angle - angle at the stop| over the rest
+  real_t rest_slip;       // J, the slip booked over the rest
+  real_t cap, ktw, inertia;
+};
+
+TwistResult spin_down(bool hertz, bool on_sphere, real_t w0, real_t mut) {
+  const real_t R = 0.01, rho = 2650, m = rho * 4.0 / 3 * kPi * R * R * R, I = 0.4 * m * R * R;
+  const real_t E = 1e8, nu = 0.3, kn = 1e5;
+  const real_t rbar = on_sphere ? 0.5 * R : R;
+  // The static overlap under m g, and the tangential stiffness there.
+  const real_t estar = E / (2 * (1 - nu * nu)), gstar = E / (4 * (2 - nu) * (1 + nu));
+  const real_t u = hertz ? std::pow(m * kG / (4.0 / 3 * estar * std::sqrt(rbar)), 2.0 / 3) : m * kG / kn;
+  const real_t ks = hertz ? 8 * gstar * std::sqrt(rbar * u) : kn;
+  std::ostringstream t;
+  t.precision(17);
+  t << "[contact]\n"
+    << (hertz ? "model = \"hertz_mindlin\"\nyoungs_modulus = 1e8\npoisson_ratio = 0.3\n" : "normal_stiffness = 1e5\n")
+    << "friction = 0.5\ntwisting_friction = " << mut << "\n[run]\ngravity = [0, 0, " << -kG
+    << "]\nskin = 0.002\noutput_every = 100\n";
+  std::vector<Sphere> s;
+  const Vec3 base(0.05, 0.05, 0.03);
+  if (on_sphere) {
+    t << "[[driven]]\nids = [2]\n";
+    s = {{R, rho, base + Vec3(0, 0, 2 * R - u), Vec3::Zero(), Vec3(0, 0, w0)}, {R, rho, base}};
+  } else {
+    t << "[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n";
+    s = {{R, rho, Vec3(0.05, 0.05, R - u), Vec3::Zero(), Vec3(0, 0, w0)}};
+  }
+  const Scene sc = scene_with(std::string("twist_") + (hertz ? "hertz" : "linear") + (on_sphere ? "_pair" : "_wall"),
+                              t.str(), s, Vec3(0.1, 0.1, 0.1));
+  Simulation sim = simulation_of(sc);
+  const real_t dt = sim.params().dt;
+  const std::size_t a = sim.particles().id[0] == 1 ? 0 : 1;
+  TwistResult r{};
+  r.cap = mut * rbar * m * kG;
+  r.ktw = ks * rbar * rbar;
+  r.inertia = I;
+  real_t angle = 0, wprev = w0;
+  for (int k = 0; k < 1000000; ++k) {
+    sim.step(true);
+    const real_t wz = sim.particles().w[a].z();
+    if (wz <= 0) {
+      const real_t f = wprev / (wprev - wz);
+      r.t_stop = sim.time() - dt + f * dt;
+      r.turned = angle + f * wprev * dt;  // the spin at the step's end drives its turn
+      angle += wz * dt;
+      break;
+    }
+    angle += wz * dt;
+    wprev = wz;
+  }
+  const MacroState& mc = sim.macro();
+  r.energy_error = std::abs(energy_books(mc) - mc.energy_input) / mc.energy_input;
+  const real_t slip0 = mc.dissipated.rolling, stop_angle = angle;
+  for (int k = 0; k < 20000; ++k) {
+    sim.step(k % 100 == 0);
+    const real_t wz = sim.particles().w[a].z();
+    angle += wz * dt;
+    r.rest_spin = std::max(r.rest_spin, std::abs(wz));
+    r.rest_turn = std::max(r.rest_turn, std::abs(angle - stop_angle));
+  }
+  sim.step(true);
+  r.rest_slip = sim.macro().dissipated.rolling - slip0;
+  return r;
+}
+
+TEST(Walls, TwistingResistanceStopsSpinningSphere) {
+  const real_t w0 = 10, mut = 0.1, R = 0.01;
+  for (bool hertz : {false, true})
+    for (bool on_sphere : {false, true}) {
+      const real_t rbar = on_sphere ? 0.5 * R : R;
+      const real_t acc = mut * rbar * kG / (0.4 * R * R);  // mu_t Rbar m g / I
+      const real_t T = w0 / acc, th = w0 * w0 / (2 * acc);
+      const TwistResult r = spin_down(hertz, on_sphere, w0, mut);
+      const real_t spin_bound = r.cap / std::sqrt(r.ktw * r.inertia);
+      const std::string label = std::string(hertz ? "hertz_mindlin" : "linear") + (on_sphere ? " on a sphere" : " on the floor");
+      std::printf("[twisting, %s] t_stop = %.6f s (exact %.6f), turned %.6f rad (%.6f), energy error %.2e; at rest: "
+                  "spin up to %.3e rad/s (bound %.3e), turn %.3e rad (bound %.3e), slip %.1e J\n",
+                  label.c_str(), r.t_stop, T, r.turned, th, r.energy_error, r.rest_spin, spin_bound, r.rest_turn,
+                  2 * r.cap / r.ktw, r.rest_slip);
+      EXPECT_NEAR(r.t_stop / T, 1.0, 2e-3) << label;
+      EXPECT_NEAR(r.turned / th, 1.0, 2e-3) << label;
+      EXPECT_LT(r.energy_error, 1e-3) << label;
+      EXPECT_LT(r.rest_spin, 1.01 * spin_bound) << label;
+      EXPECT_LT(r.rest_turn, 2 * r.cap / r.ktw) << label;
+      // The spring loaded to the cap swings between -cap and +cap: it touches the cap twice a
+      // period, with the rounding of one step's slip; a creeping sphere would keep slipping.
+      EXPECT_LT(std::abs(r.rest_slip), 2e-6 * 0.5 * r.inertia * w0 * w0) << label;
+    }
+}
+
 // Rolling down an incline of 3 degrees (tan < mu_r): a = 5 g (mu_r cos - sin) / 7. 1 %.
 TEST(Walls, SphereRollingDownInclineStops) {
   const real_t R = 0.01, v0 = 0.5, mur = 0.1, th = 3 * kPi / 180;

@@ -209,23 +209,17 @@ TEST(Checkpoint, BitwiseContinuation) {
   if (domain.rank() == 0) std::filesystem::remove(path);
 }
 
-// The same continuation with Hertz-Mindlin contacts (their tangential springs are displacements)
-// and rolling resistance: the law, its model and the springs come back from the file, and the
-// restarted run is the uninterrupted one bit for bit.
-TEST(Checkpoint, HertzMindlinBitwiseContinuation) {
+// The same continuation with another law: the law, its model and the springs come back from the
+// file, and the restarted run is the uninterrupted one bit for bit.
+void continues_bitwise(const ContactLawParams& law, const std::string& name) {
   fabrica::Setup s = dense_setup();
-  ContactLawParams& law = s.params.law;
-  law.model = ContactModel::HertzMindlin;
-  law.youngs_modulus = 1e9;
-  law.poisson_ratio = 0.2;
-  law.damping_rate_n = law.damping_rate_s = 0;
-  law.damping_ratio_n = 0.1;
+  s.params.law = law;
   s.params.dt = 0.25 * critical_time_step(s.particles, law, false);
   const std::string text = dense_text();
   Simulation ref(s.particles, s.cell, s.params);
   deform(ref);
   run_to(ref, kSteps);
-  const std::string path = checkpoint_path("hertz");
+  const std::string path = checkpoint_path(name);
   {
     MpiDomain domain(MPI_COMM_WORLD);
     Simulation first(s.particles, s.cell, s.params, &domain);
@@ -241,13 +235,41 @@ TEST(Checkpoint, HertzMindlinBitwiseContinuation) {
   const Checkpoint c = Checkpoint::read(MPI_COMM_WORLD, path, ex);
   MpiDomain domain(MPI_COMM_WORLD);
   Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
-  EXPECT_EQ(restarted.params().law.model, ContactModel::HertzMindlin);
-  EXPECT_EQ(restarted.params().law.poisson_ratio, 0.2);
+  EXPECT_EQ(restarted.params().law.model, law.model);
+  EXPECT_EQ(restarted.params().law.poisson_ratio, law.poisson_ratio);
+  EXPECT_EQ(restarted.params().law.twisting_friction, law.twisting_friction);
   run_to(restarted, kSteps);
   expect_same_trajectory(restarted, ref);
   EXPECT_GT(ref.macro().dissipated.rolling, 0.0);
   MPI_Barrier(MPI_COMM_WORLD);
   if (domain.rank() == 0) std::filesystem::remove(path);
+}
+
+// Hertz-Mindlin contacts (their springs scaled as the contacts unload) with rolling resistance.
+TEST(Checkpoint, HertzMindlinBitwiseContinuation) {
+  ContactLawParams law = dense_setup().params.law;
+  law.model = ContactModel::HertzMindlin;
+  law.youngs_modulus = 1e9;
+  law.poisson_ratio = 0.2;
+  law.damping_rate_n = law.damping_rate_s = 0;
+  law.damping_ratio_n = 0.1;
+  continues_bitwise(law, "hertz");
+}
+
+// Twisting resistance, whose springs the contact records then carry (format 9), with each
+// model (without rolling resistance for Hertz-Mindlin: the twisting springs alone).
+TEST(Checkpoint, TwistingBitwiseContinuation) {
+  ContactLawParams law = dense_setup().params.law;
+  law.twisting_friction = 0.05;
+  continues_bitwise(law, "twisting_linear");
+  law.model = ContactModel::HertzMindlin;
+  law.youngs_modulus = 1e9;
+  law.poisson_ratio = 0.2;
+  law.stiffness_mode = NormalStiffnessMode::Deformability;
+  law.damping_rate_n = law.damping_rate_s = 0;
+  law.damping_ratio_n = 0.1;
+  law.rolling_friction = 0;
+  continues_bitwise(law, "twisting_hertz");
 }
 
 TEST(Checkpoint, SmallBlocksWriteTheSameFile) {

@@ -165,10 +165,11 @@ INSTANTIATE_TEST_SUITE_P(Decompositions, DenseRun,
 
 // The dense packing with each contact model and rolling model, with dashpots (every part of
 // the models' kernels): 300 steps on N ranks against 1 rank, bit for bit.
-void same_trajectory_with(ContactModel model, RollingModel rolling) {
+void same_trajectory_with(ContactModel model, RollingModel rolling, real_t twisting_friction = 0) {
   fabrica::Setup s = dense_setup();
   ContactLawParams& law = s.params.law;
   law.model = model;
+  law.twisting_friction = twisting_friction;
   law.rolling_model = rolling;
   law.rolling_friction = 0.1;
   law.rolling_damping = 0.3;
@@ -180,7 +181,8 @@ void same_trajectory_with(ContactModel model, RollingModel rolling) {
     law.damping_rate_n = law.damping_rate_s = 0;
     s.params.dt = 0.25 * critical_time_step(s.particles, law, false);
   }
-  SCOPED_TRACE(std::string(model_name(model)) + ", " + rolling_model_name(rolling));
+  SCOPED_TRACE(std::string(model_name(model)) + ", " + rolling_model_name(rolling) +
+               (twisting_friction > 0 ? ", twisting" : ""));
   MpiDomain domain(MPI_COMM_WORLD, options_of(DecompositionKind::Metis));
   Simulation serial(s.particles, s.cell, s.params), par(s.particles, s.cell, s.params, &domain);
   for (int k = 1; k <= 300; ++k) {
@@ -206,6 +208,9 @@ TEST(ModelRun, SameTrajectoryOnEveryRankCount) {
     same_trajectory_with(ContactModel::HertzMindlin, rolling);
   for (RollingModel rolling : {RollingModel::Epsd, RollingModel::ConstantTorque})
     same_trajectory_with(ContactModel::Linear, rolling);
+  // Twisting resistance (its springs in the pools, the rebuild's carry and the migration).
+  same_trajectory_with(ContactModel::Linear, RollingModel::ElasticPlastic, 0.05);
+  same_trajectory_with(ContactModel::HertzMindlin, RollingModel::ConstantTorque, 0.05);
 }
 
 // Every pair within R_i + R_j + skin, across ranks and periodic faces, is in exactly one rank's
@@ -237,16 +242,17 @@ TEST(Decomposition, EveryPairFoundExactlyOnce) {
 }
 
 // Two soft spheres stay in contact while travelling along the long axis across every subdomain
-// boundary (the contact is sheared and rolled all the way): after the crossings the shear and
-// rolling springs equal the serial run's, bitwise, and particles did migrate.
+// boundary (the contact is sheared, rolled and twisted all the way): after the crossings the
+// shear, rolling and twisting springs equal the serial run's, bitwise, and particles did migrate.
 TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
   Particles p;
   const real_t R = 0.05;
-  p.add({7, R, 2650, Vec3(0.10, 0.15, 0.15), Vec3(20.0, 0.05, 0), Vec3(0, 0, 3.0)});
+  // Spins about y (the contact normal) of +1 and -1 rad/s twist the contact at 2 rad/s.
+  p.add({7, R, 2650, Vec3(0.10, 0.15, 0.15), Vec3(20.0, 0.05, 0), Vec3(0, 1.0, 3.0)});
   // Spins +3 and -1 rad/s about z: the contact points slide past each other at 0.1 m/s (with
   // +3 and -3 they would not slide at all, and the shear spring would be zero but for rounding)
   // and roll relative to each other at 4 rad/s, so both springs reach their caps.
-  p.add({3, R, 2650, Vec3(0.10, 0.15 + 2 * R - 0.002, 0.15), Vec3(20.0, -0.05, 0), Vec3(0, 0, -1.0)});
+  p.add({3, R, 2650, Vec3(0.10, 0.15 + 2 * R - 0.002, 0.15), Vec3(20.0, -0.05, 0), Vec3(0, -1.0, -1.0)});
   // Spectators so that every rank owns something.
   for (int k = 0; k < 8; ++k) p.add({100 + k, 0.02, 2650, Vec3(0.2 + 0.25 * k, 0.05, 0.05)});
   const PeriodicCell cell(Vec3(2.0, 0.3, 0.3));
@@ -255,6 +261,7 @@ TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
   par.law.normal_stiffness = 200.0;
   par.law.friction = 0.5;
   par.law.rolling_friction = 0.2;
+  par.law.twisting_friction = 0.2;
   par.skin = 0.002;
   par.dt = 1e-4;
   Simulation serial(p, cell, par);
@@ -262,31 +269,35 @@ TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
   Simulation sim(p, cell, par, &domain);
   for (int k = 0; k < 1000; ++k) serial.step(), sim.step();  // 0.1 s: 2 m, the whole cell
 
-  auto find = [](const Simulation& s, Vec3& fs, Vec3& mr) {
+  auto find = [](const Simulation& s, Vec3& fs, Vec3& mr, real_t& mt) {
     const Particles& q = s.particles();
     for (std::size_t c = 0; c < s.pairs().size(); ++c) {
       const auto i = s.pairs().i[c], j = s.pairs().j[c];
       if (std::size_t(i) < q.n_owned() && q.id[i] == 3 && q.id[j] == 7 && s.pairs().touching[c]) {
         fs = s.pairs().shear_spring(c);
         mr = s.pairs().rolling_spring(c);
+        mt = s.pairs().twisting_spring(c);
         return 1;
       }
     }
     return 0;
   };
   Vec3 fs_s, mr_s, fs_p = Vec3::Zero(), mr_p = Vec3::Zero();
-  ASSERT_EQ(find(serial, fs_s, mr_s), 1) << "the contact broke in the serial run";
-  const int here = find(sim, fs_p, mr_p);
+  real_t mt_s = 0, mt_p = 0;
+  ASSERT_EQ(find(serial, fs_s, mr_s, mt_s), 1) << "the contact broke in the serial run";
+  const int here = find(sim, fs_p, mr_p, mt_p);
   int owners = here;
   MPI_Allreduce(MPI_IN_PLACE, &owners, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   EXPECT_EQ(owners, 1);  // the contact exists once (with its lower-id body owned)
-  double buf[6] = {0, 0, 0, 0, 0, 0};
-  if (here) std::copy(fs_p.data(), fs_p.data() + 3, buf), std::copy(mr_p.data(), mr_p.data() + 3, buf + 3);
-  MPI_Allreduce(MPI_IN_PLACE, buf, 6, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  double buf[7] = {0, 0, 0, 0, 0, 0, 0};
+  if (here) std::copy(fs_p.data(), fs_p.data() + 3, buf), std::copy(mr_p.data(), mr_p.data() + 3, buf + 3), buf[6] = mt_p;
+  MPI_Allreduce(MPI_IN_PLACE, buf, 7, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
   // Both springs are well away from zero (a tenth of the normal force and more), not rounding.
   const real_t fn = par.law.normal_stiffness * 0.002;
   EXPECT_GT(fs_s.norm(), 0.1 * fn);
   EXPECT_GT(mr_s.norm(), 0.1 * par.law.rolling_friction * 0.5 * R * fn);
+  EXPECT_GT(std::abs(mt_s), 0.1 * par.law.twisting_friction * 0.5 * R * fn);
+  EXPECT_EQ(buf[6], mt_s);
   for (int k = 0; k < 3; ++k) {
     EXPECT_EQ(buf[k], fs_s[k]);
     EXPECT_EQ(buf[3 + k], mr_s[k]);

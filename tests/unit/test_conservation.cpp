@@ -396,6 +396,28 @@ TEST(Conservation, EnergyBalanceHertzMindlin) {
   EXPECT_LT(e4, e3 / 1.67);
 }
 
+// Twisting resistance (core/contact/rolling.hpp) with rolling resistance and friction, with
+// either model: its slip and its spring's energy join the rolling books, and the balance closes
+// as without it (the linear law's tolerance of friction + rolling, the same halving; with
+// Hertz-Mindlin, the tolerances above).
+TEST(Conservation, EnergyBalanceTwisting) {
+  ContactLawParams law;
+  law.friction = 0.3;
+  law.rolling_friction = 0.1;
+  law.twisting_friction = 0.1;
+  const real_t e1 = energy_balance_case(law, 0.0, 0.05, "friction + rolling + twisting");
+  const real_t e2 = energy_balance_case(law, 0.0, 0.025, "friction + rolling + twisting");
+  EXPECT_LT(e1, 5e-4);
+  EXPECT_LT(e2, e1 / 2);
+  law.model = ContactModel::HertzMindlin;
+  law.youngs_modulus = 1e8;
+  law.poisson_ratio = 0.25;
+  const real_t e3 = energy_balance_case(law, 0.0, 0.05, "Hertz-Mindlin, friction + rolling + twisting");
+  const real_t e4 = energy_balance_case(law, 0.0, 0.025, "Hertz-Mindlin, friction + rolling + twisting");
+  EXPECT_LT(e3, 6e-3);
+  EXPECT_LT(e4, e3 / 1.67);
+}
+
 }  // namespace
 }  // namespace fabrica
 

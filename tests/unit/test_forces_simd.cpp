@@ -16,6 +16,8 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
+
 #include <cmath>
 #include <string>
 #include <cstdio>
@@ -190,6 +192,9 @@ void run_case(const ContactLawParams& law, const char* label, int fetch1 = -1, i
   };
   EXPECT_TRUE(same_bits(springs(l1, false), springs(l4, false))) << label;
   EXPECT_TRUE(same_bits(springs(l1, true), springs(l4, true))) << label;
+  for (std::size_t q = 0; q < l1.size(); ++q)
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(l1.twisting_spring(q)), std::bit_cast<std::uint64_t>(l4.twisting_spring(q)))
+        << label << " twisting spring of pair " << q;
   const MacroState &m1 = s1.macro(), &m4 = s4.macro();
   EXPECT_EQ(m1.dissipated.friction, m4.dissipated.friction) << label;
   EXPECT_EQ(m1.dissipated.rolling, m4.dissipated.rolling) << label;
@@ -211,6 +216,14 @@ void run_case(const ContactLawParams& law, const char* label, int fetch1 = -1, i
     EXPECT_EQ(l1.spring_mr.size(), l1.spring_fs.size()) << label;
   } else {
     EXPECT_TRUE(!l1.rolling && l1.spring_mr.empty()) << label;  // mu_r = 0: no rolling springs at all
+  }
+  if (law.twisting()) {
+    EXPECT_TRUE(l1.twisting && l1.spring_mt.size() == l1.spring_fs.size()) << label;
+    real_t largest = 0;  // the twisting springs are loaded
+    for (std::size_t q = 0; q < l1.size(); ++q) largest = std::max(largest, std::abs(l1.twisting_spring(q)));
+    EXPECT_GT(largest, 0.0) << label;
+  } else {
+    EXPECT_TRUE(!l1.twisting && l1.spring_mt.empty()) << label;  // mu_t = 0: no twisting springs
   }
   if (law.viscous()) EXPECT_GT(m1.dissipated.viscous, 0.0) << label;
 }
@@ -262,6 +275,21 @@ TEST(ForcesSimd, RunBitwiseEveryModel) {
     law.rolling_damping = 0.3;
     run_case(law, (std::string("Hertz-Mindlin, ") + rolling_model_name(rm)).c_str());
   }
+  // Twisting resistance, with and without rolling resistance, with either model.
+  for (bool hertz : {false, true})
+    for (bool rolling : {false, true}) {
+      ContactLawParams law = law_of(rolling, true);
+      law.twisting_friction = 0.05;
+      if (hertz) {
+        law.model = ContactModel::HertzMindlin;
+        law.youngs_modulus = 1e8;
+        law.poisson_ratio = 0.3;
+        law.damping_rate_n = law.damping_rate_s = 0;
+        law.damping_ratio_n = law.damping_ratio_s = 0.1;
+      }
+      run_case(law, (std::string(hertz ? "Hertz-Mindlin" : "linear") + ", twisting" +
+                     (rolling ? " and rolling" : ", no rolling")).c_str());
+    }
 }
 
 // The springs live in pools by slot (core/contact_list.hpp): a slot given back is handed out
