@@ -189,8 +189,9 @@ TEST(Hertz, ObliqueWallGrossSliding) {
   EXPECT_NEAR(sim.dissipation().friction / lost, 1.0, 1e-2);
 }
 
-// Test 4. The law itself, one contact: f_n = 4/3 E* sqrt(R*) u^{3/2}; a small tangential step
-// loads the spring at Mindlin's k_t = 8 G* sqrt(R* u_n) (to rounding); the energies are
+// Test 4. The law itself, one contact: f_n = 4/3 E* sqrt(R*) u^{3/2}; a small tangential step at
+// constant overlap loads the spring at Mindlin's k_t = 8 G* sqrt(R* u_n) (to rounding), one
+// while the overlap grows at the step's mean stiffness (the midpoint rule); the energies are
 // 8/15 E* sqrt(R*) u^{5/2} and |f_t|^2 / (2 k_t). Loading at rest keeps the stored force, and the
 // energy |f_t|^2 / 2 (1 / k_t,prev - 1 / k_t) it loses is booked as slip; unloading to a quarter
 // of the overlap halves it (s = sqrt(u_n / u_n,prev)), the
@@ -202,7 +203,7 @@ TEST(Hertz, ContactLawClosedForms) {
   const auto c = HertzMindlin::constants<true, false>(law, R1, R2, 1, 2);
   using simd::from_vec, simd::to_vec;
   const Vec3 n = Vec3::UnitZ(), vt(1e-3, 0, 0);
-  ContactKinematicsL<real_t> k{from_vec(n), un, from_vec(vt), from_vec(Vec3::Zero()), from_vec(Vec3::Zero()), 0.0};
+  ContactKinematicsL<real_t> k{from_vec(n), un, from_vec(vt), from_vec(Vec3::Zero()), from_vec(Vec3::Zero()), un};
   ContactHistoryL<real_t> h{from_vec(Vec3::Zero()), from_vec(Vec3::Zero())};
   const auto r = HertzMindlin::evaluate<true, false, real_t>(law, c, k, h, dt);
   const real_t fn = 4.0 / 3.0 * Estar * std::sqrt(rstar) * std::pow(un, 1.5);
@@ -228,6 +229,14 @@ TEST(Hertz, ContactLawClosedForms) {
   const auto r3 = HertzMindlin::evaluate<true, false, real_t>(law, c, k, h, dt);
   EXPECT_NEAR(to_vec(r3.fs).norm() / (0.5 * f), 1.0, 1e-12);
   EXPECT_NEAR(r3.e_friction / (0.5 * f * f / (2 * kt) * 0.5), 1.0, 1e-9);
+  // A tangential step while the overlap grows from u_n to 4 u_n: the increment at
+  // (k_t(u_n) + k_t(4 u_n)) / 2 = 1.5 k_t.
+  ContactHistoryL<real_t> h4{from_vec(Vec3::Zero()), from_vec(Vec3::Zero())};
+  k.un = 4 * un;
+  k.un_prev = un;
+  k.vrel = from_vec(Vec3(vt.x(), 0, -3 * un / dt));
+  const auto r4 = HertzMindlin::evaluate<true, false, real_t>(law, c, k, h4, dt);
+  EXPECT_NEAR(to_vec(r4.fs).x() / (-1.5 * kt * vt.x() * dt), 1.0, 1e-12);
   // The stiffnesses the servo reads.
   EXPECT_NEAR(HertzMindlin::normal_stiffness(c, un) / (2 * Estar * std::sqrt(rstar * un)), 1.0, 1e-14);
   EXPECT_NEAR(HertzMindlin::shear_stiffness(c, un) / kt, 1.0, 1e-14);
