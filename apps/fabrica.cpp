@@ -365,7 +365,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::string scene_path, outdir = "fabrica-output";
   CLI::App* runc = app.add_subcommand("run", "run a scene (default: the built-in demo scene)");
-  runc->add_option("scene", scene_path, "scene file (TOML)")->check(CLI::ExistingFile);
+  // Not CLI::ExistingFile: load_scene says what the system said (no such file, permission denied).
+  runc->add_option("scene", scene_path, "scene file (TOML)");
   runc->add_option("-o,--output", outdir, "output directory");
   bool overwrite = false;
   runc->add_flag("--overwrite", overwrite, "replace an existing OUT/run.h5");

@@ -9,7 +9,9 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -629,10 +631,12 @@ Scene load_scene(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InputError(path + ": is a directory, not a scene file (TOML)");
+  errno = 0;
   std::ifstream in(path, std::ios::binary);
+  const int err = errno;  // what open(2) said: no such file, permission denied (a directory that cannot be entered)
   if (!in || fault_injected("scene"))
-    throw InputError(path + ": cannot open the scene file" +
-                     (in ? " (" + fault_text("scene") + ")" : std::string()));
+    throw InputError(path + ": cannot open the scene file (" +
+                     (in ? fault_text("scene") : std::string(err ? std::strerror(err) : "unreadable")) + ")");
   std::ostringstream s;
   s << in.rdbuf();
   return parse_scene(s.str(), path);

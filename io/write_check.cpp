@@ -85,6 +85,10 @@ void check_room(const std::string& path, double bytes) {
 
 void make_output_directory(const std::string& dir) {
   std::error_code ec;
+  // A dangling symbolic link: create_directories would say only "File exists".
+  if (std::filesystem::is_symlink(dir, ec) && !std::filesystem::exists(dir, ec))
+    throw WriteError(dir + ": cannot create the output directory: it is a symbolic link to " +
+                     std::filesystem::read_symlink(dir, ec).string() + ", which does not exist (a dangling link)");
   std::filesystem::create_directories(dir, ec);
   if (ec) throw WriteError(dir + ": cannot create the output directory: " + ec.message());
   if (!std::filesystem::is_directory(dir, ec))
