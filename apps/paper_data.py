@@ -7,12 +7,12 @@ apps/fabrica_h5.py), OUT/summary.csv and the consolidation files. Cases are orde
 import csv
 import glob
 import os
-import re
 import tomllib
 
 import numpy as np
 
 import fabrica_h5
+from fabrica_cases import mu_r_of
 
 # The networks as the study names them (docs/fabric.md).
 NETWORK_LABELS = {
@@ -31,11 +31,6 @@ PARTITION_LABELS = {p: "{" + ", ".join(n) + "}" for p, n in PARTITIONS.items()}
 # The study's residual state: the rows with eps_1 at least this share of the largest eps_1.
 RESIDUAL_FROM = 0.6
 STUDY_MU_R = 0.05  # the case of the study's figures 3-8
-
-
-def mu_r_of(case):
-    m = re.fullmatch(r"mur_([0-9.eE+-]+)", case)
-    return float(m.group(1)) if m else float("nan")
 
 
 def _table(path):

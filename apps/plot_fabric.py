@@ -18,8 +18,9 @@ Needs Debian's python3-numpy and python3-matplotlib (for /usr/bin/python3).
 import argparse
 import glob
 import os
-import re
 import sys
+
+from fabrica_cases import mu_r_of
 
 try:
     import numpy as np
@@ -50,11 +51,6 @@ def load(path, required):
         for k in ("a_b", "a_n", "a_t"):
             d[k][bad] = np.nan
     return d
-
-
-def mu_r_of(case):
-    m = re.fullmatch(r"mur_([0-9.eE+-]+)", case)
-    return float(m.group(1)) if m else float("nan")
 
 
 def main():

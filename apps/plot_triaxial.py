@@ -26,39 +26,29 @@ except ImportError as e:  # pragma: no cover
              "and run with /usr/bin/python3")
 
 
-def text(v):
-    """A string attribute (fixed-length HDF5 strings arrive as bytes)."""
-    return v.decode() if isinstance(v, bytes) else str(v)
-
-
 def load_h5(path):
     """{case: structured array} of the shear cases of a run.h5 (every series with a q_p column
-    except the consolidation)."""
-    import h5py
+    except the consolidation), read through apps/fabrica_h5.py."""
+    import fabrica_h5
     out = {}
     try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        sys.exit(f"plot_triaxial.py: {path}: cannot open: {e}")
-    with f:
-        if "fabrica_version" not in f.attrs or "series" not in f:
-            sys.exit(f"plot_triaxial.py: {path}: not a Fabrica run file")
-        for case, g in f["series"].items():
-            if case == "consolidation" or "q_p" not in g:
+        run = fabrica_h5.RunFile(path)
+        for case in run.series_cases():
+            if case == "consolidation":
                 continue
-            cols = [c for c in text(g.attrs["columns"]).split(",") if c in g]
-            n = g["step"].shape[0]
-            if n == 0:
+            s = run.series(case)
+            if "q_p" not in s or len(s) == 0:
                 continue
-            dt = [(c, "U16" if c == "stage" else "f8") for c in cols]
-            d = np.zeros(n, dtype=dt)
-            for c in cols:
-                if c == "stage":
-                    labels = text(g["stage"].attrs["labels"]).split(",")
-                    d["stage"] = [labels[k] for k in g["stage"][()]]
-                else:
-                    d[c] = g[c][()]
+            cols = ["step"] + (["stage"] if s.stage else []) + s.columns
+            d = np.zeros(len(s), dtype=[(c, "U16" if c == "stage" else "f8") for c in cols])
+            d["step"] = s.step
+            if s.stage:
+                d["stage"] = s.stage
+            for c in s.columns:
+                d[c] = s[c]
             out[case] = d
+    except fabrica_h5.FabricaFileError as e:
+        sys.exit(f"plot_triaxial.py: {e}")
     if not out:
         sys.exit(f"plot_triaxial.py: {path}: no triaxial series")
     return out

@@ -46,5 +46,17 @@ if [ "$mode" = demo ]; then
   fi
 else
   echo "== running the test suite"
-  ctest --test-dir build --output-on-failure -j"$jobs"
+  # Every test removes what it writes (tests/temp_dir.hpp): the temporary directory is listed
+  # before and after; a Fabrica file left there fails the run, anything else is reported.
+  tmp=${TMPDIR:-/tmp}
+  before=$(ls -A "$tmp" | sort)
+  status=0
+  ctest --test-dir build --output-on-failure -j"$jobs" || status=$?
+  left=$(comm -13 <(printf '%s\n' "$before") <(ls -A "$tmp" | sort))
+  if [ -n "$left" ]; then
+    echo "== new in $tmp after the test suite:"
+    printf '%s\n' "$left"
+    if grep -qi fabrica <<<"$left"; then echo "== a test left files in $tmp"; status=1; fi
+  fi
+  exit $status
 fi

@@ -6,6 +6,7 @@
 #include "io/setup.hpp"
 
 #include <gtest/gtest.h>
+#include "tests/temp_dir.hpp"
 #include <unistd.h>
 
 #include <filesystem>
@@ -15,10 +16,10 @@ using namespace fabrica;
 
 namespace {
 
-// Under the process id: ctest runs the tests of this file as concurrent processes, and two of
-// them writing the same file name would read each other's text.
+// In this process's scratch directory (tests/temp_dir.hpp: ctest runs the tests of this file as
+// concurrent processes, and two of them writing the same file name would read each other's text).
 std::string write_tmp(const std::string& name, const std::string& text) {
-  const auto p = std::filesystem::temp_directory_path() / (std::to_string(getpid()) + "_" + name);
+  const auto p = test::temp_dir() / name;
   std::ofstream(p) << text;
   return p.string();
 }
@@ -187,7 +188,7 @@ TEST(LammpsData, DiametersInRangeAndADirectoryIsRefused) {
   expect_file_error(header("1 atoms", kBox) + "1 1 1e-310 2650 0.5 0.5 0.5\n",
                     {":12", "particle 1 diameter = 1e-310", "[1e-09, 1000] m"});
   expect_file_error(header("1 atoms", kBox) + "1 1 5000 2650 0.5 0.5 0.5\n", {":12", "diameter = 5000"});
-  const auto dir = std::filesystem::temp_directory_path() / "fabrica_data_dir.data";
+  const auto dir = test::temp_dir() / "fabrica_data_dir.data";
   std::filesystem::create_directories(dir);
   try {
     read_lammps_data(dir.string());

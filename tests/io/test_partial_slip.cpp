@@ -29,6 +29,7 @@
 #include "io/setup.hpp"
 
 #include <gtest/gtest.h>
+#include "tests/temp_dir.hpp"
 
 #include <algorithm>
 #include <array>
@@ -64,7 +65,7 @@ std::string vec(const Vec3& v) {
 // `fabrica run` parses them.
 Scene scene_with(const std::string& name, const std::string& toml, real_t R, const Vec3& x, const Vec3& v) {
   const Vec3 L(0.1, 0.1, 0.1);
-  const fs::path dir = fs::temp_directory_path() / ("fabrica-partial-slip-" + name);
+  const fs::path dir = test::temp_dir() / ("partial-slip-" + name);
   fs::create_directories(dir);
   std::ostringstream d;
   d.precision(17);

@@ -10,6 +10,7 @@
 #include "io/setup.hpp"
 
 #include <gtest/gtest.h>
+#include "tests/temp_dir.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -57,7 +58,7 @@ std::string vec(const Vec3& v) {
 // The scene parsed as `fabrica run` parses it, with its data file beside it.
 Scene scene_with(const std::string& name, const std::string& toml, const std::vector<Sphere>& s,
                  const Vec3& L) {
-  const fs::path dir = fs::temp_directory_path() / ("fabrica-walls-" + name);
+  const fs::path dir = test::temp_dir() / ("walls-" + name);
   fs::create_directories(dir);
   std::ofstream(dir / "s.data") << data_text(s, L);
   const std::string text = "[particles]\nsource = \"file\"\nfile = \"s.data\"\n[cell]\nsize = " + vec(L) +

@@ -27,6 +27,22 @@ namespace {
 
 std::string dense_scene() { return std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml"; }
 
+// The directories the tests below write (rank 0, read by every rank): named by the rank count
+// so that runs at several rank counts at once do not meet, and removed by rank 0 once every
+// test has run, so that the suite leaves nothing in the temporary directory.
+std::filesystem::path case_dir(const std::string& what) {
+  return std::filesystem::temp_directory_path() / ("fabrica-dsetup-" + what + std::to_string(comm_size()));
+}
+struct RemoveCaseDirs : ::testing::Environment {
+  void TearDown() override {
+    MPI_Barrier(MPI_COMM_WORLD);
+    std::error_code ec;
+    if (comm_rank() == 0)
+      for (const char* what : {"t-", "regions-"}) std::filesystem::remove_all(case_dir(what), ec);
+  }
+};
+[[maybe_unused]] ::testing::Environment* const kRemoveCaseDirs = ::testing::AddGlobalTestEnvironment(new RemoveCaseDirs);
+
 // The error every rank meets (InputError), or "".
 std::string error_of(const std::function<void()>& f) {
   try {
@@ -40,8 +56,7 @@ std::string error_of(const std::function<void()>& f) {
 // A scene reading 'data' (written by rank 0 into a directory of this test and rank count).
 std::string write_case(const std::string& name, const std::string& data,
                        const std::string& scene_extra = "") {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("fabrica-dsetup-" + std::to_string(comm_size()) + "-" + std::string("t"));
+  const auto dir = case_dir("t-");
   if (comm_rank() == 0) {
     std::filesystem::create_directories(dir);
     std::ofstream(dir / (name + ".data")) << data;
@@ -204,8 +219,7 @@ TEST(DistributedSetup, SphereAgainstAWallGivesTheSerialMessage) {
 // [particles] placement = "regions": each rank makes only its regions, and the specimen is the
 // serial one bit for bit (100,000 spheres: 16 regions of about 6,250).
 TEST(DistributedSetup, GeneratedByRegionsIsTheSameOnAnyRankCount) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("fabrica-dsetup-regions-" + std::to_string(comm_size()));
+  const auto dir = case_dir("regions-");
   const auto scene = dir / "regions.toml";
   if (comm_rank() == 0) {
     std::filesystem::create_directories(dir);

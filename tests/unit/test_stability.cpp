@@ -16,6 +16,7 @@
 #include "scene_helpers.hpp"
 
 #include <gtest/gtest.h>
+#include "tests/temp_dir.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -479,7 +480,7 @@ TEST(Guards, BoundaryWorkOfACompressedLattice) {
 // --- Set-up checks (io/setup) -------------------------------------------------------------
 
 std::string write_tmp(const std::string& name, const std::string& text) {
-  const auto p = std::filesystem::temp_directory_path() / name;
+  const auto p = test::temp_dir() / name;
   std::ofstream(p) << text;
   return p.string();
 }
