@@ -77,9 +77,9 @@ inline const char* last_byte(const Vec3* v) { return reinterpret_cast<const char
 // Whether the pair loop fetches everything a contact reads ahead of it (both lines of every
 // vector, the mass and the springs) or only the first lines of the partner's position, radius,
 // velocity, spin, force and torque: true once the particles' hot fields (x, v, w, f, t, R, m:
-// 136 bytes each) outgrow the second-level cache. Measured 2026-12-05 (benchmarks/README.md):
-// the force phase about 18 % shorter at 869,376 spheres, 3 % at 108,672, and 3 % longer at
-// 13,584 spheres, which sit in that cache (the extra instructions, nothing to wait for).
+// 136 bytes each) outgrow the second-level cache: beyond it the fetches shorten the force phase,
+// within it they are extra instructions with nothing to wait for (benchmarks/README.md, "Every
+// line a contact reads, fetched ahead past the second-level cache").
 bool fetch_all_ahead(std::size_t particles) {
   static const long l2 = [] {
     const long b = sysconf(_SC_LEVEL2_CACHE_SIZE);
@@ -153,11 +153,9 @@ struct PairKernel {
     const std::size_t np = pl.size();
     // The pairs follow a space-filling curve (neighbor.hpp), so most partners are near in
     // memory, but the curve's jumps and the second body of each pair are not: fetch the
-    // positions and radii of the pair kAhead places on. Changes no result (it paid 7 % of the
-    // whole step on dense-13584 when the list was in id order, benchmarks/README.md). This
-    // loop takes a few ns per pair, so the fetch must start many pairs ahead to cover a trip
-    // to memory: 64 rather than 8 took 7 % off the force phase at 869,376 spheres and nothing
-    // at 13,584 (benchmarks/README.md, 2026-12-04).
+    // positions and radii of the pair kAhead places on. Changes no result. This loop takes a
+    // few ns per pair, so the fetch must start many pairs ahead to cover a trip to memory
+    // (benchmarks/README.md, "The pair loop's prefetch distance").
     constexpr std::size_t kAhead = 64;
     Index* ws = W.s.data();
     const Index* slot = pl.slot.data();

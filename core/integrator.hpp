@@ -15,9 +15,9 @@ namespace fabrica {
 
 // The inverse masses and moments of inertia of particles [first, first + n) into im and iI:
 // the expressions of Particles::inv_mass and inv_inertia, over the contiguous mass and radius
-// arrays, so that the divisions vectorise (four to an instruction with AVX2). They cost the
-// one-pass start of a step about 13 us per step at 13,584 spheres (1.7 % of the step), nothing
-// measurable from 108,672 spheres on, where that pass waits on memory (benchmarks/README.md).
+// arrays, so that the divisions vectorise (four to an instruction with AVX2); at large N the
+// pass waits on memory and they cost nothing (benchmarks/README.md, "The moment of inertia and
+// the inverse masses derived, not stored").
 inline void inverse_masses(const Particles& p, std::size_t first, std::size_t n, real_t* im, real_t* iI) {
   const real_t* m = p.mass.data() + first;
   const real_t* R = p.radius.data() + first;

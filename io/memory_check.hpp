@@ -13,8 +13,8 @@ namespace fabrica {
 double machine_memory_bytes();
 
 // A lower bound of what a run of 'spheres' spheres needs: 200 B per sphere (the particle record
-// is 144 B and the rebuild reference 24 B; measured 2026-12-05: 283 B for the dense 869,376-sphere
-// packing of docs/large.md on 1 rank, with neighbour pairs, contact history and the libraries).
+// is 144 B and the rebuild reference 24 B; a dense packing needs more, with its neighbour pairs
+// and contact history: docs/large.md gives the measured peak per sphere).
 constexpr double kBytesPerSphere = 200;
 
 // Throws InputError("<what>: needs at least B of memory (<why>), the machine has M") if 'bytes'

@@ -244,9 +244,8 @@ namespace {
 // order of their first offset (dz, then dy, then dx, each from -reach to reach). A bin is a
 // product of one coordinate per axis, so the distinct bins are the products of each axis'
 // distinct coordinates (fewer than 2 reach + 1 when the axis has fewer bins), in the same
-// order; no search among the bins found so far (that search, quadratic in the 125 bins of
-// reach 2, took about 2 us per step of the 2-rank dense benchmark through Decomposition::finish,
-// which every decomposition used then; now METIS's only).
+// order; no search among the bins found so far (that search is quadratic in the 125 bins of
+// reach 2, and this runs for every bin of a METIS decomposition).
 std::vector<int> neighbour_bins(const std::array<int, 3>& n, int bin, int reach) {
   const int c[3] = {bin % n[0], bin / n[0] % n[1], bin / (n[0] * n[1])};
   std::array<std::vector<int>, 3> coord;  // each axis' distinct coordinates, first offset first

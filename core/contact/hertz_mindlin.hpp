@@ -163,8 +163,8 @@ struct HertzMindlin {
     r.e_friction = lost(fr2, T{} + 1.0);
     // The increment of a loading step is taken at the step's mean stiffness k_m = (k_t + k_t,prev)
     // / 2, the midpoint rule for dF = -k_t(u_n(t)) du (at the end's k_t the error was first order
-    // in dt: 12 % of an oblique impact's tangential rebound at the default time step, 1.6 % with
-    // k_m; docs/verification.md "Oblique impact in partial slip"); an unloading step's at the
+    // in dt and large at the default time step; docs/verification.md "Oblique impact in partial
+    // slip" measures both); an unloading step's at the
     // end's k_t, with which the scaling s advances F / k_t by -du exactly. The work the increment
     // does on the spring, (|f|^2 - |f_0|^2) / 2k_m, is not what the spring then holds at k_t,
     // (|f|^2 - |f_0|^2) / 2k_t: the difference (first order in the step's change of k) is booked
