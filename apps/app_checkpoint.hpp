@@ -21,8 +21,8 @@ class AppCheckpoint {
  public:
   // 'app': "run", "triaxial" or "stages" (the header's application); 'step': the step the
   // schedule counts from; log lines start with 'indent' (rank 0's 'log', or null).
-  AppCheckpoint(MPI_Comm comm, const Scene& scene, std::string outdir, std::string app,
-                std::int64_t step, std::function<void()> flush, std::ostream* log, std::string indent);
+  AppCheckpoint(MPI_Comm comm, const Scene& scene, std::string outdir, std::string app, std::int64_t step,
+                std::function<void()> flush, std::ostream* log, std::string indent);
   using Sims = std::vector<std::pair<std::string, const Simulation*>>;  // prefix, simulation
   // Whether one is due at the end of this step (collective: the ranks agree).
   bool due(const Simulation& sim) { return schedule_.due(sim); }

@@ -6,8 +6,8 @@
 namespace fabrica {
 
 // The fabric files of one directory (rank 0 only; 'open' false: no files, null streams).
-FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix,
-                         int rose_bins, std::int64_t resume_step) {
+FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins,
+                         std::int64_t resume_step) {
   if (!open) return;
   make_output_directory(dir.string());
   const std::filesystem::path f = dir / (prefix + "fabric.csv"), s = dir / (prefix + "sff.csv"),

@@ -21,8 +21,7 @@ namespace fabrica {
 
 int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
   namespace fs = std::filesystem;
-  if (!(a.strong_ratio > 0))
-    throw InputError(fmt::format("--strong-ratio = {}: must be positive", a.strong_ratio));
+  if (!(a.strong_ratio > 0)) throw InputError(fmt::format("--strong-ratio = {}: must be positive", a.strong_ratio));
   if (a.bins < 1 || a.bins > 3600) throw InputError(fmt::format("--bins = {}: must lie in [1, 3600]", a.bins));
   // Which snapshots: by case, in step order (list_snapshots sorts them so).
   // Every rank reads run.h5 itself; the ranks agree on the outcome of each read, so that a read
@@ -33,9 +32,8 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
   for (const SnapshotInfo& s : listed)
     if (a.case_name.empty() || s.case_name == a.case_name) chosen[s.case_name].push_back(s);
   if (chosen.empty())
-    throw InputError(a.case_name.empty()
-                         ? fmt::format("{}: no contact snapshots in the file", a.file)
-                         : fmt::format("{}: no snapshots of case \"{}\"", a.file, a.case_name));
+    throw InputError(a.case_name.empty() ? fmt::format("{}: no contact snapshots in the file", a.file)
+                                         : fmt::format("{}: no snapshots of case \"{}\"", a.file, a.case_name));
   for (auto& [name, list] : chosen) {
     if (a.step) {
       std::vector<SnapshotInfo> one;
@@ -60,8 +58,7 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
     // Each file is written to PATH.tmp, checked, synced and renamed over PATH at the end
     // (io/write_check.hpp): a failed write leaves an earlier analysis as it was.
     std::ofstream f, s, r;
-    const std::array<std::string, 3> paths{(out / name / "fabric.csv").string(),
-                                           (out / name / "sff.csv").string(),
+    const std::array<std::string, 3> paths{(out / name / "fabric.csv").string(), (out / name / "sff.csv").string(),
                                            (out / name / "rose.csv").string()};
     std::array<std::ofstream*, 3> files{&f, &s, &r};
     FabricStreams streams;
@@ -90,10 +87,12 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
       if (!root) continue;
       std::size_t walls_all = 0;  // over the whole snapshot (every rank read it)
       for (const ContactRecord& c : snap.contacts) walls_all += c.id2 < 0;
-      fmt::print("{} step {}: eps1 {:.4f}, {} contacts{}, q/p {:.4f}, (q/p)* all {:.4f}, "
-                 "ns-sf/ns-wf/s-sf/s-wf {:.4f}\n", name, info.step, snap.info.strain[0],
-                 res.contacts, walls_all ? fmt::format(" (and {} with walls, not in the fabric)", walls_all) : std::string(),
-                 res.q_p, res.q_p_star[kPartAll], res.q_p_star[kPartSlideForce]);
+      fmt::print(
+          "{} step {}: eps1 {:.4f}, {} contacts{}, q/p {:.4f}, (q/p)* all {:.4f}, "
+          "ns-sf/ns-wf/s-sf/s-wf {:.4f}\n",
+          name, info.step, snap.info.strain[0], res.contacts,
+          walls_all ? fmt::format(" (and {} with walls, not in the fabric)", walls_all) : std::string(), res.q_p,
+          res.q_p_star[kPartAll], res.q_p_star[kPartSlideForce]);
       ++analysed;
     }
     agree(mpi.comm(), [&] {
@@ -102,8 +101,8 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
       for (int k = 0; k < 3; ++k) replace_file(paths[k] + ".tmp", paths[k]);
     });
   }
-  if (root) fmt::print("{} snapshot(s) analysed; fabric.csv, sff.csv, rose.csv written under {}\n",
-                       analysed, out.string());
+  if (root)
+    fmt::print("{} snapshot(s) analysed; fabric.csv, sff.csv, rose.csv written under {}\n", analysed, out.string());
   return 0;
 }
 

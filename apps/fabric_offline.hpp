@@ -13,13 +13,13 @@
 namespace fabrica {
 
 struct FabricOfflineArgs {
-  std::string file;                 // RUN.h5
-  std::string case_name;            // empty: every case of the file
-  std::optional<std::int64_t> step; // one step; else the last snapshot of each case (or --all)
-  bool all = false;                 // every snapshot
+  std::string file;                  // RUN.h5
+  std::string case_name;             // empty: every case of the file
+  std::optional<std::int64_t> step;  // one step; else the last snapshot of each case (or --all)
+  bool all = false;                  // every snapshot
   double strong_ratio = 1.0;
   std::int64_t bins = 36;
-  std::string outdir;               // empty: <directory of RUN.h5>/fabric
+  std::string outdir;  // empty: <directory of RUN.h5>/fabric
 };
 
 int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& args);

@@ -31,29 +31,58 @@ void write_fabric_headers(const FabricStreams& out, int rose_bins) {
   }
 }
 
-void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::int64_t step,
-                       real_t eps1, const FabricResult& r) {
+void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::int64_t step, real_t eps1,
+                       const FabricResult& r) {
   const std::string label = fmt::format("{},{},{}", stage, step, num(eps1));
   if (out.fabric) {
     for (int k = 0; k < kNetworks; ++k) {
       const NetworkFabric& n = r.net[k];
       real_t pk = 0, qk = 0;
       deviatoric_invariants(n.stress, pk, qk);
-      const real_t v[] = {n.mean_fn, n.zeta, n.gamma, n.xi, n.phi(0, 0), n.phi(1, 1), n.phi(2, 2),
-                          n.phi(0, 1), n.phi(1, 2), n.phi(0, 2), n.phi_principal[0],
-                          n.phi_principal[1], n.phi_principal[2], n.phi_major[0], n.phi_major[1],
-                          n.phi_major[2], n.a_c, n.a_b, n.a_n, n.a_t, n.ac(0, 0), n.ac(1, 1),
-                          n.ac(2, 2), n.an(0, 0), n.an(1, 1), n.an(2, 2), n.at(0, 0), n.at(1, 1),
-                          n.at(2, 2), n.branch.trace(), n.normal_force.trace(), pk, qk,
-                          n.stress(0, 0), n.stress(1, 1), n.stress(2, 2)};
+      const real_t v[] = {n.mean_fn,
+                          n.zeta,
+                          n.gamma,
+                          n.xi,
+                          n.phi(0, 0),
+                          n.phi(1, 1),
+                          n.phi(2, 2),
+                          n.phi(0, 1),
+                          n.phi(1, 2),
+                          n.phi(0, 2),
+                          n.phi_principal[0],
+                          n.phi_principal[1],
+                          n.phi_principal[2],
+                          n.phi_major[0],
+                          n.phi_major[1],
+                          n.phi_major[2],
+                          n.a_c,
+                          n.a_b,
+                          n.a_n,
+                          n.a_t,
+                          n.ac(0, 0),
+                          n.ac(1, 1),
+                          n.ac(2, 2),
+                          n.an(0, 0),
+                          n.an(1, 1),
+                          n.an(2, 2),
+                          n.at(0, 0),
+                          n.at(1, 1),
+                          n.at(2, 2),
+                          n.branch.trace(),
+                          n.normal_force.trace(),
+                          pk,
+                          qk,
+                          n.stress(0, 0),
+                          n.stress(1, 1),
+                          n.stress(2, 2)};
       *out.fabric << label << ',' << kNetworkNames[k] << ',' << n.count;
       for (real_t x : v) *out.fabric << ',' << num(x);
       *out.fabric << ',' << n.nonpositive_weights << ',' << num(n.min_weight) << '\n';
     }
   }
   if (out.sff) {
-    *out.sff << label << ',' << r.contacts << ',' << num(r.mean_fn) << ',' << num(r.p) << ','
-             << num(r.q) << ',' << num(r.q_p);
+    *out.sff << label << ',' << r.contacts << ',' << num(r.mean_fn) << ',' << num(r.p) << ',' << num(r.q) << ','
+             << num(r.q_p);
     for (real_t x : r.q_p_star) *out.sff << ',' << num(x);
     for (real_t x : r.q_p_star_tensor) *out.sff << ',' << num(x);
     *out.sff << '\n';

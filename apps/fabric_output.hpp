@@ -18,7 +18,7 @@ struct FabricStreams {
 
 void write_fabric_headers(const FabricStreams& out, int rose_bins);
 // 'stage' and 'eps1' (the axial strain of the stage's reference) label the rows.
-void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::int64_t step,
-                       real_t eps1, const FabricResult& r);
+void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::int64_t step, real_t eps1,
+                       const FabricResult& r);
 
 }  // namespace fabrica

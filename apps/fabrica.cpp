@@ -41,8 +41,8 @@ using namespace fabrica;
 namespace {
 
 void print_header() {
-  fmt::print("{:>9} {:>11} {:>11} {:>11} {:>7} {:>7} {:>9} {:>11} {:>11}\n", "step", "time_s",
-             "p_Pa", "q_Pa", "Z", "Z_m", "contacts", "Ekin_J", "unbal");
+  fmt::print("{:>9} {:>11} {:>11} {:>11} {:>7} {:>7} {:>9} {:>11} {:>11}\n", "step", "time_s", "p_Pa", "q_Pa", "Z",
+             "Z_m", "contacts", "Ekin_J", "unbal");
 }
 
 constexpr const char* kSeriesHeader =
@@ -58,8 +58,7 @@ std::string series_header(std::size_t walls, bool driven) {
   std::string h(kSeriesHeader);
   h.pop_back();
   h += ",wall_contacts,energy_input,wall_work,drive_work";
-  for (std::size_t w = 1; w <= walls; ++w)
-    h += fmt::format(",wall{0}_fx,wall{0}_fy,wall{0}_fz,wall{0}_position", w);
+  for (std::size_t w = 1; w <= walls; ++w) h += fmt::format(",wall{0}_fx,wall{0}_fy,wall{0}_fz,wall{0}_position", w);
   return h + "\n";
 }
 std::vector<double> wall_columns(const Simulation& sim, const MacroState& m) {
@@ -77,27 +76,43 @@ std::vector<double> wall_columns(const Simulation& sim, const MacroState& m) {
 void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, RunOutput* out) {
   const std::vector<double> walls = wall_columns(sim, m);
   if (out) {
-    std::vector<double> v = {sim.time(), m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
-                        m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.coordination, double(m.contacts),
-                        double(m.sliding), double(m.rolling), m.kinetic, m.e_normal, m.e_shear,
-                        m.e_rolling, m.dissipated.friction, m.dissipated.rolling,
-                        m.dissipated.viscous, m.dissipated.local, m.void_ratio};
+    std::vector<double> v = {sim.time(),
+                             m.stress(0, 0),
+                             m.stress(1, 1),
+                             m.stress(2, 2),
+                             m.stress(0, 1),
+                             m.stress(1, 2),
+                             m.stress(0, 2),
+                             m.p,
+                             m.q,
+                             m.coordination,
+                             double(m.contacts),
+                             double(m.sliding),
+                             double(m.rolling),
+                             m.kinetic,
+                             m.e_normal,
+                             m.e_shear,
+                             m.e_rolling,
+                             m.dissipated.friction,
+                             m.dissipated.rolling,
+                             m.dissipated.viscous,
+                             m.dissipated.local,
+                             m.void_ratio};
     v.insert(v.end(), walls.begin(), walls.end());
-    out->series_row("run", series_header(sim.params().walls.size(), !sim.params().driven.empty()), "",
-                    sim.step_count(), v);
+    out->series_row("run", series_header(sim.params().walls.size(), !sim.params().driven.empty()), "", sim.step_count(),
+                    v);
   }
-  fmt::print("{:>9} {:>11.5e} {:>11.5e} {:>11.5e} {:>7.3f} {:>7.3f} {:>9} {:>11.4e} {:>11.4e}\n",
-             sim.step_count(), sim.time(), m.p, m.q, m.coordination, m.mech_coordination,
-             m.contacts, m.kinetic, m.unbalanced);
+  fmt::print("{:>9} {:>11.5e} {:>11.5e} {:>11.5e} {:>7.3f} {:>7.3f} {:>9} {:>11.4e} {:>11.4e}\n", sim.step_count(),
+             sim.time(), m.p, m.q, m.coordination, m.mech_coordination, m.contacts, m.kinetic, m.unbalanced);
   if (csv) {
-    *csv << fmt::format("{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},"
-                        "{:.10e},{},{},{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},"
-                        "{:.10e},{:.10e}",
-                        sim.step_count(), sim.time(), m.stress(0, 0), m.stress(1, 1), m.stress(2, 2),
-                        m.stress(0, 1), m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.coordination,
-                        m.contacts, m.sliding, m.rolling, m.kinetic, m.e_normal, m.e_shear,
-                        m.e_rolling, m.dissipated.friction, m.dissipated.rolling,
-                        m.dissipated.viscous, m.dissipated.local, m.void_ratio);
+    *csv << fmt::format(
+        "{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},"
+        "{:.10e},{},{},{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},"
+        "{:.10e},{:.10e}",
+        sim.step_count(), sim.time(), m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1), m.stress(1, 2),
+        m.stress(0, 2), m.p, m.q, m.coordination, m.contacts, m.sliding, m.rolling, m.kinetic, m.e_normal, m.e_shear,
+        m.e_rolling, m.dissipated.friction, m.dissipated.rolling, m.dissipated.viscous, m.dissipated.local,
+        m.void_ratio);
     for (std::size_t k = 0; k < walls.size(); ++k)
       *csv << (k == 0 ? fmt::format(",{}", std::int64_t(walls[k])) : fmt::format(",{:.10e}", walls[k]));
     *csv << "\n";
@@ -123,8 +138,8 @@ struct Cursor {
 int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out,
               const Checkpoint* ckpt, const std::string& restart, Setup* setup);
 
-int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir,
-        bool overwrite, const std::string& restart) {
+int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir, bool overwrite,
+        const std::string& restart) {
   const auto t0 = std::chrono::steady_clock::now();
   // Every rank reads the scene (and below the data file) itself: the ranks agree on the outcome,
   // so that a read that fails on one rank ends all of them with its message (parallel/guard.hpp).
@@ -156,20 +171,20 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
     if (out->created_anew())
-      fmt::print("-- {} did not exist: a new one is written, holding only what the restarted run "
-                 "writes\n", out->path());
+      fmt::print(
+          "-- {} did not exist: a new one is written, holding only what the restarted run "
+          "writes\n",
+          out->path());
   } else if (scene.hdf5) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, overwrite);
   }
   int rc = 0;
   try {
     rc = scene.triaxial.enabled
-             ? run_triaxial(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr,
-                            setup ? &*setup : nullptr)
-             : !scene.stages.empty()
-             ? run_stages(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, setup ? &*setup : nullptr)
-             : run_plain(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, restart,
-                         setup ? &*setup : nullptr);
+        ? run_triaxial(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, setup ? &*setup : nullptr)
+        : !scene.stages.empty()
+        ? run_stages(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, setup ? &*setup : nullptr)
+        : run_plain(mpi, scene, outdir, out.get(), ckpt ? &*ckpt : nullptr, restart, setup ? &*setup : nullptr);
   } catch (const CollectiveError&) {  // met by every rank: the file can be closed (collective)
     if (out) out->close_after_error();
     throw;
@@ -180,18 +195,20 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   if (out) {
     out->close();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    fmt::print("output: {} snapshot(s), {:.1f} MB in {} and run.xmf, {:.2f} s writing ({:.2f} % of "
-               "{:.1f} s wall time)\n",
-               out->snapshots(), out->bytes() / 1e6, out->path(), out->seconds(),
-               100 * out->seconds() / wall, wall);
+    fmt::print(
+        "output: {} snapshot(s), {:.1f} MB in {} and run.xmf, {:.2f} s writing ({:.2f} % of "
+        "{:.1f} s wall time)\n",
+        out->snapshots(), out->bytes() / 1e6, out->path(), out->seconds(), 100 * out->seconds() / wall, wall);
   }
   const PeakMemory mem = peak_memory(mpi.comm());
-  fmt::print("peak memory per rank: {:.1f} MB at most (rank {}), {:.1f} MB on average, {:.1f} MB at "
-             "least, over {} rank(s)\n",
-             mem.max / 1e6, mem.max_rank, mem.mean / 1e6, mem.min / 1e6, mpi.size());
-  fmt::print("private peak memory per rank (less {:.1f} MB of shared libraries and mapped files): "
-             "{:.1f} MB at most (rank {}), {:.1f} MB on average",
-             mem.shared_max / 1e6, mem.private_max / 1e6, mem.private_max_rank, mem.private_mean / 1e6);
+  fmt::print(
+      "peak memory per rank: {:.1f} MB at most (rank {}), {:.1f} MB on average, {:.1f} MB at "
+      "least, over {} rank(s)\n",
+      mem.max / 1e6, mem.max_rank, mem.mean / 1e6, mem.min / 1e6, mpi.size());
+  fmt::print(
+      "private peak memory per rank (less {:.1f} MB of shared libraries and mapped files): "
+      "{:.1f} MB at most (rank {}), {:.1f} MB on average",
+      mem.shared_max / 1e6, mem.private_max / 1e6, mem.private_max_rank, mem.private_mean / 1e6);
   if (mem.ghosts_max > 0)
     fmt::print("; ghosts at most {} on a rank ({:.1f} % of its {} owned then)", mem.ghosts_max,
                100.0 * double(mem.ghosts_max) / double(std::max<std::int64_t>(mem.owned_at_ghosts_max, 1)),
@@ -218,17 +235,18 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   Setup s = setup ? std::move(*setup) : make_run_setup(scene, mpi.comm(), domain_options(scene));
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   fmt::print("scene {}: {} spheres, cell {:.4f} x {:.4f} x {:.4f} m\n", scene.path,
-             specimen_totals(s.particles, mpi.comm()).count, s.cell.lengths()[0], s.cell.lengths()[1], s.cell.lengths()[2]);
-  fmt::print("critical time step {:.4e} s, time step {:.4e} s (fraction {:.3f})\n", s.critical_dt,
-             s.params.dt, s.params.dt / s.critical_dt);
+             specimen_totals(s.particles, mpi.comm()).count, s.cell.lengths()[0], s.cell.lengths()[1],
+             s.cell.lengths()[2]);
+  fmt::print("critical time step {:.4e} s, time step {:.4e} s (fraction {:.3f})\n", s.critical_dt, s.params.dt,
+             s.params.dt / s.critical_dt);
   fmt::print("{} MPI rank(s){}\n", mpi.size(),
              mpi.size() > 1 ? ", " + scene.parallel.decomposition + " decomposition" : "");
   const fs::path series_path = fs::path(outdir) / "series.csv";
   agree(mpi.comm(), [&] {  // the output directory exists before any rank writes to it
     if (root) make_output_directory(outdir);
   });
-  SeriesFile csv(mpi.comm(), series_path.string(), series_header(scene.walls.size(), !scene.driven.empty()),
-                 0, ckpt ? ckpt->header().step : -1);
+  SeriesFile csv(mpi.comm(), series_path.string(), series_header(scene.walls.size(), !scene.driven.empty()), 0,
+                 ckpt ? ckpt->header().step : -1);
 
   const ContactLawParams law = scene.law;
   const auto t0 = std::chrono::steady_clock::now();
@@ -240,10 +258,9 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
     s.params.law = prep;
   }
   const Vec3 l0 = s.cell.lengths();  // the strain reference of the snapshots (also on a restart)
-  std::unique_ptr<Simulation> simp =
-      ckpt ? std::make_unique<Simulation>(std::move(*saved), domain.get())
-           : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(),
-                                          s.holding);
+  std::unique_ptr<Simulation> simp = ckpt
+      ? std::make_unique<Simulation>(std::move(*saved), domain.get())
+      : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(), s.holding);
   Simulation& sim = *simp;
   const std::int64_t first_step = sim.step_count();
   // A snapshot every [run] snapshot_every steps and at the end of each stage.
@@ -252,12 +269,15 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
       out->snapshot("run", sim, log_strain(l0, sim.cell().lengths()));
   };
   if (ckpt)
-    fmt::print("-- restarted from {} at step {} (written on {} rank(s))\n", restart,
-               sim.step_count(), ckpt->header().ranks);
-  AppCheckpoint checkpoints(mpi.comm(), scene, outdir, "run", sim.step_count(), [&] {
-    csv.sync();                // on disk: a checkpoint never refers to rows that are not
-    if (out) out->flush();     // nor to output that is not (collective)
-  }, root ? &std::cout : nullptr, "-- ");
+    fmt::print("-- restarted from {} at step {} (written on {} rank(s))\n", restart, sim.step_count(),
+               ckpt->header().ranks);
+  AppCheckpoint checkpoints(
+      mpi.comm(), scene, outdir, "run", sim.step_count(),
+      [&] {
+        csv.sync();             // on disk: a checkpoint never refers to rows that are not
+        if (out) out->flush();  // nor to output that is not (collective)
+      },
+      root ? &std::cout : nullptr, "-- ");
   const AppCheckpoint::Sims sims{{"sim", &sim}};
   auto save = [&](std::int32_t phase, std::int64_t k) {
     FieldWriter app;
@@ -285,15 +305,14 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
         if (checkpoints.due(sim)) save(0, k);
       }
       if (k == scene.compress.max_steps)
-        throw std::runtime_error(fmt::format("{}: [compress] max_steps = {} reached before p = {} Pa",
-                                             scene.path, scene.compress.max_steps,
-                                             scene.compress.target_pressure));
+        throw std::runtime_error(fmt::format("{}: [compress] max_steps = {} reached before p = {} Pa", scene.path,
+                                             scene.compress.max_steps, scene.compress.target_pressure));
       snapshot(true);
       sim.cell().set_strain_rate(Vec3::Zero());
       sim.set_law(law);
       const MacroState m = sim.macro();
-      fmt::print("-- compressed: void ratio {:.4f}, solid fraction {:.4f}; now mu_s = {}, mu_r = {}\n",
-                 m.void_ratio, 1.0 / (1.0 + m.void_ratio), law.friction, law.rolling_friction);
+      fmt::print("-- compressed: void ratio {:.4f}, solid fraction {:.4f}; now mu_s = {}, mu_r = {}\n", m.void_ratio,
+                 1.0 / (1.0 + m.void_ratio), law.friction, law.rolling_friction);
     }
     for (std::int64_t k = at.phase == 1 ? at.k + 1 : 1; k <= scene.steps; ++k) {
       const bool measure = k % scene.output_every == 0 || k == scene.steps;
@@ -319,9 +338,8 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   const std::int64_t steps_done = sim.step_count() - first_step;
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double n_total = double(sim.macro().particles);
-  fmt::print("{} steps in {:.2f} s: {:.4f} us per particle-step on {} rank(s), {} neighbour rebuilds\n",
-             steps_done, secs, secs * 1e6 / (double(steps_done) * n_total), mpi.size(),
-             sim.rebuild_count());
+  fmt::print("{} steps in {:.2f} s: {:.4f} us per particle-step on {} rank(s), {} neighbour rebuilds\n", steps_done,
+             secs, secs * 1e6 / (double(steps_done) * n_total), mpi.size(), sim.rebuild_count());
   fmt::print("series written to {}\n", series_path.string());
   return 0;
 }
@@ -342,18 +360,18 @@ int info(const MpiContext& mpi, const std::string& path) {
     for (const std::string& c : cases) rows.push_back(read_series(path, c).rows());
   });
   if (mpi.rank() != 0) return 0;
-  fmt::print("file: {}\nfabrica version: {} (git {}), written by {} MPI rank(s)\nscene: {}\n", path,
-             ri.version, ri.git_describe, ri.ranks, ri.scene_path);
+  fmt::print("file: {}\nfabrica version: {} (git {}), written by {} MPI rank(s)\nscene: {}\n", path, ri.version,
+             ri.git_describe, ri.ranks, ri.scene_path);
   fmt::print("series ({}):\n", cases.size());
   for (std::size_t k = 0; k < cases.size(); ++k) fmt::print("  {:<16} {:>8} rows\n", cases[k], rows[k]);
-  fmt::print("snapshots ({}):\n  {:<16} {:>12} {:>13} {:>10} {:>10}\n", snaps.size(), "case", "step",
-             "time_s", "particles", "contacts");
+  fmt::print("snapshots ({}):\n  {:<16} {:>12} {:>13} {:>10} {:>10}\n", snaps.size(), "case", "step", "time_s",
+             "particles", "contacts");
   for (const SnapshotInfo& s : snaps)
-    fmt::print("  {:<16} {:>12} {:>13.6e} {:>10} {:>10}\n", s.case_name, s.step, s.time, s.particles,
-               s.contacts);
-  fmt::print("data: {} datasets read without error, {} of them carrying a Fletcher-32 checksum, "
-             "verified ({:.2f} MB in {:.3f} s)\n", ver.datasets, ver.checksummed, ver.bytes / 1e6,
-             ver.seconds);
+    fmt::print("  {:<16} {:>12} {:>13.6e} {:>10} {:>10}\n", s.case_name, s.step, s.time, s.particles, s.contacts);
+  fmt::print(
+      "data: {} datasets read without error, {} of them carrying a Fletcher-32 checksum, "
+      "verified ({:.2f} MB in {:.3f} s)\n",
+      ver.datasets, ver.checksummed, ver.bytes / 1e6, ver.seconds);
   return 0;
 }
 
@@ -392,9 +410,7 @@ int main(int argc, char** argv) {
   return run_guarded(mpi, [&]() -> int {
     try {
       app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-      return mpi.rank() == 0 ? app.exit(e) : e.get_exit_code();
-    }
+    } catch (const CLI::ParseError& e) { return mpi.rank() == 0 ? app.exit(e) : e.get_exit_code(); }
     if (*infoc) return info(mpi, info_path);
     if (*fabc) return fabric_offline(mpi, fab);
     if (*ckptc) {

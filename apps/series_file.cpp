@@ -19,8 +19,7 @@ SeriesFile::SeriesFile(MPI_Comm comm, std::string path, const std::string& heade
     make_output_directory(std::filesystem::path(path_).parent_path().string());
     if (resume_step >= 0 && keep_series_through(path_, step_column, resume_step))
       open_checked(f_, path_, std::ios::app);
-    else
-      open_checked(f_, path_);
+    else open_checked(f_, path_);
     if (f_.tellp() == 0) f_ << header;
     check_stream(f_, path_);
   });

@@ -36,9 +36,8 @@ SpecimenResponse specimen_response(Simulation& sim) {
 }
 
 Servo::Servo(const ServoSettings& s, real_t interval, std::array<bool, 3> axes, Vec3 fixed, Vec3 target)
-    : mode_(s.mode), target_(target), kp_(s.gain), ki_(s.integral_gain), cap_(s.max_strain_rate),
-      relax_(s.relaxation), irelax_(s.integral_relaxation), interval_(interval), axes_(axes),
-      fixed_(fixed) {}
+    : mode_(s.mode), target_(target), kp_(s.gain), ki_(s.integral_gain), cap_(s.max_strain_rate), relax_(s.relaxation),
+      irelax_(s.integral_relaxation), interval_(interval), axes_(axes), fixed_(fixed) {}
 
 Vec3 Servo::update(const Mat3& stress, real_t elapsed, const SpecimenResponse& R) {
   Vec3 r = fixed_;
@@ -82,9 +81,8 @@ Vec3 Servo::update(const Mat3& stress, real_t elapsed, const SpecimenResponse& R
             "{:.6g} Pa over a servo interval of {:.6g} s{} is a loop gain of {:.3g} (above 2 each "
             "correction overshoots by more than the error it corrects); use servo = \"stiffness\" "
             "(the default without servo_gain) or a servo_gain below {:.6g} 1/s",
-            k + 1, e, kp_, S, interval_,
-            C > 0 ? fmt::format(" and a viscosity of {:.6g} Pa s", C) : std::string(), loop,
-            2 * target / resist));
+            k + 1, e, kp_, S, interval_, C > 0 ? fmt::format(" and a viscosity of {:.6g} Pa s", C) : std::string(),
+            loop, 2 * target / resist));
       continue;
     }
     if (resist <= 0) {  // no contact resists: approach at the cap
@@ -112,8 +110,8 @@ bool Servo::needs_response(const Mat3& stress) const {
 }
 
 std::string Servo::describe() const {
-  std::string s = fmt::format("gain ({:.4g}, {:.4g}, {:.4g}) 1/s, stiffness ({:.4g}, {:.4g}, {:.4g}) Pa",
-                              gain_[0], gain_[1], gain_[2], stiffness_[0], stiffness_[1], stiffness_[2]);
+  std::string s = fmt::format("gain ({:.4g}, {:.4g}, {:.4g}) 1/s, stiffness ({:.4g}, {:.4g}, {:.4g}) Pa", gain_[0],
+                              gain_[1], gain_[2], stiffness_[0], stiffness_[1], stiffness_[2]);
   if (!viscosity_.isZero())
     s += fmt::format(", viscosity ({:.4g}, {:.4g}, {:.4g}) Pa s", viscosity_[0], viscosity_[1], viscosity_[2]);
   return s;

@@ -44,17 +44,17 @@ FieldWriter app_fields(const StageCursor& at, const std::string& summary) {
 
 std::string summary_row(int index, const StageSpec& st, const StageResult& r, std::int64_t step) {
   const MacroState& m = r.state;
-  return fmt::format("{},{},{},{},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},"
-                     "{:.10g},{:.10g},{:.10g},{:.10g}\n",
-                     index + 1, st.name, r.steps, step, m.p, m.q, m.p > 0 ? m.q / m.p : 0.0,
-                     r.strain[0], r.strain[1], r.strain[2], r.strain.sum(), m.void_ratio,
-                     m.coordination, r.peak_q_p, r.max_lateral_error, r.max_energy_error);
+  return fmt::format(
+      "{},{},{},{},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},"
+      "{:.10g},{:.10g},{:.10g},{:.10g}\n",
+      index + 1, st.name, r.steps, step, m.p, m.q, m.p > 0 ? m.q / m.p : 0.0, r.strain[0], r.strain[1], r.strain[2],
+      r.strain.sum(), m.void_ratio, m.coordination, r.peak_q_p, r.max_lateral_error, r.max_energy_error);
 }
 
 }  // namespace
 
-int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-               RunOutput* output, const Checkpoint* restart, Setup* setup) {
+int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* output,
+               const Checkpoint* restart, Setup* setup) {
   namespace fs = std::filesystem;
   const bool root = mpi.rank() == 0;
   std::ostream* log = root ? &std::cout : nullptr;
@@ -68,8 +68,8 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
     summary = in.text("summary_rows");
     in.done();
     if (at.stage < 0 || at.stage >= n)
-      throw InputError(restart->path() + ": section app: stage " + std::to_string(at.stage + 1) +
-                       " of a list of " + std::to_string(n) + ": not a state of this scene's stages");
+      throw InputError(restart->path() + ": section app: stage " + std::to_string(at.stage + 1) + " of a list of " +
+                       std::to_string(n) + ": not a state of this scene's stages");
   }
   std::optional<SimulationSnapshot> saved;  // decoded (and checked) before any file is touched
   if (restart) saved = restart->simulation("sim", mpi.comm());
@@ -77,14 +77,15 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
   const SpecimenTotals tot = specimen_totals(s.particles, mpi.comm());
   const real_t d_mean = tot.diameter_sum / real_t(tot.count), density = tot.mass / tot.volume;
   if (log)
-    *log << fmt::format("stages: {} spheres, mean diameter {:.2f} mm, {} rank(s), time step {:.3e} s "
-                        "({:.3f} of the critical estimate), {} stage(s)\n",
-                        tot.count, d_mean * 1e3, mpi.size(), s.params.dt, s.params.dt / s.critical_dt, n);
+    *log << fmt::format(
+        "stages: {} spheres, mean diameter {:.2f} mm, {} rank(s), time step {:.3e} s "
+        "({:.3f} of the critical estimate), {} stage(s)\n",
+        tot.count, d_mean * 1e3, mpi.size(), s.params.dt, s.params.dt / s.critical_dt, n);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   s.params.law = scene.law;  // the set-up's is sized for the largest mu_r of the stages
-  std::unique_ptr<Simulation> simp =
-      restart ? std::make_unique<Simulation>(std::move(*saved), domain.get())
-              : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(), s.holding);
+  std::unique_ptr<Simulation> simp = restart
+      ? std::make_unique<Simulation>(std::move(*saved), domain.get())
+      : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(), s.holding);
   Simulation& sim = *simp;
   const std::int64_t resume_step = restart ? restart->header().step : -1;
   if (output && restart) output->resume_after(resume_step, {kCase}, 0);
@@ -94,14 +95,16 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
   });
   SeriesFile series(mpi.comm(), (out / "series.csv").string(), series_header(), 1, resume_step);
   std::optional<FabricFiles> fabric;
-  agree(mpi.comm(), [&] {
-    fabric.emplace(root && scene.fabric.enabled, out, "", int(scene.fabric.rose_bins), resume_step);
-  });
-  AppCheckpoint ckpt(mpi.comm(), scene, outdir, "stages", sim.step_count(), [&] {
-    series.sync();
-    agree(mpi.comm(), [&] { fabric->flush(); });
-    if (output) output->flush();  // collective
-  }, log, "  ");
+  agree(mpi.comm(),
+        [&] { fabric.emplace(root && scene.fabric.enabled, out, "", int(scene.fabric.rose_bins), resume_step); });
+  AppCheckpoint ckpt(
+      mpi.comm(), scene, outdir, "stages", sim.step_count(),
+      [&] {
+        series.sync();
+        agree(mpi.comm(), [&] { fabric->flush(); });
+        if (output) output->flush();  // collective
+      },
+      log, "  ");
   const std::string summary_path = (out / "stages.csv").string();
   auto write_summary = [&] {
     agree(mpi.comm(), [&] {
@@ -117,11 +120,12 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
   });
   const AppCheckpoint::Sims sims{{"sim", &sim}};
   run.on_step([&](const StageCursor& c) {
-    if (ckpt.due(sim)) ckpt.save(sims, app_fields(c, summary), fmt::format(" (stage {}, {})", c.stage + 1, scene.stages[c.stage].name));
+    if (ckpt.due(sim))
+      ckpt.save(sims, app_fields(c, summary), fmt::format(" (stage {}, {})", c.stage + 1, scene.stages[c.stage].name));
   });
   if (restart && log)
-    *log << fmt::format("-- restarted from {} at step {}, in stage {} ({})\n", restart->path(),
-                        sim.step_count(), at.stage + 1, scene.stages[at.stage].name);
+    *log << fmt::format("-- restarted from {} at step {}, in stage {} ({})\n", restart->path(), sim.step_count(),
+                        at.stage + 1, scene.stages[at.stage].name);
   write_summary();
   try {
     for (std::int32_t i = restart ? at.stage : 0; i < n; ++i) {
@@ -131,12 +135,12 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
       if (log && !resuming) *log << fmt::format("stage {} ({}): {}\n", i + 1, st.name, st.where);
       const StageResult r = resuming ? run.run(st, i, &at) : run.run(st, i);
       if (log)
-        *log << fmt::format("stage {} ({}) ended after {} steps at step {}: p {:.1f} kPa, q/p {:.4f}, "
-                            "eps ({:.5f}, {:.5f}, {:.5f}), void ratio {:.4f}, energy balance error <= "
-                            "{:.3f} %\n",
-                            i + 1, st.name, r.steps, sim.step_count(), r.state.p / 1e3,
-                            r.state.p > 0 ? r.state.q / r.state.p : 0, r.strain[0], r.strain[1],
-                            r.strain[2], r.state.void_ratio, 100 * r.max_energy_error);
+        *log << fmt::format(
+            "stage {} ({}) ended after {} steps at step {}: p {:.1f} kPa, q/p {:.4f}, "
+            "eps ({:.5f}, {:.5f}, {:.5f}), void ratio {:.4f}, energy balance error <= "
+            "{:.3f} %\n",
+            i + 1, st.name, r.steps, sim.step_count(), r.state.p / 1e3, r.state.p > 0 ? r.state.q / r.state.p : 0,
+            r.strain[0], r.strain[1], r.strain[2], r.state.void_ratio, 100 * r.max_energy_error);
       summary += summary_row(i, st, r, sim.step_count());
       write_summary();
     }

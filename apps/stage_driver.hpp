@@ -16,7 +16,7 @@ class RunOutput;
 struct Setup;
 
 // 'setup', when given, is the scene's make_run_setup made beforehand (moved from).
-int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-               RunOutput* output = nullptr, const Checkpoint* restart = nullptr, Setup* setup = nullptr);
+int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* output = nullptr,
+               const Checkpoint* restart = nullptr, Setup* setup = nullptr);
 
 }  // namespace fabrica

@@ -15,7 +15,7 @@
 namespace fabrica {
 
 struct EndProbe {
-  std::int64_t steps = 0;       // of the stage
+  std::int64_t steps = 0;  // of the stage
   const MacroState* m = nullptr;
   Vec3 eps = Vec3::Zero();      // the stage's strains
   Vec3 targets = Vec3::Zero();  // stress targets of the stress axes (0 elsewhere)

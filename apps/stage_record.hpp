@@ -33,9 +33,8 @@ class StageRecord {
   // Writes the rows to another case's files: 'series' and 'fabric' (rank 0's streams, null
   // elsewhere), and with 'output' (collective) its HDF5 series rows and snapshots, the latter
   // as links to those of 'source_case'. 'csv_header' is the series' header line.
-  void replay(std::ostream* series, const FabricStreams* fabric, RunOutput* output,
-              const std::string& csv_header, const std::string& source_case,
-              const std::string& case_name) const;
+  void replay(std::ostream* series, const FabricStreams* fabric, RunOutput* output, const std::string& csv_header,
+              const std::string& source_case, const std::string& case_name) const;
 
  private:
   struct Row {

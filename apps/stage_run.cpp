@@ -24,10 +24,10 @@ void write_series_header(std::ostream& out) {
          "energy_error,mean_overlap_d,max_overlap_r\n";
 }
 
-StageRun::StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density,
-                   std::ostream* series, std::ostream* log, const StageRun* parent)
-    : scene_(scene), sim_(sim), d_mean_(mean_diameter), density_(density), series_(series),
-      log_(log), l0_(sim.cell().lengths()) {
+StageRun::StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density, std::ostream* series,
+                   std::ostream* log, const StageRun* parent)
+    : scene_(scene), sim_(sim), d_mean_(mean_diameter), density_(density), series_(series), log_(log),
+      l0_(sim.cell().lengths()) {
   if (parent) {  // a branch of the parent's simulation: the account continues
     in_pos_ = parent->in_pos_;
     input_seen_ = parent->input_seen_;
@@ -57,17 +57,41 @@ Vec3 StageRun::strain(const Vec3& l0) const {
 void StageRun::row(const StageSpec& st, const MacroState& m, const Vec3& eps) {
   if (!series_ && !output_) return;
   const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
-  const real_t inertial =
-      m.p > 0 ? std::abs(sim_.cell().strain_rate()[0]) * d_mean_ * std::sqrt(density_ / m.p) : 0;
+  const real_t inertial = m.p > 0 ? std::abs(sim_.cell().strain_rate()[0]) * d_mean_ * std::sqrt(density_ / m.p) : 0;
   const Dissipation& d = m.dissipated;
-  const real_t values[] = {sim_.time(), eps[0], eps[1], eps[2], eps.sum(),
-                           m.stress(0, 0), m.stress(1, 1), m.stress(2, 2), m.stress(0, 1),
-                           m.stress(1, 2), m.stress(0, 2), m.p, m.q, m.p > 0 ? m.q / m.p : 0.0,
-                           m.void_ratio, m.coordination, m.mech_coordination,
-                           real_t(m.sliding) / nc, real_t(m.rolling) / nc, inertial, m.unbalanced,
-                           m.kinetic, m.e_normal, m.e_shear, m.e_rolling, d.friction, d.rolling,
-                           d.viscous, d.local, sim_.boundary_work(), energy_error(m),
-                           m.mean_overlap / d_mean_, m.max_overlap_ratio};
+  const real_t values[] = {sim_.time(),
+                           eps[0],
+                           eps[1],
+                           eps[2],
+                           eps.sum(),
+                           m.stress(0, 0),
+                           m.stress(1, 1),
+                           m.stress(2, 2),
+                           m.stress(0, 1),
+                           m.stress(1, 2),
+                           m.stress(0, 2),
+                           m.p,
+                           m.q,
+                           m.p > 0 ? m.q / m.p : 0.0,
+                           m.void_ratio,
+                           m.coordination,
+                           m.mech_coordination,
+                           real_t(m.sliding) / nc,
+                           real_t(m.rolling) / nc,
+                           inertial,
+                           m.unbalanced,
+                           m.kinetic,
+                           m.e_normal,
+                           m.e_shear,
+                           m.e_rolling,
+                           d.friction,
+                           d.rolling,
+                           d.viscous,
+                           d.local,
+                           sim_.boundary_work(),
+                           energy_error(m),
+                           m.mean_overlap / d_mean_,
+                           m.max_overlap_ratio};
   if (output_) {
     static const std::string header = [] {
       std::ostringstream h;
@@ -102,59 +126,57 @@ void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
 }
 
 void StageRun::apply_contact(const StageSpec& st) {
-  if (st.law.any())
-    sim_.set_law(stage_law(sim_.params().law, st));
+  if (st.law.any()) sim_.set_law(stage_law(sim_.params().law, st));
   if (st.local_damping) sim_.set_local_damping(*st.local_damping);
 }
 
-Vec3 StageRun::update(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps,
-                      real_t elapsed) {
+Vec3 StageRun::update(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps, real_t elapsed) {
   // Collective when needed: every rank takes the same decision from the reduced stress.
   const SpecimenResponse R = c.needs_response(m.stress) ? specimen_response(sim_) : SpecimenResponse{};
   try {
     return c.update(m.stress, eps, elapsed, R);
   } catch (const ServoDivergence& e) {  // the same on every rank (reduced values only)
     const Vec3 t = c.targets();
-    throw CollectiveError(fmt::format("{}: {} the {} stage stopped at step {}: {} (p = {:.6g} Pa, "
-                                      "target {:.6g} Pa; servo {})",
-                                      scene_.path, st.where, st.name, sim_.step_count(), e.what(),
-                                      m.p, t.maxCoeff(), c.servo().describe()));
+    throw CollectiveError(fmt::format(
+        "{}: {} the {} stage stopped at step {}: {} (p = {:.6g} Pa, "
+        "target {:.6g} Pa; servo {})",
+        scene_.path, st.where, st.name, sim_.step_count(), e.what(), m.p, t.maxCoeff(), c.servo().describe()));
   }
 }
 
 // A servo that cannot follow the loading: a stress axis at the rate cap while its stress is far
 // from the target (10 x the stage's tolerance), in a stage that drives another axis, after the
 // stage's first 50 servo updates.
-bool StageRun::warn_cap(const StageSpec& st, const StageControl& c, const MacroState& m,
-                        const Vec3& rates) {
+bool StageRun::warn_cap(const StageSpec& st, const StageControl& c, const MacroState& m, const Vec3& rates) {
   const real_t cap = st.servo.max_strain_rate, tol = st.servo.stress_tolerance;
   const Vec3 t = c.targets();
   for (int a = 0; a < 3; ++a) {
     if (!c.stress_axes()[a] || std::abs(rates[a]) < cap) continue;
     if (std::abs(m.stress(a, a) - t[a]) <= 10 * tol * t[a]) continue;
-    *log_ << fmt::format("  warning: step {}: the servo is at its rate cap ({} max_strain_rate = {} "
-                         "1/s) on axis {} and s{}{} = {:.4g} Pa is {:.1f} % from the target {:.4g} "
-                         "Pa: it cannot follow the axial loading ({} 1/s); raise max_strain_rate "
-                         "or lower axial_strain_rate\n",
-                         sim_.step_count(), st.where, cap, a + 1, a + 1, a + 1, m.stress(a, a),
-                         100 * std::abs(m.stress(a, a) - t[a]) / t[a], t[a], std::abs(st.rate[0]));
+    *log_ << fmt::format(
+        "  warning: step {}: the servo is at its rate cap ({} max_strain_rate = {} "
+        "1/s) on axis {} and s{}{} = {:.4g} Pa is {:.1f} % from the target {:.4g} "
+        "Pa: it cannot follow the axial loading ({} 1/s); raise max_strain_rate "
+        "or lower axial_strain_rate\n",
+        sim_.step_count(), st.where, cap, a + 1, a + 1, a + 1, m.stress(a, a),
+        100 * std::abs(m.stress(a, a) - t[a]) / t[a], t[a], std::abs(st.rate[0]));
     log_->flush();
     return true;
   }
   return false;
 }
 
-void StageRun::progress(const StageSpec& st, const MacroState& m, const Vec3& eps, double secs,
-                        std::int64_t steps) {
+void StageRun::progress(const StageSpec& st, const MacroState& m, const Vec3& eps, double secs, std::int64_t steps) {
   std::string eta;
   if (st.end.strain) {
     const real_t x = eps[st.end.strain_axis] / *st.end.strain;
     if (x > 0) eta = fmt::format(", {:.0f} s left", secs * (1 - x) / x);
   }
-  *log_ << fmt::format("  [{}] step {}: eps1 {:.4f}, p {:.1f} kPa, q/p {:.4f}, e {:.4f}, "
-                       "unbalanced {:.2e}, {:.0f} steps/s{}\n",
-                       st.name, sim_.step_count(), eps[0], m.p / 1e3, m.p > 0 ? m.q / m.p : 0,
-                       m.void_ratio, m.unbalanced, double(steps) / secs, eta);
+  *log_ << fmt::format(
+      "  [{}] step {}: eps1 {:.4f}, p {:.1f} kPa, q/p {:.4f}, e {:.4f}, "
+      "unbalanced {:.2e}, {:.0f} steps/s{}\n",
+      st.name, sim_.step_count(), eps[0], m.p / 1e3, m.p > 0 ? m.q / m.p : 0, m.void_ratio, m.unbalanced,
+      double(steps) / secs, eta);
   log_->flush();
 }
 
@@ -167,8 +189,8 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
   real_t last_servo = sim_.time();
   std::int64_t k = 1;
   Vec3 stage_l0 = sim_.cell().lengths();
-  const bool drives = st.mode[0] == AxisMode::StrainRate || st.mode[1] == AxisMode::StrainRate ||
-                      st.mode[2] == AxisMode::StrainRate;
+  const bool drives =
+      st.mode[0] == AxisMode::StrainRate || st.mode[1] == AxisMode::StrainRate || st.mode[2] == AxisMode::StrainRate;
   if (resume) {  // the rates, the contact parameters and the account are the checkpoint's
     res = resume->result;
     control.set_state(resume->control);
@@ -189,10 +211,9 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
           "{}: {} = {}: the {} stage did not converge (last p = {:.6g} Pa, target {:.6g} Pa, "
           "s11 {:.6g}, s22 {:.6g}, s33 {:.6g} Pa, unbalanced-force ratio {:.3g}; servo {}); raise "
           "it or the damping",
-          scene_.path, st.where == "[triaxial]" ? "[triaxial] max_stage_steps" : st.where + ".max_steps",
-          st.max_steps, st.name, res.state.p, control.targets().maxCoeff(), res.state.stress(0, 0),
-          res.state.stress(1, 1), res.state.stress(2, 2), res.state.unbalanced,
-          control.servo().describe()));
+          scene_.path, st.where == "[triaxial]" ? "[triaxial] max_stage_steps" : st.where + ".max_steps", st.max_steps,
+          st.name, res.state.p, control.targets().maxCoeff(), res.state.stress(0, 0), res.state.stress(1, 1),
+          res.state.stress(2, 2), res.state.unbalanced, control.servo().describe()));
     const bool out = k % scene_.output_every == 0;
     const bool measure = out || k % st.servo.interval == 0 || (st.end.steps && k == *st.end.steps);
     sim_.step(measure);  // the boundary work is the simulation's (Simulation::boundary_work)
@@ -208,8 +229,8 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
       const Vec3 eps_stage = strain(stage_l0);
       res.max_energy_error = std::max(res.max_energy_error, std::abs(energy_error(m)));
       const Vec3 targets = control.targets();
-      const bool finished = stage_done(
-          st, EndProbe{k, &m, eps_stage, targets, control.cycles_done(m.stress, eps_stage)});
+      const bool finished =
+          stage_done(st, EndProbe{k, &m, eps_stage, targets, control.cycles_done(m.stress, eps_stage)});
       // Over every row of the series: the output instants and the stage's last row (a stage
       // shorter than output_every has only that one).
       if (st.track_peak && (out || finished)) {
@@ -217,8 +238,7 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
         if (qp > res.peak_q_p) res.peak_q_p = qp, res.peak_eps1 = eps[0];
         for (int a = 0; a < 3; ++a)
           if (control.stress_axes()[a])
-            res.max_lateral_error =
-                std::max(res.max_lateral_error, std::abs(m.stress(a, a) - targets[a]) / targets[a]);
+            res.max_lateral_error = std::max(res.max_lateral_error, std::abs(m.stress(a, a) - targets[a]) / targets[a]);
       }
       if (out) row(st, m, eps);
       if (out && st.fabric == StageFabric::AtRows) fabric_row(st, eps);
@@ -244,8 +264,7 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
         return res;
       }
     }
-    if (hook_)
-      hook_(StageCursor{index, k, control.state(), last_servo, res, l0_, stage_l0, in_pos_, input_seen_});
+    if (hook_) hook_(StageCursor{index, k, control.state(), last_servo, res, l0_, stage_l0, in_pos_, input_seen_});
   }
 }
 

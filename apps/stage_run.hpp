@@ -29,14 +29,14 @@ struct StageResult {
   real_t peak_q_p = 0;
   real_t peak_eps1 = 0;
   real_t max_lateral_error = 0;
-  real_t max_energy_error = 0;   // over the stage, relative to the energy put in (energy_in)
+  real_t max_energy_error = 0;  // over the stage, relative to the energy put in (energy_in)
 };
 
 // Where a run is inside a stage, with the run's own account: what a checkpoint saves to resume
 // the stage bit for bit (apps/stage_cursor.hpp writes it as named fields).
 struct StageCursor {
-  std::int32_t stage = 0;        // index in the run's list of stages
-  std::int64_t k = 0;            // steps of the stage done
+  std::int32_t stage = 0;  // index in the run's list of stages
+  std::int64_t k = 0;      // steps of the stage done
   ControlState control;
   real_t last_servo = 0;         // s, time of the last servo update
   StageResult result;            // so far
@@ -50,8 +50,8 @@ class StageRun {
  public:
   // With a parent (the run 'sim' was copied from), strains and the energy account continue.
   // 'series': rank 0's stream of rows (others pass null); 'log': progress lines (or null).
-  StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density,
-           std::ostream* series, std::ostream* log, const StageRun* parent = nullptr);
+  StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density, std::ostream* series,
+           std::ostream* log, const StageRun* parent = nullptr);
 
   // Runs stage 'st' (index 'index' of the run's list, for the cursor) to its end; with
   // 'resume' from a checkpoint's cursor (the simulation restored from it: the stage's contact
@@ -107,7 +107,7 @@ class StageRun {
   real_t d_mean_, density_;
   std::ostream* series_;
   std::ostream* log_;
-  Vec3 l0_;          // cell lengths at the start of the current strain reference
+  Vec3 l0_;                // cell lengths at the start of the current strain reference
   real_t in_pos_ = 0;      // J, sum of the positive increments of input_seen_
   real_t input_seen_ = 0;  // J, boundary + gravity work at the last measurement
   std::function<void(const StageCursor&)> hook_;

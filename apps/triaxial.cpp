@@ -12,14 +12,13 @@ StageResult TriaxialRun::resume(const StageCursor& at) {
   set_account(at);  // the contact law and damping are the simulation's, restored with it
   if (at.stage == kShear) return run(shear_stage(scene_, sim_.params().law.rolling_friction), kShear, &at);
   const StageSpec st = at.stage == kConsolidation ? consolidation_stage(scene_)
-                                                   : equilibration_stage(scene_, sim_.params().law.rolling_friction);
+                                                  : equilibration_stage(scene_, sim_.params().law.rolling_friction);
   return run(st, at.stage, &at);
 }
 
 MpiDomainOptions domain_options(const Scene& scene) {
   MpiDomainOptions o;
-  o.kind = scene.parallel.decomposition == "metis" ? DecompositionKind::Metis
-                                                   : DecompositionKind::Cartesian;
+  o.kind = scene.parallel.decomposition == "metis" ? DecompositionKind::Metis : DecompositionKind::Cartesian;
   o.rebalance_threshold = scene.parallel.rebalance_threshold;
   o.rebalance_interval = int(scene.parallel.rebalance_interval);
   o.balance_work = scene.parallel.cut == "work";
@@ -44,8 +43,8 @@ Scene triaxial_setup_scene(const Scene& scene) {
   return sized;
 }
 
-int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                 RunOutput* output, const Checkpoint* restart, Setup* setup) {
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* output,
+                 const Checkpoint* restart, Setup* setup) {
   return TriaxialSweep(mpi, scene, outdir, output, restart, setup).run();
 }
 

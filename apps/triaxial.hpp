@@ -20,8 +20,8 @@ namespace fabrica {
 class RunOutput;
 
 struct TriaxialCase {
-  std::string name;        // e.g. "mur_0.05"
-  real_t rolling_friction; // mu_r of the shear stage
+  std::string name;         // e.g. "mur_0.05"
+  real_t rolling_friction;  // mu_r of the shear stage
 };
 
 // The study's protocol on one simulation: its three stages (apps/triaxial_stages.hpp) run by
@@ -54,9 +54,8 @@ std::unique_ptr<Domain> make_domain(const MpiContext& mpi, const Scene& scene);
 // 'restart' the test continues from one (docs/checkpoint.md).
 // 'setup', when given, is make_setup(triaxial_setup_scene(scene)) made beforehand (fabrica run
 // checks it before run.h5 is created); it is moved from. Without it the set-up is made here.
-int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                 RunOutput* output = nullptr, const Checkpoint* restart = nullptr,
-                 Setup* setup = nullptr);
+int run_triaxial(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* output = nullptr,
+                 const Checkpoint* restart = nullptr, Setup* setup = nullptr);
 
 // The scene whose particle set-up a triaxial or stages run uses: the scene with the largest mu_r
 // of its sweep or its stages and the strongest dashpots of its stages (most_damped_law), so

@@ -33,31 +33,31 @@ std::vector<TriaxialCase> sweep_cases(const Scene& scene) {
 }
 }  // namespace
 
-TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                             RunOutput* output, const Checkpoint* restart, Setup* setup)
-    : mpi_(mpi), scene_(scene), out_(outdir), output_(output), restart_(restart),
-      root_(mpi.rank() == 0), log_(root_ ? &std::cout : nullptr), cases_(sweep_cases(scene)) {
+TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* output,
+                             const Checkpoint* restart, Setup* setup)
+    : mpi_(mpi), scene_(scene), out_(outdir), output_(output), restart_(restart), root_(mpi.rank() == 0),
+      log_(root_ ? &std::cout : nullptr), cases_(sweep_cases(scene)) {
   const TriaxialSpec& tx = scene.triaxial;
   // The time step must suit the stiffest stage: rolling springs of the largest mu_r included.
-  Setup s = setup ? std::move(*setup)
-                  : make_run_setup(triaxial_setup_scene(scene), mpi.comm(), domain_options(scene));
+  Setup s = setup ? std::move(*setup) : make_run_setup(triaxial_setup_scene(scene), mpi.comm(), domain_options(scene));
   s.params.law = scene.law;
   const SpecimenTotals tot = specimen_totals(s.particles, mpi.comm());  // of every rank's share
   d_mean_ = tot.diameter_sum / real_t(tot.count);
   density_ = tot.mass / tot.volume;
   if (log_)
-    *log_ << fmt::format("triaxial test: {} spheres, mean diameter {:.2f} mm, {} rank(s), time step "
-                         "{:.3e} s ({:.3f} of the critical estimate), {} case(s)\n",
-                         tot.count, d_mean_ * 1e3, mpi.size(), s.params.dt,
-                         s.params.dt / s.critical_dt, cases_.size());
+    *log_ << fmt::format(
+        "triaxial test: {} spheres, mean diameter {:.2f} mm, {} rank(s), time step "
+        "{:.3e} s ({:.3f} of the critical estimate), {} case(s)\n",
+        tot.count, d_mean_ * 1e3, mpi.size(), s.params.dt, s.params.dt / s.critical_dt, cases_.size());
   // The servo holds the lateral stresses by lateral strain rates of about half the axial rate
   // (more while the specimen dilates); a cap below the axial rate may not suffice.
   if (log_ && tx.max_strain_rate < tx.axial_strain_rate)
-    *log_ << fmt::format("warning: {}: [triaxial] max_strain_rate = {} 1/s is below axial_strain_rate = "
-                         "{} 1/s: the servo may not hold the lateral stresses at {} Pa during the shear "
-                         "(it needs lateral rates of about half the axial rate, more while the specimen "
-                         "dilates); raise max_strain_rate\n",
-                         scene.path, tx.max_strain_rate, tx.axial_strain_rate, tx.confining_pressure);
+    *log_ << fmt::format(
+        "warning: {}: [triaxial] max_strain_rate = {} 1/s is below axial_strain_rate = "
+        "{} 1/s: the servo may not hold the lateral stresses at {} Pa during the shear "
+        "(it needs lateral rates of about half the axial rate, more while the specimen "
+        "dilates); raise max_strain_rate\n",
+        scene.path, tx.max_strain_rate, tx.axial_strain_rate, tx.confining_pressure);
   domain_ = make_domain(mpi, scene);
   t0_ = clock::now();
   if (restart_) read_restart();
@@ -67,10 +67,9 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
   // into prepared_, which that case takes over again (run_case).
   const bool with_prep = restart_ && start_case_ >= 0 && restart_->has("prep.global");
   if (with_prep) case_snapshot_ = restart_->simulation("sim", mpi.comm());
-  prepared_ = !restart_ ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params,
-                                                       domain_.get(), s.holding)
-                        : std::make_unique<Simulation>(
-                              restart_->simulation(with_prep ? "prep" : "sim", mpi.comm()), domain_.get());
+  prepared_ = !restart_
+      ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain_.get(), s.holding)
+      : std::make_unique<Simulation>(restart_->simulation(with_prep ? "prep" : "sim", mpi.comm()), domain_.get());
   current_ = prepared_.get();
   restart_step_ = restart_ ? restart_->header().step : 0;
   if (output_ && restart_) {  // run.h5: what the run wrote after the checkpoint goes
@@ -86,17 +85,16 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
   header_ = h.str();
   // The consolidation's series and fabric files; on a restart in it, rows after its step go.
   if (start_case_ < 0) {
-    cons_series_.emplace(mpi.comm(), (out_ / "consolidation.csv").string(), header_, 1,
-                         restart_ ? restart_step_ : -1);
+    cons_series_.emplace(mpi.comm(), (out_ / "consolidation.csv").string(), header_, 1, restart_ ? restart_step_ : -1);
     agree(mpi.comm(), [&] {
-      cons_fabric_.emplace(root_ && scene.fabric.enabled, out_, "consolidation_",
-                           int(scene.fabric.rose_bins), restart_ ? restart_step_ : -1);
+      cons_fabric_.emplace(root_ && scene.fabric.enabled, out_, "consolidation_", int(scene.fabric.rose_bins),
+                           restart_ ? restart_step_ : -1);
     });
     current_series_ = &*cons_series_;
     current_fabric_ = &*cons_fabric_;
   }
-  ckpt_.emplace(mpi.comm(), scene, out_.string(), "triaxial", prepared_->step_count(),
-                [this] { flush_files(); }, log_, "  ");
+  ckpt_.emplace(
+      mpi.comm(), scene, out_.string(), "triaxial", prepared_->step_count(), [this] { flush_files(); }, log_, "  ");
 }
 
 void TriaxialSweep::read_restart() {
@@ -110,9 +108,8 @@ void TriaxialSweep::read_restart() {
   summary_rows_ = in.text("summary_rows");
   in.done();
   if (current_case_ < -1 || current_case_ >= std::int32_t(cases_.size()))
-    throw InputError(restart_->path() + ": section app: case " + std::to_string(current_case_) +
-                     " of a sweep of " + std::to_string(cases_.size()) +
-                     ": not the state of this build's triaxial application");
+    throw InputError(restart_->path() + ": section app: case " + std::to_string(current_case_) + " of a sweep of " +
+                     std::to_string(cases_.size()) + ": not the state of this build's triaxial application");
 }
 
 // After every series row, on every rank: the rows so far are written (rank 0's check, agreed).
@@ -190,7 +187,7 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   // "common": every case's re-equilibration is the same; the first one is kept for the others.
   const bool replay = equilibrate && shared_;
   const bool keep = equilibrate && !shared_ && i + 1 < cases_.size() &&
-                    scene_.triaxial.equilibration == TriaxialSpec::Equilibration::Common;
+      scene_.triaxial.equilibration == TriaxialSpec::Equilibration::Common;
   const auto t1 = clock::now();
   const Domain* from = replay ? shared_->domain.get() : domain_.get();
   std::unique_ptr<Domain> d2 = from ? from->clone() : nullptr;
@@ -200,21 +197,16 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   // and in its checkpoints. Resumed from such a checkpoint, prepared_ holds the case itself.
   const bool last = i + 1 == cases_.size() && !(resuming && case_snapshot_);
   std::unique_ptr<Simulation> simp;
-  if (resuming && case_snapshot_)
-    simp = std::make_unique<Simulation>(std::move(*case_snapshot_), d2.get());
-  else if (replay)
-    simp = std::make_unique<Simulation>(*shared_->sim, d2.get());
-  else if (last)
-    simp = std::make_unique<Simulation>(std::move(*prepared_), d2.get());
-  else
-    simp = std::make_unique<Simulation>(*prepared_, d2.get());
+  if (resuming && case_snapshot_) simp = std::make_unique<Simulation>(std::move(*case_snapshot_), d2.get());
+  else if (replay) simp = std::make_unique<Simulation>(*shared_->sim, d2.get());
+  else if (last) simp = std::make_unique<Simulation>(std::move(*prepared_), d2.get());
+  else simp = std::make_unique<Simulation>(*prepared_, d2.get());
   if (last && replay) {  // its memory goes now (prepared_ stays, emptied: 'prep' refers to it)
     const Simulation released(std::move(*prepared_), nullptr);
   }
   prep_taken_ = last;
   Simulation& sim = *simp;
-  SeriesFile series(mpi_.comm(), (out_ / tc.name / "series.csv").string(), header_, 1,
-                    resuming ? restart_step_ : -1);
+  SeriesFile series(mpi_.comm(), (out_ / tc.name / "series.csv").string(), header_, 1, resuming ? restart_step_ : -1);
   std::optional<FabricFiles> fabric;
   agree(mpi_.comm(), [&] {
     fabric.emplace(root_ && scene_.fabric.enabled, out_ / tc.name, "", int(scene_.fabric.rose_bins),
@@ -237,7 +229,7 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   const StageResult saved = equil_;
   equil_ = StageResult{};
   std::string shared_from;  // the case whose re-equilibration this one shares
-  if (replay) {  // what the re-equilibration wrote, and its end state's account
+  if (replay) {             // what the re-equilibration wrote, and its end state's account
     shared_from = shared_->source_case;
     run.set_account(shared_->account);
     equil_ = shared_->result;
@@ -274,32 +266,30 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   const StageResult& e = equil_;
   const double secs = std::chrono::duration<double>(clock::now() - t1).count();
   const real_t p_end = sh.state.p;
-  const real_t inertial =
-      scene_.triaxial.axial_strain_rate * d_mean_ * std::sqrt(density_ / std::max(p_end, 1.0));
+  const real_t inertial = scene_.triaxial.axial_strain_rate * d_mean_ * std::sqrt(density_ / std::max(p_end, 1.0));
   const real_t qp_end = p_end > 0 ? sh.state.q / p_end : 0;
   const real_t energy_error = std::max(e.max_energy_error, sh.max_energy_error);
   if (log_)
-    *log_ << fmt::format("case {}: {}; sheared to eps1 = {:.3f} in {} steps "
-                         "({:.1f} s): peak q/p {:.4f} at eps1 = {:.4f}, end q/p {:.4f}, eps_v {:.4f}, "
-                         "lateral stress error <= {:.2f} %, energy balance error <= {:.3f} %, "
-                         "inertial number {:.2e}\n",
-                         tc.name,
-                         scene_.triaxial.equilibration == TriaxialSpec::Equilibration::None
-                             ? fmt::format("not re-equilibrated (void ratio {:.4f})", cons_.state.void_ratio)
-                             : fmt::format("equilibrated in {} steps (mu_r = {}, void ratio {:.4f}){}", e.steps,
-                                           equilibration_rolling_friction(scene_, tc.rolling_friction),
-                                           e.state.void_ratio,
-                                           shared_from.empty() ? std::string()
-                                                               : fmt::format(", the re-equilibration of case {}", shared_from)),
-                         sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1,
-                         qp_end, sh.strain.sum(), 100 * sh.max_lateral_error, 100 * energy_error, inertial);
+    *log_ << fmt::format(
+        "case {}: {}; sheared to eps1 = {:.3f} in {} steps "
+        "({:.1f} s): peak q/p {:.4f} at eps1 = {:.4f}, end q/p {:.4f}, eps_v {:.4f}, "
+        "lateral stress error <= {:.2f} %, energy balance error <= {:.3f} %, "
+        "inertial number {:.2e}\n",
+        tc.name,
+        scene_.triaxial.equilibration == TriaxialSpec::Equilibration::None
+            ? fmt::format("not re-equilibrated (void ratio {:.4f})", cons_.state.void_ratio)
+            : fmt::format(
+                  "equilibrated in {} steps (mu_r = {}, void ratio {:.4f}){}", e.steps,
+                  equilibration_rolling_friction(scene_, tc.rolling_friction), e.state.void_ratio,
+                  shared_from.empty() ? std::string() : fmt::format(", the re-equilibration of case {}", shared_from)),
+        sh.strain[0], sh.steps, secs, sh.peak_q_p, sh.peak_eps1, qp_end, sh.strain.sum(), 100 * sh.max_lateral_error,
+        100 * energy_error, inertial);
   if (log_ && scene_.fabric.enabled)
-    *log_ << fmt::format("case {}: fabric analysis {:.2f} s ({:.2f} % of the case's {:.1f} s)\n",
-                         tc.name, run.fabric_seconds(), 100 * run.fabric_seconds() / secs, secs);
-  summary_rows_ += fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.3e},{:.1f}\n",
-                               tc.name, tc.rolling_friction, cons_.state.void_ratio, sh.peak_q_p,
-                               sh.peak_eps1, sh.strain.sum(), qp_end, sh.max_lateral_error,
-                               energy_error, inertial, secs);
+    *log_ << fmt::format("case {}: fabric analysis {:.2f} s ({:.2f} % of the case's {:.1f} s)\n", tc.name,
+                         run.fabric_seconds(), 100 * run.fabric_seconds() / secs, secs);
+  summary_rows_ += fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.3e},{:.1f}\n", tc.name,
+                               tc.rolling_friction, cons_.state.void_ratio, sh.peak_q_p, sh.peak_eps1, sh.strain.sum(),
+                               qp_end, sh.max_lateral_error, energy_error, inertial, secs);
   series.close();
   agree(mpi_.comm(), [&] { fabric->close(); });
   write_summary();
@@ -318,10 +308,11 @@ int TriaxialSweep::run() {
     else prep.set_account(prep_account_);
     prep_account_ = prep.account();
     if (log_)
-      *log_ << fmt::format("consolidated to p = {:.1f} kPa in {} steps ({:.1f} s): void ratio {:.4f}, "
-                           "Z {:.3f}, mean overlap {:.3f} % of the mean diameter\n",
-                           cons_.state.p / 1e3, cons_.steps, t_cons_, cons_.state.void_ratio,
-                           cons_.state.coordination, 100 * cons_.state.mean_overlap / d_mean_);
+      *log_ << fmt::format(
+          "consolidated to p = {:.1f} kPa in {} steps ({:.1f} s): void ratio {:.4f}, "
+          "Z {:.3f}, mean overlap {:.3f} % of the mean diameter\n",
+          cons_.state.p / 1e3, cons_.steps, t_cons_, cons_.state.void_ratio, cons_.state.coordination,
+          100 * cons_.state.mean_overlap / d_mean_);
     write_summary();
     for (std::size_t i = std::size_t(std::max(0, start_case_)); i < cases_.size(); ++i) run_case(i, prep);
   } catch (const BlowUpError& err) {  // in the consolidation: every rank is here

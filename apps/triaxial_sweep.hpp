@@ -27,8 +27,8 @@ class TriaxialSweep {
  public:
   // 'setup', when given, is make_run_setup(triaxial_setup_scene(scene)) made beforehand (moved
   // from); without it the set-up is made here.
-  TriaxialSweep(const MpiContext& mpi, const Scene& scene, const std::string& outdir,
-                RunOutput* output, const Checkpoint* restart, Setup* setup);
+  TriaxialSweep(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* output,
+                const Checkpoint* restart, Setup* setup);
   int run();
 
  private:
@@ -77,7 +77,7 @@ class TriaxialSweep {
     std::string source_case;  // whose snapshots the later cases link to
     std::unique_ptr<Domain> domain;
     std::unique_ptr<Simulation> sim;
-    StageCursor account;      // the run's strain reference and energy put in, at its end
+    StageCursor account;  // the run's strain reference and energy put in, at its end
     StageResult result;
     StageRecord record;
   };

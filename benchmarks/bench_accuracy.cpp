@@ -42,9 +42,7 @@ using namespace fabrica;
 namespace {
 
 using clock_type = std::chrono::steady_clock;
-double since(clock_type::time_point t0) {
-  return std::chrono::duration<double>(clock_type::now() - t0).count();
-}
+double since(clock_type::time_point t0) { return std::chrono::duration<double>(clock_type::now() - t0).count(); }
 // CPU seconds of this (single-threaded) process: less sensitive than wall time to other jobs
 // sharing the cores (the machine this was written on had 2 cores for 5 users).
 double cpu_seconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
@@ -113,8 +111,7 @@ int run_impact(const std::string& out) {
   const double e02 = restitution(0.2, w0);
   std::ofstream f(out + "/impact.csv");
   f << "case,fraction,steps_per_contact,contact_time_error,rebound_error,seconds\n";
-  std::printf("%-8s %8s %8s %14s %14s %10s\n", "case", "fraction", "steps/T", "T error",
-              "v_out error", "seconds");
+  std::printf("%-8s %8s %8s %14s %14s %10s\n", "case", "fraction", "steps/T", "T error", "v_out error", "seconds");
   for (double frac : {0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0}) {
     for (int viscous = 0; viscous < 2; ++viscous) {
       const ImpactResult r = impact(frac, viscous ? 0.2 : 0.0);
@@ -124,10 +121,8 @@ int run_impact(const std::string& out) {
       const double terr = viscous ? NAN : (r.contact_time - T) / T;
       const double verr = viscous ? (r.rebound - e02) / e02 : r.rebound - 1.0;
       const char* name = viscous ? "viscous" : "elastic";
-      f << name << ',' << frac << ',' << steps_per_T << ',' << terr << ',' << verr << ','
-        << r.seconds << '\n';
-      std::printf("%-8s %8.3f %8.1f %14.3e %14.3e %10.2e\n", name, frac, steps_per_T, terr, verr,
-                  r.seconds);
+      f << name << ',' << frac << ',' << steps_per_T << ',' << terr << ',' << verr << ',' << r.seconds << '\n';
+      std::printf("%-8s %8.3f %8.1f %14.3e %14.3e %10.2e\n", name, frac, steps_per_T, terr, verr, r.seconds);
     }
   }
   return 0;
@@ -156,8 +151,7 @@ struct Setting {
   double fraction = 0.25, skin = 0.001, rate = 0.5, density_scaling = 1.0;
   std::string label() const {
     char b[128];
-    std::snprintf(b, sizeof b, "%s f=%g skin=%g rate=%g ds=%g", family.c_str(), fraction, skin,
-                  rate, density_scaling);
+    std::snprintf(b, sizeof b, "%s f=%g skin=%g rate=%g ds=%g", family.c_str(), fraction, skin, rate, density_scaling);
     return b;
   }
 };
@@ -201,8 +195,8 @@ Curve sample(const std::string& series, double eps_max) {
   return r;
 }
 
-ShearResult shear(const Scene& base, const Simulation& equilibrated, const TriaxialRun& parent,
-                  double d_mean, double density, const Setting& s, double eps_max) {
+ShearResult shear(const Scene& base, const Simulation& equilibrated, const TriaxialRun& parent, double d_mean,
+                  double density, const Setting& s, double eps_max) {
   Scene sc = base;
   sc.triaxial.axial_strain_rate = s.rate;
   Simulation sim(equilibrated, nullptr);
@@ -229,8 +223,7 @@ ShearResult shear(const Scene& base, const Simulation& equilibrated, const Triax
   return out;
 }
 
-void errors(const Curve& a, const Curve& ref, double& rms_qp, double& max_qp, double& rms_ev,
-            double& max_ev) {
+void errors(const Curve& a, const Curve& ref, double& rms_qp, double& max_qp, double& rms_ev, double& max_ev) {
   rms_qp = max_qp = rms_ev = max_ev = 0;
   const std::size_t n = std::min(a.qp.size(), ref.qp.size());
   for (std::size_t k = 0; k < n; ++k) {
@@ -255,17 +248,17 @@ int run_triaxial(const std::string& out, int n, double eps) {
   TriaxialRun prep(scene, sim, d_mean, density, nullptr, nullptr);
   const StageResult c = prep.consolidate();
   const StageResult e = prep.equilibrate(scene.law.rolling_friction);
-  std::printf("triaxial: %d spheres, consolidated (%lld steps) and equilibrated (%lld steps) in "
-              "%.1f s: p = %.1f kPa, void ratio %.4f, time step %.3e s\n",
-              n, (long long)c.steps, (long long)e.steps, since(t0), e.state.p / 1e3,
-              e.state.void_ratio, sim.params().dt);
+  std::printf(
+      "triaxial: %d spheres, consolidated (%lld steps) and equilibrated (%lld steps) in "
+      "%.1f s: p = %.1f kPa, void ratio %.4f, time step %.3e s\n",
+      n, (long long)c.steps, (long long)e.steps, since(t0), e.state.p / 1e3, e.state.void_ratio, sim.params().dt);
   std::fflush(stdout);
 
   std::vector<Setting> settings;
   auto add = [&](const char* fam, double f, double skin, double rate, double ds) {
     settings.push_back({fam, f, skin, rate, ds});
   };
-  add("ref_dt", 0.025, 0.001, 0.5, 1);  // reference of the dt and skin families
+  add("ref_dt", 0.025, 0.001, 0.5, 1);    // reference of the dt and skin families
   add("ref_rate", 0.25, 0.001, 0.05, 1);  // reference of the rate and density families
   for (double f : {0.05, 0.1, 0.25, 0.5, 0.75, 1.0}) add("dt", f, 0.001, 0.5, 1);
   for (double sk : {0.0002, 0.0005, 0.002, 0.004}) add("skin", 0.25, sk, 0.5, 1);
@@ -280,28 +273,25 @@ int run_triaxial(const std::string& out, int n, double eps) {
           "cpu_seconds,rms_qp,max_qp,rms_epsv,max_epsv,reference\n";
   curves << "family,fraction,skin,rate,density_scaling,eps1,q_p,eps_v\n";
   Curve ref_dt, ref_rate;
-  std::printf("%-42s %9s %8s %6s %9s %8s %8s %9s %9s %9s %9s\n", "setting", "dt_s", "steps",
-              "rebld", "I", "seconds", "cpu_s", "rms_qp", "max_qp", "rms_epsv", "max_epsv");
+  std::printf("%-42s %9s %8s %6s %9s %8s %8s %9s %9s %9s %9s\n", "setting", "dt_s", "steps", "rebld", "I", "seconds",
+              "cpu_s", "rms_qp", "max_qp", "rms_epsv", "max_epsv");
   for (const Setting& st : settings) {
     const ShearResult r = shear(scene, sim, prep, d_mean, density, st, eps);
-    const bool rate_family = st.family == "rate" || st.family == "density" ||
-                             st.family == "combo" || st.family == "ref_rate";
+    const bool rate_family =
+        st.family == "rate" || st.family == "density" || st.family == "combo" || st.family == "ref_rate";
     if (st.family == "ref_dt") ref_dt = r.curve;
     if (st.family == "ref_rate") ref_rate = r.curve;
     const Curve& ref = rate_family ? ref_rate : ref_dt;
     double rq, mq, rv, mv;
     errors(r.curve, ref, rq, mq, rv, mv);
-    rows << st.family << ',' << st.fraction << ',' << st.skin << ',' << st.rate << ','
-         << st.density_scaling << ',' << r.dt << ',' << r.steps << ',' << r.rebuilds << ','
-         << r.inertial << ',' << r.seconds << ',' << r.cpu << ',' << rq << ',' << mq << ',' << rv << ',' << mv
-         << ',' << (rate_family ? "ref_rate" : "ref_dt") << '\n';
+    rows << st.family << ',' << st.fraction << ',' << st.skin << ',' << st.rate << ',' << st.density_scaling << ','
+         << r.dt << ',' << r.steps << ',' << r.rebuilds << ',' << r.inertial << ',' << r.seconds << ',' << r.cpu << ','
+         << rq << ',' << mq << ',' << rv << ',' << mv << ',' << (rate_family ? "ref_rate" : "ref_dt") << '\n';
     for (std::size_t k = 0; k < r.curve.qp.size(); ++k)
-      curves << st.family << ',' << st.fraction << ',' << st.skin << ',' << st.rate << ','
-             << st.density_scaling << ',' << (k + 1) * kDe << ',' << r.curve.qp[k] << ','
-             << r.curve.epsv[k] << '\n';
-    std::printf("%-42s %9.3e %8ld %6lld %9.2e %8.2f %8.2f %9.2e %9.2e %9.2e %9.2e\n",
-                st.label().c_str(), r.dt, r.steps, (long long)r.rebuilds, r.inertial, r.seconds,
-                r.cpu, rq, mq, rv, mv);
+      curves << st.family << ',' << st.fraction << ',' << st.skin << ',' << st.rate << ',' << st.density_scaling << ','
+             << (k + 1) * kDe << ',' << r.curve.qp[k] << ',' << r.curve.epsv[k] << '\n';
+    std::printf("%-42s %9.3e %8ld %6lld %9.2e %8.2f %8.2f %9.2e %9.2e %9.2e %9.2e\n", st.label().c_str(), r.dt, r.steps,
+                (long long)r.rebuilds, r.inertial, r.seconds, r.cpu, rq, mq, rv, mv);
     std::fflush(stdout);
     rows.flush();
     curves.flush();
@@ -320,8 +310,7 @@ int main(int argc, char** argv) {
   try {
     if (what == "impact") return run_impact(out);
     if (what == "triaxial")
-      return run_triaxial(out, argc > 3 ? std::atoi(argv[3]) : 500,
-                          argc > 4 ? std::atof(argv[4]) : 0.1);
+      return run_triaxial(out, argc > 3 ? std::atoi(argv[3]) : 500, argc > 4 ? std::atof(argv[4]) : 0.1);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_accuracy: %s\n", e.what());
     return 1;

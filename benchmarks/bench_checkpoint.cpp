@@ -31,9 +31,7 @@
 using namespace fabrica;
 
 namespace {
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 // Seconds of fn on the slowest rank.
 template <class F>
 double timed(MPI_Comm c, F&& fn) {
@@ -51,14 +49,12 @@ int main(int argc, char** argv) {
   MpiContext mpi(argc, argv);
   const int reps = argc > 1 ? std::atoi(argv[1]) : 5;
   const std::string dir = argc > 2 ? argv[2] : ".";
-  const std::string scene_path =
-      argc > 3 ? argv[3] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
+  const std::string scene_path = argc > 3 ? argv[3] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
   const Scene scene = load_scene(scene_path);
   // Each rank its share (the data file read in byte ranges on several ranks), as fabrica does.
   Setup s = make_run_setup(scene, mpi.comm(), MpiDomainOptions{});
   const std::int64_t spheres = specimen_totals(s.particles, mpi.comm()).count;
-  std::unique_ptr<MpiDomain> domain =
-      mpi.size() > 1 ? std::make_unique<MpiDomain>(mpi.comm()) : nullptr;
+  std::unique_ptr<MpiDomain> domain = mpi.size() > 1 ? std::make_unique<MpiDomain>(mpi.comm()) : nullptr;
   Simulation sim(std::move(s.particles), s.cell, s.params, domain.get(), s.holding);
   const double t_steps = timed(mpi.comm(), [&] {
     while (sim.step_count() < 100 || !sim.rebuilt_last_step()) sim.step(false);
@@ -84,11 +80,10 @@ int main(int argc, char** argv) {
   }
   if (mpi.rank() == 0) {
     std::filesystem::remove(path);
-    std::printf("%s (%lld spheres) on %d rank(s), step %lld: checkpoint of %.2f MB\n",
-                scene_path.c_str(), (long long)spheres,
-                mpi.size(), (long long)sim.step_count(), double(bytes) / 1e6);
-    std::printf("  write (MPI-IO, sync, rename): min %.4f s, median %.4f s\n",
-                *std::min_element(tw.begin(), tw.end()), median(tw));
+    std::printf("%s (%lld spheres) on %d rank(s), step %lld: checkpoint of %.2f MB\n", scene_path.c_str(),
+                (long long)spheres, mpi.size(), (long long)sim.step_count(), double(bytes) / 1e6);
+    std::printf("  write (MPI-IO, sync, rename): min %.4f s, median %.4f s\n", *std::min_element(tw.begin(), tw.end()),
+                median(tw));
     std::printf("  read and check (each rank its part, checksum summed): min %.4f s, median %.4f s\n",
                 *std::min_element(tr.begin(), tr.end()), median(tr));
     std::printf("  restore (to the owners, decomposition, contact lists): min %.4f s, median %.4f s\n",

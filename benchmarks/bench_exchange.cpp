@@ -48,8 +48,8 @@ int main(int argc, char** argv) {
   const std::size_t touched = argc > 4 ? std::strtoul(argv[4], nullptr, 10) : 3200000;
   const int steps = argc > 5 ? std::atoi(argv[5]) : 3000;
   if (size != 2) return fail("run it on 2 ranks (mpirun -np 2)");
-  if ((mode != "messages" && mode != "shared") || bytes < 8 || parts < 1 ||
-      bytes % std::size_t(parts) != 0 || steps <= 100)
+  if ((mode != "messages" && mode != "shared") || bytes < 8 || parts < 1 || bytes % std::size_t(parts) != 0 ||
+      steps <= 100)
     return fail("usage: bench_exchange messages|shared [BYTES] [PARTS dividing BYTES] [TOUCHED] [STEPS > 100]");
   const int other = 1 - rank;
   const bool shared = mode == "shared";
@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
   for (int k = 0; k < steps; ++k) {
     for (double& x : work) x = x * 1.0000001 + 1e-9;  // the step's own work
     const unsigned char tag = static_cast<unsigned char>(k * 7 + rank + 1);
-    std::memset(packed.data(), tag, bytes);           // the packing
+    std::memset(packed.data(), tag, bytes);  // the packing
     const double t0 = MPI_Wtime();
     if (shared) {
       std::memcpy(mine + std::size_t(k & 1) * bytes, packed.data(), bytes);
@@ -99,10 +99,8 @@ int main(int argc, char** argv) {
     MPI_Allreduce(in, out, 3, MPI_DOUBLE, MPI_MAX, shared ? node : MPI_COMM_WORLD);
     if (shared) MPI_Win_sync(win);
     const double t2 = MPI_Wtime();
-    if (shared)
-      std::memcpy(received.data(), theirs + std::size_t(k & 1) * bytes, bytes);
-    else
-      MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+    if (shared) std::memcpy(received.data(), theirs + std::size_t(k & 1) * bytes, bytes);
+    else MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
     const double t3 = MPI_Wtime();
     const unsigned char expect = static_cast<unsigned char>(k * 7 + other + 1);
     if (received.front() != expect || received.back() != expect) return fail("stale data received");
@@ -117,11 +115,11 @@ int main(int argc, char** argv) {
   }
   const double n = steps - 100;
   if (rank == 0)
-    std::printf("exchange %s: %zu B in %d part(s), %zu B touched between steps: post %.1f, reduction %.1f, "
-                "%s %.1f, total %.1f us per step (checksum %g)\n",
-                mode.c_str(), bytes, shared ? 1 : parts, touched, 1e6 * t.post / n, 1e6 * t.reduce / n,
-                shared ? "copy" : "wait", 1e6 * t.finish / n, 1e6 * (t.post + t.reduce + t.finish) / n,
-                sink > 0 ? 1.0 : 0.0);
+    std::printf(
+        "exchange %s: %zu B in %d part(s), %zu B touched between steps: post %.1f, reduction %.1f, "
+        "%s %.1f, total %.1f us per step (checksum %g)\n",
+        mode.c_str(), bytes, shared ? 1 : parts, touched, 1e6 * t.post / n, 1e6 * t.reduce / n,
+        shared ? "copy" : "wait", 1e6 * t.finish / n, 1e6 * (t.post + t.reduce + t.finish) / n, sink > 0 ? 1.0 : 0.0);
   MPI_Finalize();
   return 0;
 }

@@ -26,16 +26,13 @@ using namespace fabrica;
 
 namespace {
 using clock_type = std::chrono::steady_clock;
-double since(clock_type::time_point t0) {
-  return std::chrono::duration<double>(clock_type::now() - t0).count();
-}
+double since(clock_type::time_point t0) { return std::chrono::duration<double>(clock_type::now() - t0).count(); }
 using bench::median;
 }  // namespace
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 20;
-  const std::string path =
-      argc > 2 ? argv[2] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
+  const std::string path = argc > 2 ? argv[2] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
   Scene scene = load_scene(path);
   scene.law.friction = 0.3;
   scene.law.rolling_friction = 0.05;
@@ -58,14 +55,18 @@ int main(int argc, char** argv) {
     contacts = rec.size();
   }
   const double rec_s = median(t_rec), ana_s = median(t_ana);
-  std::printf("dense-13584 (%s): %zu contacts (%lld sliding, %lld rolling per the engine), "
-              "q/p %.4f, (q/p)* %.4f\n", path.c_str(), contacts, (long long)sim.macro().sliding,
-              (long long)sim.macro().rolling, r.q_p, r.q_p_star[kPartAll]);
-  std::printf("records %.2f ms, analysis %.2f ms (%.2f us per contact), one step %.2f ms: one "
-              "analysis costs %.1f steps\n", 1e3 * rec_s, 1e3 * ana_s, 1e6 * ana_s / double(contacts),
-              1e3 * step_seconds, (rec_s + ana_s) / step_seconds);
-  std::printf("summary: contacts=%zu records_ms=%.3f analysis_ms=%.3f step_ms=%.3f "
-              "analysis_in_steps=%.2f\n", contacts, 1e3 * rec_s, 1e3 * ana_s, 1e3 * step_seconds,
-              (rec_s + ana_s) / step_seconds);
+  std::printf(
+      "dense-13584 (%s): %zu contacts (%lld sliding, %lld rolling per the engine), "
+      "q/p %.4f, (q/p)* %.4f\n",
+      path.c_str(), contacts, (long long)sim.macro().sliding, (long long)sim.macro().rolling, r.q_p,
+      r.q_p_star[kPartAll]);
+  std::printf(
+      "records %.2f ms, analysis %.2f ms (%.2f us per contact), one step %.2f ms: one "
+      "analysis costs %.1f steps\n",
+      1e3 * rec_s, 1e3 * ana_s, 1e6 * ana_s / double(contacts), 1e3 * step_seconds, (rec_s + ana_s) / step_seconds);
+  std::printf(
+      "summary: contacts=%zu records_ms=%.3f analysis_ms=%.3f step_ms=%.3f "
+      "analysis_in_steps=%.2f\n",
+      contacts, 1e3 * rec_s, 1e3 * ana_s, 1e3 * step_seconds, (rec_s + ana_s) / step_seconds);
   return 0;
 }

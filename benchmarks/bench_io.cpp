@@ -43,8 +43,7 @@ int main(int argc, char** argv) {
   try {
     const int reps = argc > 1 ? std::atoi(argv[1]) : 7;
     const std::string dir = argc > 2 ? argv[2] : "/tmp";
-    const std::string path =
-        argc > 3 ? argv[3] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
+    const std::string path = argc > 3 ? argv[3] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
     if (reps < 1) {
       if (root) std::fprintf(stderr, "usage: bench_io [REPS>=1] [DIR] [scene.toml]\n");
       return 2;
@@ -59,8 +58,8 @@ int main(int argc, char** argv) {
     const char* io = std::getenv("OMPI_MCA_io");
     if (root)
       std::printf("bench_io: %s\n  %lld spheres, %lld contacts, %d rank(s), MPI-IO component %s, file %s\n",
-                  path.c_str(), (long long)sim.macro().particles, (long long)sim.macro().contacts,
-                  mpi.size(), io ? io : "(Open MPI default)", RunOutput::file_name(out).c_str());
+                  path.c_str(), (long long)sim.macro().particles, (long long)sim.macro().contacts, mpi.size(),
+                  io ? io : "(Open MPI default)", RunOutput::file_name(out).c_str());
     std::vector<double> secs, mbps, secs_nock;
     double bytes = 0;
     {
@@ -82,8 +81,8 @@ int main(int argc, char** argv) {
           secs_nock.push_back(t);
         }
         if (root)
-          std::printf("rep %d (%s checksum): %.2f MB in %.4f s = %.1f MB/s\n", r / 2 + 1,
-                      checked ? "with" : "without", bytes / 1e6, t, bytes / t / 1e6);
+          std::printf("rep %d (%s checksum): %.2f MB in %.4f s = %.1f MB/s\n", r / 2 + 1, checked ? "with" : "without",
+                      bytes / 1e6, t, bytes / t / 1e6);
       }
       output.close();
     }
@@ -91,12 +90,13 @@ int main(int argc, char** argv) {
     VerifyReport ver;
     if (root) ver = verify_run_file(RunOutput::file_name(out));
     if (root) {
-      std::printf("RESULT bench=io ranks=%d particles=%lld contacts=%lld mb_per_snapshot=%.3f "
-                  "seconds_median=%.4f mb_per_s_median=%.1f seconds_median_nock=%.4f "
-                  "checksum_cost_percent=%.1f verify_mb_per_s=%.1f reps=%d\n",
-                  mpi.size(), (long long)sim.macro().particles, (long long)sim.macro().contacts,
-                  bytes / 1e6, median(secs), median(mbps), median(secs_nock),
-                  100 * (median(secs) / median(secs_nock) - 1), ver.bytes / ver.seconds / 1e6, reps);
+      std::printf(
+          "RESULT bench=io ranks=%d particles=%lld contacts=%lld mb_per_snapshot=%.3f "
+          "seconds_median=%.4f mb_per_s_median=%.1f seconds_median_nock=%.4f "
+          "checksum_cost_percent=%.1f verify_mb_per_s=%.1f reps=%d\n",
+          mpi.size(), (long long)sim.macro().particles, (long long)sim.macro().contacts, bytes / 1e6, median(secs),
+          median(mbps), median(secs_nock), 100 * (median(secs) / median(secs_nock) - 1), ver.bytes / ver.seconds / 1e6,
+          reps);
       std::filesystem::remove_all(out);
     }
     return 0;

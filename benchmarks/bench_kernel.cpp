@@ -100,8 +100,8 @@ Dense make_dense() {
   std::fprintf(stderr,
                "dense-13584 after %lld steps: %zu spheres, %zu pairs in the Verlet list, %zu "
                "touching (%lld contacts by the measure), %lld sliding\n",
-               (long long)scene.steps, d.p.n_owned(), d.pairs.size(), d.kin.size(),
-               (long long)m.contacts, (long long)m.sliding);
+               (long long)scene.steps, d.p.n_owned(), d.pairs.size(), d.kin.size(), (long long)m.contacts,
+               (long long)m.sliding);
   return d;
 }
 
@@ -119,8 +119,7 @@ ContactLawParams variant_law(ContactLawParams law, bool rolling, bool viscous) {
 // Seconds per item: an iteration-invariant rate of items per second, inverted. The console
 // shows it with an SI prefix and the unit s ("11.5ns"); JSON and CSV hold seconds.
 benchmark::Counter per_item(double items) {
-  return benchmark::Counter(items,
-                            benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  return benchmark::Counter(items, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
 template <bool Rolling, bool Viscous>
@@ -131,8 +130,8 @@ void BM_ContactLaw(benchmark::State& state) {
   const std::size_t nc = d.kin.size();
   std::vector<PairConstants> c(nc);
   for (std::size_t q = 0; q < nc; ++q)
-    c[q] = pair_constants<Rolling, Viscous>(law, d.p.radius[d.ci[q]], d.p.radius[d.cj[q]],
-                                            d.p.mass[d.ci[q]], d.p.mass[d.cj[q]]);
+    c[q] = pair_constants<Rolling, Viscous>(law, d.p.radius[d.ci[q]], d.p.radius[d.cj[q]], d.p.mass[d.ci[q]],
+                                            d.p.mass[d.cj[q]]);
   std::vector<ContactHistory> out(nc);
   const ContactKinematics* k = d.kin.data();
   const ContactHistory* h0 = d.hist.data();
@@ -180,17 +179,14 @@ void BM_ComputeForces(benchmark::State& state) {
   state.counters["per_particle_step"] = per_item(double(d.p.n_owned()));
 }
 
-
 // contact_law<false, false> called out of line, as GCC 12 compiles it in core/forces.cpp (two
 // calls per contact in the disassembly of pair_forces<false, false, false>); in this file it
 // would inline it, which is a different program.
-ContactResult (*volatile law_pointer)(const ContactLawParams&, const PairConstants&,
-                                      const ContactKinematics&, ContactHistory&,
-                                      real_t) = &contact_law<false, false>;
+ContactResult (*volatile law_pointer)(const ContactLawParams&, const PairConstants&, const ContactKinematics&,
+                                      ContactHistory&, real_t) = &contact_law<false, false>;
 
 [[gnu::noinline]] ContactResult law_out_of_line(const ContactLawParams& p, const PairConstants& c,
-                                                const ContactKinematics& k, ContactHistory& h,
-                                                real_t dt) {
+                                                const ContactKinematics& k, ContactHistory& h, real_t dt) {
   return contact_law<false, false>(p, c, k, h, dt);
 }
 
@@ -200,8 +196,8 @@ ContactResult (*volatile law_pointer)(const ContactLawParams&, const PairConstan
 // with the full C++ calling convention (the 96-byte ContactResult returned through memory), as
 // compute_forces calls it.
 template <int Mode>
-void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams& law, real_t dt,
-                 PairList& pl, Dissipation& diss) {
+void bare_forces(Particles& P, const PeriodicCell& cell, const ContactLawParams& law, real_t dt, PairList& pl,
+                 Dissipation& diss) {
   const std::size_t n = P.size();
   for (std::size_t a = 0; a < n; ++a) P.f[a].setZero();
   for (std::size_t a = 0; a < n; ++a) P.t[a].setZero();
@@ -296,17 +292,20 @@ void check_bare_equals_engine(const Dense& d) {
   const ForceContext ctx{law, no_walls, Vec3::Zero(), d.par.dt};
   compute_forces(p1, d.cell, ctx, l1, walls, d1, nullptr);
   bare_forces<0>(p2, d.cell, law, d.par.dt, l2, d2);
-  const bool same = p1.f == p2.f && p1.t == p2.t && shear_springs(l1) == shear_springs(l2) && l1.touching == l2.touching &&
-                    d1.friction == d2.friction;
-  std::fprintf(stderr, "bare_forces against compute_forces (mu_r = 0, no dashpots, no walls, no "
-                       "measurement): %s\n", same ? "bitwise identical" : "DIFFERENT");
+  const bool same = p1.f == p2.f && p1.t == p2.t && shear_springs(l1) == shear_springs(l2) &&
+      l1.touching == l2.touching && d1.friction == d2.friction;
+  std::fprintf(stderr,
+               "bare_forces against compute_forces (mu_r = 0, no dashpots, no walls, no "
+               "measurement): %s\n",
+               same ? "bitwise identical" : "DIFFERENT");
   if (!same) std::exit(1);
   Particles p3 = d.p;
   PairList l3 = d.pairs;
   l3.set_rolling(false);
   Dissipation d3;
   bare_forces<1>(p3, d.cell, law, d.par.dt, l3, d3);
-  const bool same3 = p1.f == p3.f && p1.t == p3.t && shear_springs(l1) == shear_springs(l3) && d1.friction == d3.friction;
+  const bool same3 =
+      p1.f == p3.f && p1.t == p3.t && shear_springs(l1) == shear_springs(l3) && d1.friction == d3.friction;
   std::fprintf(stderr, "bare_forces_inlined against compute_forces: %s\n",
                same3 ? "bitwise identical" : "different in the last bits (FMA contraction)");
 }
@@ -336,9 +335,7 @@ void BM_BareForces(benchmark::State& state) {
 double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
 
 void add(const std::string& name, void (*fn)(benchmark::State&)) {
-  benchmark::RegisterBenchmark(name.c_str(), fn)
-      ->ComputeStatistics("min", min_of)
-      ->Unit(benchmark::kMicrosecond);
+  benchmark::RegisterBenchmark(name.c_str(), fn)->ComputeStatistics("min", min_of)->Unit(benchmark::kMicrosecond);
 }
 
 }  // namespace

@@ -30,20 +30,16 @@ struct PairList {
   // rebuild the slots are handed out afresh in list order, so the force loop reads the pools
   // nearly in order. Which slot a contact has changes no result.
   std::vector<Index> slot;
-  std::vector<Vec3> spring_fs;  // shear springs (N), by slot
-  std::vector<Vec3> spring_mr;  // rolling springs (N m), by slot; used only with rolling
+  std::vector<Vec3> spring_fs;    // shear springs (N), by slot
+  std::vector<Vec3> spring_mr;    // rolling springs (N m), by slot; used only with rolling
   std::vector<real_t> spring_mt;  // twisting springs (N m), by slot; used only with twisting
   std::vector<Index> free_slots;
-  bool rolling = false;         // whether spring_mr is kept (mu_r > 0)
-  bool twisting = false;        // whether spring_mt is kept (mu_t > 0)
+  bool rolling = false;   // whether spring_mr is kept (mu_r > 0)
+  bool twisting = false;  // whether spring_mt is kept (mu_t > 0)
 
   // The springs of pair q (zero while it does not touch).
-  Vec3 shear_spring(std::size_t q) const {
-    return touching[q] ? spring_fs[slot[q]] : Vec3(Vec3::Zero());
-  }
-  Vec3 rolling_spring(std::size_t q) const {
-    return touching[q] && rolling ? spring_mr[slot[q]] : Vec3(Vec3::Zero());
-  }
+  Vec3 shear_spring(std::size_t q) const { return touching[q] ? spring_fs[slot[q]] : Vec3(Vec3::Zero()); }
+  Vec3 rolling_spring(std::size_t q) const { return touching[q] && rolling ? spring_mr[slot[q]] : Vec3(Vec3::Zero()); }
   real_t twisting_spring(std::size_t q) const { return touching[q] && twisting ? spring_mt[slot[q]] : 0.0; }
   // Gives pair q (not touching) a slot with zero springs; the caller sets touching[q].
   void take_slot(std::size_t q) {
@@ -119,8 +115,15 @@ struct PairList {
 
   std::size_t size() const { return i.size(); }
   void clear() {
-    i.clear(); j.clear(); image.clear(); touching.clear(); slot.clear();
-    spring_fs.clear(); spring_mr.clear(); spring_mt.clear(); free_slots.clear();
+    i.clear();
+    j.clear();
+    image.clear();
+    touching.clear();
+    slot.clear();
+    spring_fs.clear();
+    spring_mr.clear();
+    spring_mt.clear();
+    free_slots.clear();
   }
 };
 
@@ -128,31 +131,38 @@ struct PairList {
 // (core/wall_servo.hpp). Its contacts use the scene's contact law, or its own when own_law is
 // set (Rbar = R of the sphere, k_n = pi R E for the deformability form, m_eff = m of the sphere).
 struct Wall {
-  Vec3 point = Vec3::Zero();        // a point of the plane (m), advanced by velocity * dt each step
-  Vec3 normal = Vec3::UnitZ();      // unit normal pointing into the granular domain
-  Vec3 velocity = Vec3::Zero();     // m/s (a servo wall: its normal part is the servo's)
+  Vec3 point = Vec3::Zero();     // a point of the plane (m), advanced by velocity * dt each step
+  Vec3 normal = Vec3::UnitZ();   // unit normal pointing into the granular domain
+  Vec3 velocity = Vec3::Zero();  // m/s (a servo wall: its normal part is the servo's)
   bool own_law = false;
-  ContactLawParams law;             // used when own_law
+  ContactLawParams law;  // used when own_law
   // Servo control, when servo_pressure > 0: after every step the normal part of the velocity is
   // set so that the spheres' push on the wall approaches servo_pressure times the cell's
   // cross-section across the wall's axis (core/wall_servo.hpp).
-  real_t servo_pressure = 0;        // Pa
-  real_t servo_relaxation = 0.5;    // fraction of the force error one step corrects, (0, 1)
-  real_t servo_max_speed = 0;       // m/s, the cap on the servo's speed (> 0 with a servo)
+  real_t servo_pressure = 0;      // Pa
+  real_t servo_relaxation = 0.5;  // fraction of the force error one step corrects, (0, 1)
+  real_t servo_max_speed = 0;     // m/s, the cap on the servo's speed (> 0 with a servo)
 
   bool servo() const { return servo_pressure > 0; }
   bool moving() const { return servo() || !velocity.isZero(); }
 };
 
 struct WallContactList {
-  std::vector<Index> i;              // particle
-  std::vector<std::int32_t> wall;    // wall index
+  std::vector<Index> i;            // particle
+  std::vector<std::int32_t> wall;  // wall index
   std::vector<std::uint8_t> touching;
-  std::vector<Vec3> fs, mr;          // mr with rolling only
-  std::vector<real_t> mt;            // with twisting only
+  std::vector<Vec3> fs, mr;  // mr with rolling only
+  std::vector<real_t> mt;    // with twisting only
 
   std::size_t size() const { return i.size(); }
-  void clear() { i.clear(); wall.clear(); touching.clear(); fs.clear(); mr.clear(); mt.clear(); }
+  void clear() {
+    i.clear();
+    wall.clear();
+    touching.clear();
+    fs.clear();
+    mr.clear();
+    mt.clear();
+  }
 };
 
 }  // namespace fabrica

@@ -79,20 +79,18 @@ std::vector<ContactRecord> wall_records_of(Model, const Particles& p, const Cont
 }
 }  // namespace
 
-void for_each_contact_record(const Particles& p, const PeriodicCell& cell,
-                             const ContactLawParams& law, const PairList& pairs,
-                             const std::function<void(const ContactRecord&)>& fn) {
+void for_each_contact_record(const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
+                             const PairList& pairs, const std::function<void(const ContactRecord&)>& fn) {
   with_model(law.model, [&](auto m) { contact_records_of(m, p, cell, law, pairs, fn); });
 }
 
-std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell,
-                                           const ContactLawParams& law, const PairList& pairs) {
+std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
+                                           const PairList& pairs) {
   // Room for the touching pairs of owned bodies at once: grown by doubling, the records took up
   // to three times their size at the moment of a copy (53 MB for 17 MB of records at 108,672
   // spheres, the peak of a triaxial run).
   std::size_t n = 0;
-  for (std::size_t q = 0; q < pairs.size(); ++q)
-    n += pairs.touching[q] && std::size_t(pairs.i[q]) < p.n_owned();
+  for (std::size_t q = 0; q < pairs.size(); ++q) n += pairs.touching[q] && std::size_t(pairs.i[q]) < p.n_owned();
   std::vector<ContactRecord> out;
   out.reserve(n);
   for_each_contact_record(p, cell, law, pairs, [&](const ContactRecord& c) { out.push_back(c); });
@@ -100,8 +98,7 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
 }
 
 std::vector<ContactRecord> wall_contact_records(const Particles& p, const ContactLawParams& law,
-                                                const std::vector<Wall>& walls,
-                                                const WallContactList& wl) {
+                                                const std::vector<Wall>& walls, const WallContactList& wl) {
   return with_model(law.model, [&](auto m) { return wall_records_of(m, p, law, walls, wl); });
 }
 

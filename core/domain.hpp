@@ -90,8 +90,8 @@ class Domain {
   // decomposition is the saved one (see decomposition_record()), so that every rank owns what
   // it owned when saved.
   virtual void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-                     const DecompositionRecord* decomposed_as = nullptr,
-                     Holding holding = Holding::Whole, HistoryMap* history = nullptr) = 0;
+                     const DecompositionRecord* decomposed_as = nullptr, Holding holding = Holding::Whole,
+                     HistoryMap* history = nullptr) = 0;
 
   // How to remake the current decomposition (empty for the serial domain or a decomposition
   // that cannot be remade from it, METIS).

@@ -12,10 +12,10 @@
 namespace fabrica {
 
 struct DrivenSet {
-  std::vector<GlobalId> ids;       // sorted, unique
-  GlobalId first = 0, last = -1;   // and the inclusive id range [first, last] (empty if last < first)
-  Vec3 velocity = Vec3::Zero();    // m/s
-  Vec3 spin = Vec3::Zero();        // rad/s
+  std::vector<GlobalId> ids;      // sorted, unique
+  GlobalId first = 0, last = -1;  // and the inclusive id range [first, last] (empty if last < first)
+  Vec3 velocity = Vec3::Zero();   // m/s
+  Vec3 spin = Vec3::Zero();       // rad/s
 
   bool contains(GlobalId id) const {
     return (id >= first && id <= last) || std::binary_search(ids.begin(), ids.end(), id);

@@ -61,12 +61,18 @@ int rose_bin(real_t y, real_t x, int bins) {
 
 std::span<const int> partition_networks(int partition) {
   switch (partition) {
-    case kPartAll: return kPartAllNets;
-    case kPartNsS: return kPartNsSNets;
-    case kPartSfWf: return kPartSfWfNets;
-    case kPartNrR: return kPartNrRNets;
-    case kPartSlideRoll: return kPartSlideRollNets;
-    default: return kPartSlideForceNets;
+    case kPartAll:
+      return kPartAllNets;
+    case kPartNsS:
+      return kPartNsSNets;
+    case kPartSfWf:
+      return kPartSfWfNets;
+    case kPartNrR:
+      return kPartNrRNets;
+    case kPartSlideRoll:
+      return kPartSlideRollNets;
+    default:
+      return kPartSlideForceNets;
   }
 }
 
@@ -82,10 +88,13 @@ real_t signed_index(const Mat3& a, const Mat3& s) {
   return a.cwiseProduct(s).sum() < 0 ? -mag : mag;
 }
 
-FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volume,
-                            const FabricOptions& options, Domain& reducer) {
-  return analyse_fabric([records](const ContactVisitor& fn) { for (const ContactRecord& c : records) fn(c); },
-                        volume, options, reducer);
+FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volume, const FabricOptions& options,
+                            Domain& reducer) {
+  return analyse_fabric(
+      [records](const ContactVisitor& fn) {
+        for (const ContactRecord& c : records) fn(c);
+      },
+      volume, options, reducer);
 }
 
 FabricResult analyse_fabric(const std::function<void(const ContactVisitor&)>& visit, real_t volume,

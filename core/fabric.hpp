@@ -24,19 +24,15 @@
 namespace fabrica {
 
 // The networks, in the order of the spec's list.
-enum Network : int {
-  kAll, kNs, kS, kR, kNr, kSf, kWf, kNsNr, kNsR, kSNr, kSR, kNsSf, kNsWf, kSSf, kSWf, kNetworks
-};
+enum Network : int { kAll, kNs, kS, kR, kNr, kSf, kWf, kNsNr, kNsR, kSNr, kSR, kNsSf, kNsWf, kSSf, kSWf, kNetworks };
 inline constexpr std::array<std::string_view, kNetworks> kNetworkNames = {
-    "all", "ns", "s", "r", "nr", "sf", "wf", "ns-nr", "ns-r", "s-nr", "s-r",
-    "ns-sf", "ns-wf", "s-sf", "s-wf"};
+    "all", "ns", "s", "r", "nr", "sf", "wf", "ns-nr", "ns-r", "s-nr", "s-r", "ns-sf", "ns-wf", "s-sf", "s-wf"};
 
 // Partitions of the contacts (each a set of disjoint networks whose union is 'all') for which
 // the stress-force-fabric prediction is made. 'all' alone is the classical global relation.
-enum Partition : int { kPartAll, kPartNsS, kPartSfWf, kPartNrR, kPartSlideRoll, kPartSlideForce,
-                       kPartitions };
-inline constexpr std::array<std::string_view, kPartitions> kPartitionNames = {
-    "all", "ns_s", "sf_wf", "nr_r", "ns_s_nr_r", "ns_s_sf_wf"};
+enum Partition : int { kPartAll, kPartNsS, kPartSfWf, kPartNrR, kPartSlideRoll, kPartSlideForce, kPartitions };
+inline constexpr std::array<std::string_view, kPartitions> kPartitionNames = {"all",  "ns_s",      "sf_wf",
+                                                                              "nr_r", "ns_s_nr_r", "ns_s_sf_wf"};
 std::span<const int> partition_networks(int partition);
 int partition_of(int network);  // the partition a network belongs to
 
@@ -46,18 +42,18 @@ struct FabricOptions {
 };
 
 struct NetworkFabric {
-  std::int64_t count = 0;         // N^k
-  real_t mean_fn = 0;             // N, mean normal force (NaN if empty, as every mean below)
-  Mat3 phi = Mat3::Zero();        // fabric tensor (1/N^k) sum n n
-  Mat3 branch = Mat3::Zero();     // b^k: (1/N^k) sum |b| n n / (1 + a^c:nn)   [m]
+  std::int64_t count = 0;                // N^k
+  real_t mean_fn = 0;                    // N, mean normal force (NaN if empty, as every mean below)
+  Mat3 phi = Mat3::Zero();               // fabric tensor (1/N^k) sum n n
+  Mat3 branch = Mat3::Zero();            // b^k: (1/N^k) sum |b| n n / (1 + a^c:nn)   [m]
   Mat3 normal_force = Mat3::Zero();      // f^{n,k} [N]
   Mat3 tangential_force = Mat3::Zero();  // f^{t,k}: (1/N^k) sum f_t,i n_j / (1 + a^c:nn) [N], not symmetric
   Mat3 ac = Mat3::Zero(), ab = Mat3::Zero(), an = Mat3::Zero(), at = Mat3::Zero();  // deviatoric
   real_t a_c = 0, a_b = 0, a_n = 0, a_t = 0;  // signed indices sign(a:s) sqrt(3/2 a:a)
   real_t zeta = 0, gamma = 0, xi = 0;
-  Vec3 phi_principal = Vec3::Zero();  // eigenvalues of phi, descending
-  Vec3 phi_major = Vec3::Zero();      // unit eigenvector of the largest (first nonzero component > 0)
-  Mat3 stress = Mat3::Zero();         // (1/V) sum over the network of f (x) b [Pa]
+  Vec3 phi_principal = Vec3::Zero();     // eigenvalues of phi, descending
+  Vec3 phi_major = Vec3::Zero();         // unit eigenvector of the largest (first nonzero component > 0)
+  Mat3 stress = Mat3::Zero();            // (1/V) sum over the network of f (x) b [Pa]
   std::int64_t nonpositive_weights = 0;  // contacts with 1 + a^c:nn <= 0 (then b, f^n, f^t are not meaningful)
   // 1 + (smallest eigenvalue of a^c): the minimum over all directions of the second-order
   // density 4 pi E(n) = 1 + a^c:nn. Where it is <= 0 that density is negative somewhere, and the
@@ -68,18 +64,18 @@ struct NetworkFabric {
 
 struct FabricResult {
   std::array<NetworkFabric, kNetworks> net;
-  std::int64_t contacts = 0;        // N over all ranks
-  real_t mean_fn = 0;               // N, over all contacts
-  real_t strong_threshold = 0;      // N
-  Mat3 stress = Mat3::Zero();       // Pa: (1/V) sum f (x) b over all contacts
-  real_t p = 0, q = 0, q_p = 0;     // of 'stress' (q_p = 0 if p <= 0)
+  std::int64_t contacts = 0;                   // N over all ranks
+  real_t mean_fn = 0;                          // N, over all contacts
+  real_t strong_threshold = 0;                 // N
+  Mat3 stress = Mat3::Zero();                  // Pa: (1/V) sum f (x) b over all contacts
+  real_t p = 0, q = 0, q_p = 0;                // of 'stress' (q_p = 0 if p <= 0)
   std::array<real_t, kPartitions> q_p_star{};  // (2/5) sum_k xi_k (a_c + a_b + a_n + 3/2 a_t)
   // Not in the spec: the same sum taken over the tensors before the invariant,
   // sqrt(3/2 D:D) with D = (2/5) sum_k xi_k (a^c + a^b + a^n + 3/2 a^t) - the first-order
   // prediction without the assumption that the tensors are coaxial with the stress.
   std::array<real_t, kPartitions> q_p_star_tensor{};
   int rose_bins = 0;
-  int reductions = 0;               // collective sums made (3)
+  int reductions = 0;  // collective sums made (3)
 };
 
 // Classifies this rank's records and reduces over the ranks of 'reducer':
@@ -89,8 +85,8 @@ struct FabricResult {
 //   3. sum_all: per network the sums weighted by 1 / (1 + a^c:nn) (b^k, f^n, f^t).
 // Each sum needs the previous one's result, hence three collectives per analysis (every rank
 // calls all three, whatever its records). 'volume' is the cell volume [m^3].
-FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volume,
-                            const FabricOptions& options, Domain& reducer);
+FabricResult analyse_fabric(std::span<const ContactRecord> records, real_t volume, const FabricOptions& options,
+                            Domain& reducer);
 // The records visited rather than held: 'visit' calls its argument once per record of this
 // rank, in the same order at each call; it is called three times (once per pass above). A run
 // passes for_each_contact_record over its pair list, so that a fabric row at 10^6 spheres does not

@@ -46,8 +46,7 @@ constexpr const auto& kTouchBytes = kPackTables.bytes;
 #endif
 
 // Out of the loop's way: reached only by an overlap beyond the geometric limit.
-[[gnu::cold, gnu::noinline]] void note_overlap(OverlapAlarm* alarm, real_t un, real_t radius,
-                                               GlobalId a, GlobalId b) {
+[[gnu::cold, gnu::noinline]] void note_overlap(OverlapAlarm* alarm, real_t un, real_t radius, GlobalId a, GlobalId b) {
   if (!alarm) return;
   const real_t ratio = un / radius;
   if (ratio > alarm->ratio) *alarm = OverlapAlarm{ratio, un, radius, a, b};
@@ -59,15 +58,14 @@ ContactResult evaluate_one(const ContactLawParams& law, const typename Model::te
                            const ContactKinematics& k, ContactHistory& h, real_t dt) {
   constexpr bool Rolling = Roll != kNoRolling;
   using simd::from_vec, simd::to_vec;
-  const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1), from_vec(k.w2),
-                                      k.un_prev};
+  const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1), from_vec(k.w2), k.un_prev};
   ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr), h.mt};
   const ContactResultL<real_t> rl = Model::template evaluate<Roll, Viscous, real_t, Twist>(law, c, kl, hl, dt);
   h.fs = to_vec(hl.fs);
   if constexpr (Rolling) h.mr = to_vec(hl.mr);
   if constexpr (Twist) h.mt = hl.mt;
-  return ContactResult{rl.fn, to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
-                       rl.e_friction, rl.e_rolling, rl.e_viscous, rl.mt};
+  return ContactResult{rl.fn,         to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
+                       rl.e_friction, rl.e_rolling,  rl.e_viscous,  rl.mt};
 }
 
 // The second line of a 24-byte vector: a quarter of them straddle two cache lines, and a
@@ -374,7 +372,8 @@ struct PairKernel {
     Vec3* t = P.t.data();
     for (int l = 0; l < kLanes; ++l) {
       const Index i = ci[l], j = cj[l];
-      if (c + l >= next_before) [[unlikely]] book_openings(c + l);
+      if (c + l >= next_before) [[unlikely]]
+        book_openings(c + l);
       const Eigen::Map<const Vec3> Fl(rows_f + 4 * l), Tj(rows_tj + 4 * l), Ti(rows_ti + 4 * l);
       f[j] += Fl;
       f[i] -= Fl;
@@ -451,8 +450,8 @@ struct PairKernel {
 };
 
 template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
-void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
-                 Dissipation& diss, ContactSums* sums) {
+void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl, Dissipation& diss,
+                 ContactSums* sums) {
   PairKernel<Model, Roll, Twist, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
   for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
   K.fetch_all = ctx.fetch_ahead < 0 ? fetch_all_ahead(P.size()) : ctx.fetch_ahead > 0;
@@ -467,8 +466,8 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
 // Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
 // law or the scene's.
 template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
-void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss,
-                 ContactSums* sums, real_t* wall_power) {
+void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss, ContactSums* sums,
+                 real_t* wall_power) {
   constexpr bool Rolling = Roll != kNoRolling;
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   real_t power = 0;
@@ -552,15 +551,15 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
 }
 
 template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
-void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl,
-                WallContactList& wl, Dissipation& diss, ContactSums* sums, real_t* wall_power) {
+void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl, WallContactList& wl,
+                Dissipation& diss, ContactSums* sums, real_t* wall_power) {
   pair_forces<Model, Roll, Twist, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
   if (wl.size() != 0) wall_forces<Model, Roll, Twist, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
   else if (wall_power) *wall_power = 0;
 }
 
-using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&,
-                        WallContactList&, Dissipation&, ContactSums*, real_t*);
+using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&, WallContactList&, Dissipation&,
+                        ContactSums*, real_t*);
 
 // One table per model, indexed by ((roll * 2 + twist) * 2 + viscous) * 3 + measure (roll:
 // kNoRolling or a rolling model, core/contact/rolling.hpp; measure: kNone, kVirial, kFull).
@@ -573,9 +572,8 @@ constexpr std::array<Kernel, 48> kKernels = make_kernels<Model>(std::make_index_
 
 }  // namespace
 
-void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,
-                    PairList& pairs, WallContactList& wall_contacts, Dissipation& diss,
-                    ContactSums* sums, real_t* wall_power) {
+void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pairs,
+                    WallContactList& wall_contacts, Dissipation& diss, ContactSums* sums, real_t* wall_power) {
   const std::size_t n = p.size();
   const std::size_t first = ctx.owned_ready ? p.n_owned() : 0;
   if (ctx.gravity.isZero()) {

@@ -15,23 +15,23 @@ namespace fabrica {
 
 // Local sums over this rank's contacts, filled on measuring steps only.
 struct ContactSums {
-  Mat3 fb = Mat3::Zero();       // sum of f (x) b over particle-particle contacts [N m]
-  std::int64_t contacts = 0;    // particle-particle contacts
+  Mat3 fb = Mat3::Zero();     // sum of f (x) b over particle-particle contacts [N m]
+  std::int64_t contacts = 0;  // particle-particle contacts
   std::int64_t sliding = 0;
   std::int64_t rolling = 0;
   std::int64_t wall_contacts = 0;
   real_t e_normal = 0, e_shear = 0, e_rolling = 0;  // elastic energy in the springs [J]
-  real_t sum_contact_force = 0;  // sum of |f| over contacts [N]
-  real_t sum_particle_force = 0; // sum of |resultant force| over owned particles [N]
+  real_t sum_contact_force = 0;                     // sum of |f| over contacts [N]
+  real_t sum_particle_force = 0;                    // sum of |resultant force| over owned particles [N]
   std::vector<std::int32_t> contacts_per_particle;  // for the mechanical coordination number
-  real_t sum_overlap = 0;        // sum of u_n over particle-particle contacts [m]
-  real_t max_overlap_ratio = 0;  // largest u_n / min(R_i, R_j) (walls: u_n / R_i)
+  real_t sum_overlap = 0;                           // sum of u_n over particle-particle contacts [m]
+  real_t max_overlap_ratio = 0;                     // largest u_n / min(R_i, R_j) (walls: u_n / R_i)
   GlobalId max_overlap_a = -1, max_overlap_b = -1;  // its bodies (b = -1 - wall for walls)
-  real_t work_gravity = 0;       // J, cumulative work of gravity on this rank's particles (set
-                                 // by Simulation before the reduction)
-  Mat3 fb_walls = Mat3::Zero();  // sum of F (x) (a1 n) over wall contacts: F the force on the
-                                 // wall, a1 n the arm from the sphere's centre to the contact [N m]
-  std::vector<Vec3> wall_force;  // force of this rank's spheres on each wall [N]
+  real_t work_gravity = 0;                          // J, cumulative work of gravity on this rank's particles (set
+                                                    // by Simulation before the reduction)
+  Mat3 fb_walls = Mat3::Zero();                     // sum of F (x) (a1 n) over wall contacts: F the force on the
+                                                    // wall, a1 n the arm from the sphere's centre to the contact [N m]
+  std::vector<Vec3> wall_force;                     // force of this rank's spheres on each wall [N]
 };
 
 // Energy dissipated since the start of the run [J] (local to this rank).
@@ -50,9 +50,9 @@ struct Dissipation {
 // contact (benchmarks/README.md, "The overlap guard").
 inline constexpr real_t kMaxOverlapRatio = 1.0;
 struct OverlapAlarm {
-  real_t ratio = 0;    // u_n / smaller radius, 0 when no contact is beyond the limit
-  real_t overlap = 0;  // u_n [m]
-  real_t radius = 0;   // the smaller radius [m]
+  real_t ratio = 0;         // u_n / smaller radius, 0 when no contact is beyond the limit
+  real_t overlap = 0;       // u_n [m]
+  real_t radius = 0;        // the smaller radius [m]
   GlobalId a = -1, b = -1;  // the two bodies (b = -1 - wall index for walls)
 };
 
@@ -62,7 +62,7 @@ struct ForceContext {
   Vec3 gravity;  // m/s^2
   real_t dt;
   OverlapAlarm* alarm = nullptr;  // if set, receives the largest overlap beyond the limit
-  int lanes = 4;  // contacts the pair loop evaluates at once: 4 (SIMD) or 1; the same bits
+  int lanes = 4;                  // contacts the pair loop evaluates at once: 4 (SIMD) or 1; the same bits
   // If set (servo walls, core/wall_servo.hpp): per wall k, slot 2k += the elastic part of the
   // spheres' push on it, k_n u_n [N], and slot 2k + 1 += k_n [N/m], over this rank's touching
   // contacts; exact sums, so that the servo moves the wall the same on any number of ranks.
@@ -84,8 +84,7 @@ struct ForceContext {
 // 'sums' may be null (no measurement).
 // 'wall_power', if given, receives the power of the moving walls on this rank's spheres [W]
 // (sum over wall contacts of -F . v_wall, F the force on the wall).
-void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx,
-                    PairList& pairs, WallContactList& wall_contacts, Dissipation& diss,
-                    ContactSums* sums, real_t* wall_power = nullptr);
+void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pairs,
+                    WallContactList& wall_contacts, Dissipation& diss, ContactSums* sums, real_t* wall_power = nullptr);
 
 }  // namespace fabrica

@@ -30,14 +30,12 @@ class Random {
   std::uint64_t s_;
 };
 
-std::vector<real_t> fractal_diameters(std::size_t n, real_t D, real_t d_min, real_t d_max,
-                                      Random& rng);
+std::vector<real_t> fractal_diameters(std::size_t n, real_t D, real_t d_min, real_t d_max, Random& rng);
 
 // Places spheres of the given diameters (largest first) at random without overlap in the
 // periodic cell; throws std::runtime_error if a sphere finds no room after many attempts.
 // Ids are 0..n-1 in the order of 'diameters'.
-Particles random_packing(const std::vector<real_t>& diameters, real_t density,
-                         const PeriodicCell& cell, Random& rng);
+Particles random_packing(const std::vector<real_t>& diameters, real_t density, const PeriodicCell& cell, Random& rng);
 
 // n^3 equal spheres of radius R on a simple cubic lattice of spacing a (cell n a per side).
 Particles simple_cubic(int n, real_t R, real_t a, real_t density);

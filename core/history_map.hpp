@@ -200,15 +200,15 @@ class HistoryMap {
       if (keyed_[s]) probe(keys_[s].a, keys_[s].b) = std::uint32_t(s);
   }
 
-  std::vector<Key> keys_;          // the key of each slot, by slot (meaningful where keyed_)
-  std::vector<bool> keyed_;        // which slots are keyed
+  std::vector<Key> keys_;             // the key of each slot, by slot (meaningful where keyed_)
+  std::vector<bool> keyed_;           // which slots are keyed
   std::vector<std::uint32_t> slots_;  // the table: keyed slots, kEmpty where none
-  std::vector<Vec3> fs_, mr_;      // the springs, by slot
-  std::vector<real_t> mt_;         // the twisting springs, by slot
-  bool rolling_ = true;            // mr_ kept
-  bool twisting_ = false;          // mt_ kept
+  std::vector<Vec3> fs_, mr_;         // the springs, by slot
+  std::vector<real_t> mt_;            // the twisting springs, by slot
+  bool rolling_ = true;               // mr_ kept
+  bool twisting_ = false;             // mt_ kept
   std::size_t mask_ = 0;
-  std::size_t count_ = 0;          // keyed slots
+  std::size_t count_ = 0;  // keyed slots
 };
 
 }  // namespace fabrica

@@ -30,8 +30,8 @@ Vec3 drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
 
 namespace {
 template <bool Deform, bool Gravity, bool Pending>
-StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt,
-                           const std::vector<Vec3>& s_ref, const Vec3& g) {
+StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt, const std::vector<Vec3>& s_ref,
+                           const Vec3& g) {
   const real_t h = 0.5 * dt;
   const std::size_t n = p.n_owned();
   StepStart r;
@@ -49,27 +49,24 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
     p.x[a] = x;
     raise_max(r.max_d2, (x - s_ref[a].cwiseProduct(L)).squaredNorm());
     raise_max(r.max_v2, v.squaredNorm());
-    if constexpr (Gravity)
-      p.f[a] = p.mass[a] * g;
-    else
-      p.f[a].setZero();
+    if constexpr (Gravity) p.f[a] = p.mass[a] * g;
+    else p.f[a].setZero();
     p.t[a].setZero();
   }
   return r;
 }
 }  // namespace
 
-StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt,
-                           const std::vector<Vec3>& s_ref, const Vec3& gravity, bool pending) {
+StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt, const std::vector<Vec3>& s_ref,
+                           const Vec3& gravity, bool pending) {
   const bool deform = !cell.strain_rate().isZero();
   const Vec3 s = deform ? cell.deform(dt) : Vec3::Ones();
   const Vec3& L = cell.lengths();
   using F = StepStart (*)(Particles&, const Vec3&, const Vec3&, real_t, const std::vector<Vec3>&, const Vec3&);
-  static constexpr F table[8] = {
-      kick_drift_check<false, false, false>, kick_drift_check<false, false, true>,
-      kick_drift_check<false, true, false>,  kick_drift_check<false, true, true>,
-      kick_drift_check<true, false, false>,  kick_drift_check<true, false, true>,
-      kick_drift_check<true, true, false>,   kick_drift_check<true, true, true>};
+  static constexpr F table[8] = {kick_drift_check<false, false, false>, kick_drift_check<false, false, true>,
+                                 kick_drift_check<false, true, false>,  kick_drift_check<false, true, true>,
+                                 kick_drift_check<true, false, false>,  kick_drift_check<true, false, true>,
+                                 kick_drift_check<true, true, false>,   kick_drift_check<true, true, true>};
   StepStart r = table[4 * deform + 2 * !gravity.isZero() + pending](p, s, L, dt, s_ref, gravity);
   r.scale = s;
   return r;

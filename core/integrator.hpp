@@ -62,9 +62,9 @@ Vec3 drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt);
 
 // What the start of a step measures on the way (kick_drift_check).
 struct StepStart {
-  real_t max_d2 = 0;  // the largest |x - ref|^2 since the last rebuild (non-finite: infinity)
-  real_t max_v2 = 0;  // the largest |v|^2 after the kick (non-finite: infinity)
-  real_t gravity_power = 0;  // sum of m g . v after the kick [W]
+  real_t max_d2 = 0;          // the largest |x - ref|^2 since the last rebuild (non-finite: infinity)
+  real_t max_v2 = 0;          // the largest |v|^2 after the kick (non-finite: infinity)
+  real_t gravity_power = 0;   // sum of m g . v after the kick [W]
   Vec3 scale = Vec3::Ones();  // the cell's deformation over the step (drifted())
 };
 
@@ -77,8 +77,8 @@ struct StepStart {
 // values, bit for bit, as those loops one after another: each particle's arithmetic is the
 // same and the power is summed in the same order. At 10^6 spheres the arrays leave the cache,
 // and separate loops read them once each.
-StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt,
-                           const std::vector<Vec3>& s_ref, const Vec3& gravity, bool pending);
+StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt, const std::vector<Vec3>& s_ref,
+                           const Vec3& gravity, bool pending);
 
 // Applies local damping to f and t of owned particles; returns the work the damping forces do
 // against the motion over the two half-kicks they act in [J] (exact for velocity Verlet).

@@ -20,16 +20,38 @@ void deviatoric_invariants(const Mat3& sigma, real_t& p, real_t& q) {
   q = std::sqrt(1.5 * s.cwiseProduct(s).sum());
 }
 
-MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
-                              const ContactSums& sums, const Dissipation& diss, Domain& domain) {
+MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell, const ContactSums& sums,
+                              const Dissipation& diss, Domain& domain) {
   const std::size_t n = p.n_owned();
   std::int64_t nonrattlers = 0, c2 = 0;
   for (std::size_t a = 0; a < n; ++a) {
     const int c = sums.contacts_per_particle[a];
     if (c >= 2) ++nonrattlers, c2 += c;
   }
-  enum : int { kFb = 0, kContacts = 9, kSliding, kRolling, kWall, kEn, kEs, kEr, kFc, kFp,
-               kNonRattlers, kC2, kN, kKin, kVs, kDf, kDr, kDv, kDl, kOv, kGw, kCount };
+  enum : int {
+    kFb = 0,
+    kContacts = 9,
+    kSliding,
+    kRolling,
+    kWall,
+    kEn,
+    kEs,
+    kEr,
+    kFc,
+    kFp,
+    kNonRattlers,
+    kC2,
+    kN,
+    kKin,
+    kVs,
+    kDf,
+    kDr,
+    kDv,
+    kDl,
+    kOv,
+    kGw,
+    kCount
+  };
   double v[kCount];
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) v[kFb + 3 * a + b] = sums.fb(a, b) + sums.fb_walls(a, b);
@@ -65,8 +87,7 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   real_t vmax2 = -1;
   std::size_t fast = n;
   for (std::size_t a = 0; a < n; ++a) {
-    if (!p.x[a].allFinite() || !p.v[a].allFinite() || !p.w[a].allFinite())
-      nonfinite = std::min(nonfinite, p.id[a]);
+    if (!p.x[a].allFinite() || !p.v[a].allFinite() || !p.w[a].allFinite()) nonfinite = std::min(nonfinite, p.id[a]);
     const real_t v2 = p.v[a].squaredNorm();
     if (v2 > vmax2 || (v2 == vmax2 && p.id[a] > p.id[fast])) vmax2 = v2, fast = a;
   }
@@ -75,8 +96,7 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   const real_t max_ratio = mx[0], bad = -mx[1];
   const bool mine = sums.max_overlap_a >= 0 && sums.max_overlap_ratio == max_ratio;
   const bool fastest_here = fast < n && vmax2 == mx[2];
-  double ids[2] = {mine ? double(sums.max_overlap_a) : -1.0,
-                   fastest_here ? double(p.id[fast]) : -1.0};
+  double ids[2] = {mine ? double(sums.max_overlap_a) : -1.0, fastest_here ? double(p.id[fast]) : -1.0};
   domain.max_all(std::span<double>(ids, 2));
   // Second round: the partner of the largest overlap, and the fastest particle's v and w, from
   // their owners (everyone else sends -1e300).
@@ -99,8 +119,7 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
   m.rolling = std::int64_t(v[kRolling]);
   m.wall_contacts = std::int64_t(v[kWall]);
   m.wall_force.resize(sums.wall_force.size());
-  for (std::size_t w = 0; w < m.wall_force.size(); ++w)
-    m.wall_force[w] = Vec3(wf[3 * w], wf[3 * w + 1], wf[3 * w + 2]);
+  for (std::size_t w = 0; w < m.wall_force.size(); ++w) m.wall_force[w] = Vec3(wf[3 * w], wf[3 * w + 1], wf[3 * w + 2]);
   m.coordination = N > 0 ? 2.0 * v[kContacts] / N : 0.0;
   m.mech_coordination = v[kNonRattlers] > 0 ? v[kC2] / v[kNonRattlers] : 0.0;
   m.kinetic = v[kKin];
@@ -128,36 +147,32 @@ MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
 
 real_t energy_books(const MacroState& m) {
   const Dissipation& d = m.dissipated;
-  return m.kinetic + m.e_normal + m.e_shear + m.e_rolling + d.friction + d.rolling + d.viscous +
-         d.local;
+  return m.kinetic + m.e_normal + m.e_shear + m.e_rolling + d.friction + d.rolling + d.viscous + d.local;
 }
 
-std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio,
-                     real_t kinetic_runaway) {
+std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio, real_t kinetic_runaway) {
   std::ostringstream s;
   s.precision(6);
   if (m.first_nonfinite >= 0 || !std::isfinite(m.kinetic) || !std::isfinite(m.p)) {
     s << "numerical blow-up at step " << step << ": ";
-    if (m.first_nonfinite >= 0) s << "particle " << m.first_nonfinite << " has a non-finite position, velocity or spin; ";
+    if (m.first_nonfinite >= 0)
+      s << "particle " << m.first_nonfinite << " has a non-finite position, velocity or spin; ";
     s << "kinetic energy " << m.kinetic << " J, p " << m.p << " Pa";
   } else if (m.max_overlap_ratio > max_overlap_ratio) {
-    s << "numerical blow-up at step " << step << ": overlap of particles " << m.max_overlap_a
-      << " and " << m.max_overlap_b << " is " << m.max_overlap_ratio
-      << " of the smaller radius (limit " << max_overlap_ratio
+    s << "numerical blow-up at step " << step << ": overlap of particles " << m.max_overlap_a << " and "
+      << m.max_overlap_b << " is " << m.max_overlap_ratio << " of the smaller radius (limit " << max_overlap_ratio
       << "); the time step is too large for the stiffness, or the specimen was generated with "
          "overlaps";
-  } else if (kinetic_runaway > 0 && (m.kinetic > kinetic_runaway * m.energy_input ||
-                                      energy_books(m) > kinetic_runaway * m.energy_input)) {
+  } else if (kinetic_runaway > 0 &&
+             (m.kinetic > kinetic_runaway * m.energy_input || energy_books(m) > kinetic_runaway * m.energy_input)) {
     s << "numerical blow-up at step " << step << ": kinetic energy " << m.kinetic
       << " J, or the stored + dissipated energy, exceeds " << kinetic_runaway
-      << " times the energy put into the system, "
-      << m.energy_input
+      << " times the energy put into the system, " << m.energy_input
       << " J (initial kinetic + elastic energy + boundary work + work of gravity); fastest "
          "particle "
-      << m.fastest << ": velocity (" << m.fastest_v[0] << ", " << m.fastest_v[1] << ", "
-      << m.fastest_v[2] << ") m/s, |v| " << m.fastest_v.norm() << " m/s, spin ("
-      << m.fastest_w[0] << ", " << m.fastest_w[1] << ", " << m.fastest_w[2]
-      << ") rad/s; stored + dissipated energy " << energy_books(m)
+      << m.fastest << ": velocity (" << m.fastest_v[0] << ", " << m.fastest_v[1] << ", " << m.fastest_v[2]
+      << ") m/s, |v| " << m.fastest_v.norm() << " m/s, spin (" << m.fastest_w[0] << ", " << m.fastest_w[1] << ", "
+      << m.fastest_w[2] << ") rad/s; stored + dissipated energy " << energy_books(m)
       << " J; the time step is too large for the stiffness";
   }
   return s.str();

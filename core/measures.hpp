@@ -12,16 +12,16 @@
 namespace fabrica {
 
 struct MacroState {
-  Mat3 stress = Mat3::Zero();  // Pa
-  real_t p = 0, q = 0;         // Pa
-  real_t coordination = 0;     // Z
-  real_t mech_coordination = 0;// Z_m
+  Mat3 stress = Mat3::Zero();    // Pa
+  real_t p = 0, q = 0;           // Pa
+  real_t coordination = 0;       // Z
+  real_t mech_coordination = 0;  // Z_m
   std::int64_t contacts = 0, sliding = 0, rolling = 0;
-  real_t kinetic = 0;          // J: translational (fluctuating) + rotational
+  real_t kinetic = 0;                               // J: translational (fluctuating) + rotational
   real_t e_normal = 0, e_shear = 0, e_rolling = 0;  // J
-  Dissipation dissipated;      // J, cumulative
-  real_t unbalanced = 0;       // mean |F_particle| / mean |F_contact|
-  real_t volume = 0;           // m^3
+  Dissipation dissipated;                           // J, cumulative
+  real_t unbalanced = 0;                            // mean |F_particle| / mean |F_contact|
+  real_t volume = 0;                                // m^3
   real_t void_ratio = 0;
   std::int64_t particles = 0;  // over all ranks
   // Sanity: the largest overlap relative to the smaller radius and its two bodies, and the
@@ -62,15 +62,14 @@ struct MacroState {
 // numerical error.
 real_t energy_books(const MacroState& m);
 
-std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio,
-                     real_t kinetic_runaway = 0);
+std::string diagnose(const MacroState& m, std::int64_t step, real_t max_overlap_ratio, real_t kinetic_runaway = 0);
 
 real_t kinetic_energy(const Particles& p);
 void deviatoric_invariants(const Mat3& sigma, real_t& p, real_t& q);
 
 // Reduces this rank's sums over all ranks of the domain (one sum_all of a small array) and
 // assembles the macroscopic state. Collective.
-MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell,
-                              const ContactSums& sums, const Dissipation& diss, Domain& domain);
+MacroState reduce_macro_state(const Particles& p, const PeriodicCell& cell, const ContactSums& sums,
+                              const Dissipation& diss, Domain& domain);
 
 }  // namespace fabrica

@@ -14,10 +14,9 @@ void check_cell_size(const PeriodicCell& cell, real_t max_radius, real_t skin) {
   const real_t need = 2.0 * (2.0 * max_radius + skin);
   for (int k = 0; k < 3; ++k) {
     if (!(cell.lengths()[k] > need)) {
-      throw std::invalid_argument(
-          "periodic cell length L" + std::to_string(k + 1) + " = " +
-          std::to_string(cell.lengths()[k]) + " m must exceed 2 (2 Rmax + skin) = " +
-          std::to_string(need) + " m so that every pair has a single periodic image");
+      throw std::invalid_argument("periodic cell length L" + std::to_string(k + 1) + " = " +
+                                  std::to_string(cell.lengths()[k]) + " m must exceed 2 (2 Rmax + skin) = " +
+                                  std::to_string(need) + " m so that every pair has a single periodic image");
     }
   }
 }
@@ -79,8 +78,7 @@ namespace {
 
 // Room for at least `need` candidate pairs (grown by an eighth at a time past the first guess,
 // so that the buffers do not double past need at large N).
-void make_room(std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::uint8_t>& timg,
-               std::size_t need) {
+void make_room(std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::uint8_t>& timg, std::size_t need) {
   if (need <= ti.size()) return;
   const std::size_t size = std::max(need, ti.size() + ti.size() / 8 + 1024);
   ti.resize(size);
@@ -100,11 +98,9 @@ void make_room(std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::
 // once, in double precision from the particles. Both give the nearest image of b, the same
 // bits as d = x_b - x_a + s L.
 template <bool kImagePerCandidate>
-std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, bool same_class,
-                      const Grid& g, const Vec3& L, real_t skin, real_t margin,
-                      const NeighborSearch::CellCopies& cb, std::size_t m,
-                      std::vector<Index>& ti, std::vector<Index>& tj,
-                      std::vector<std::uint8_t>& timg) {
+std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, bool same_class, const Grid& g,
+                      const Vec3& L, real_t skin, real_t margin, const NeighborSearch::CellCopies& cb, std::size_t m,
+                      std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::uint8_t>& timg) {
   const Index n_owned = Index(p.n_owned());
   const Vec3* px = p.x.data();
   const real_t* pr = p.radius.data();
@@ -124,7 +120,7 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
         count[k] = 3;
         for (int o = 0; o < 3; ++o) {
           int v = c[k] + o - 1, s = 0;
-          if (v < 0) v += g.n[k], s = -1;          // b lies near L: its image at x_b - L
+          if (v < 0) v += g.n[k], s = -1;            // b lies near L: its image at x_b - L
           else if (v >= g.n[k]) v -= g.n[k], s = 1;  // b lies near 0: its image at x_b + L
           cells[k][o] = v;
           shift[k][o] = s;
@@ -180,8 +176,7 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
           bool keep = !(r2 >= lo * lo);
           const bool near = !(r2 >= hi * hi);
           if (keep != near) [[unlikely]]  // one branch, nearly never taken
-            keep = within_exact(b, (px[b][0] - xa[0]) + sh0, (px[b][1] - xa[1]) + sh1,
-                                (px[b][2] - xa[2]) + sh2);
+            keep = within_exact(b, (px[b][0] - xa[0]) + sh0, (px[b][1] - xa[1]) + sh1, (px[b][2] - xa[2]) + sh2);
           out_i[m] = a;
           out_j[m] = b;
           out_img[m] = code;
@@ -212,8 +207,7 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
 
 }  // namespace
 
-void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t skin,
-                           PairList& out) {
+void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t skin, PairList& out) {
   const std::size_t n = p.size();
   out.i.clear();
   out.j.clear();
@@ -278,12 +272,8 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
         }
       }
       const bool same = a_class == b_class;
-      if (copies)
-        m = scan_grid<false>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_,
-                             tmp_img_);
-      else
-        m = scan_grid<true>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_,
-                            tmp_img_);
+      if (copies) m = scan_grid<false>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_, tmp_img_);
+      else m = scan_grid<true>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_, tmp_img_);
     }
   }
   cb = CellCopies();  // free before the sort (memory at large N)
@@ -356,24 +346,21 @@ void NeighborSearch::build_walls(const Particles& p, const std::vector<Wall>& wa
       }
 }
 
-std::vector<Index> NeighborSearch::spatial_order(const Particles& p,
-                                                 const PeriodicCell& cell) const {
+std::vector<Index> NeighborSearch::spatial_order(const Particles& p, const PeriodicCell& cell) const {
   std::vector<std::uint32_t> rank;
   std::vector<Index> order;
   space_ranks(p, p.n_owned(), cell.lengths(), rank, &order);
   return order;
 }
 
-std::vector<std::pair<GlobalId, GlobalId>> brute_force_pairs(const Particles& p,
-                                                             const PeriodicCell& cell,
+std::vector<std::pair<GlobalId, GlobalId>> brute_force_pairs(const Particles& p, const PeriodicCell& cell,
                                                              real_t skin) {
   std::vector<std::pair<GlobalId, GlobalId>> pairs;
   for (std::size_t a = 0; a < p.size(); ++a)
     for (std::size_t b = a + 1; b < p.size(); ++b) {
       const Vec3 d = cell.minimum_image(p.x[b] - p.x[a]);
       const real_t cut = p.radius[a] + p.radius[b] + skin;
-      if (d.squaredNorm() < cut * cut)
-        pairs.emplace_back(std::min(p.id[a], p.id[b]), std::max(p.id[a], p.id[b]));
+      if (d.squaredNorm() < cut * cut) pairs.emplace_back(std::min(p.id[a], p.id[b]), std::max(p.id[a], p.id[b]));
     }
   std::sort(pairs.begin(), pairs.end());
   return pairs;

@@ -30,8 +30,7 @@ class NeighborSearch {
   void build(const Particles& p, const PeriodicCell& cell, real_t skin, PairList& out);
 
   // Sphere-wall candidates: distance from the plane below R_i + skin.
-  static void build_walls(const Particles& p, const std::vector<Wall>& walls, real_t skin,
-                          WallContactList& out);
+  static void build_walls(const Particles& p, const std::vector<Wall>& walls, real_t skin, WallContactList& out);
 
   // The owned particles in the space-filling-curve order (core/space_order.hpp), for cache
   // locality.
@@ -40,17 +39,16 @@ class NeighborSearch {
   struct CellCopies;  // one grid's spheres in cell order (neighbor.cpp)
 
  private:
-  std::vector<int> cls_;                       // size class of each particle
-  std::vector<Index> cell_start_;              // counting-sort buffer of the pair order
+  std::vector<int> cls_;           // size class of each particle
+  std::vector<Index> cell_start_;  // counting-sort buffer of the pair order
   std::vector<Index> tmp_i_, tmp_j_;
   std::vector<std::uint8_t> tmp_img_;
   std::vector<std::uint32_t> rank_;  // place of each particle in the space-filling-curve order
-  std::size_t last_pairs_ = 0;  // pairs found by the previous build
+  std::size_t last_pairs_ = 0;       // pairs found by the previous build
 };
 
 // Reference: every pair within R_i + R_j + skin by testing all N^2/2 pairs (minimum image),
 // as (lower id, higher id). For tests.
-std::vector<std::pair<GlobalId, GlobalId>> brute_force_pairs(const Particles& p,
-                                                             const PeriodicCell& cell, real_t skin);
+std::vector<std::pair<GlobalId, GlobalId>> brute_force_pairs(const Particles& p, const PeriodicCell& cell, real_t skin);
 
 }  // namespace fabrica

@@ -57,8 +57,7 @@ void Particles::add(const SphereInit& s) {
 }
 
 template <class T>
-static void apply_order(std::vector<T>& a, std::span<const Index> order, bool in_place,
-                        std::vector<T>& tmp) {
+static void apply_order(std::vector<T>& a, std::span<const Index> order, bool in_place, std::vector<T>& tmp) {
   if (in_place) {  // order[k] >= k
     for (std::size_t k = 0; k < order.size(); ++k) a[k] = a[std::size_t(order[k])];
     a.resize(order.size());
@@ -100,8 +99,7 @@ void Particles::permute_owned(std::span<const Index> order) {
   // between rebuilds). Any other order, or one that drops many (a set-up's hand-over, whose
   // dropped particles' pages must go), goes through one spare array at a time, each freed
   // before the next type's is made.
-  const bool in_place =
-      8 * (n_owned_ - order.size()) <= n_owned_ &&
+  const bool in_place = 8 * (n_owned_ - order.size()) <= n_owned_ &&
       std::adjacent_find(order.begin(), order.end(), std::greater_equal<Index>()) == order.end();
   {
     std::vector<Vec3> tv;
@@ -118,12 +116,8 @@ void Particles::permute_owned(std::span<const Index> order) {
   n_owned_ = order.size();
 }
 
-real_t Particles::max_radius() const {
-  return radius.empty() ? 0.0 : *std::max_element(radius.begin(), radius.end());
-}
-real_t Particles::min_radius() const {
-  return radius.empty() ? 0.0 : *std::min_element(radius.begin(), radius.end());
-}
+real_t Particles::max_radius() const { return radius.empty() ? 0.0 : *std::max_element(radius.begin(), radius.end()); }
+real_t Particles::min_radius() const { return radius.empty() ? 0.0 : *std::min_element(radius.begin(), radius.end()); }
 real_t Particles::solid_volume() const {
   real_t s = 0;
   for (std::size_t i = 0; i < n_owned_; ++i) s += radius[i] * radius[i] * radius[i];

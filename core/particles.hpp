@@ -10,9 +10,9 @@ namespace fabrica {
 
 struct SphereInit {
   GlobalId id;
-  real_t radius;   // m
-  real_t density;  // kg/m^3
-  Vec3 x;          // m
+  real_t radius;          // m
+  real_t density;         // kg/m^3
+  Vec3 x;                 // m
   Vec3 v = Vec3::Zero();  // m/s (fluctuating velocity, see docs/design.md)
   Vec3 w = Vec3::Zero();  // rad/s
 };
@@ -20,10 +20,10 @@ struct SphereInit {
 class Particles {
  public:
   // Per-particle state. v is the velocity relative to the affine field of the deforming cell.
-  std::vector<Vec3> x, v, w;       // position (m), velocity (m/s), spin (rad/s)
-  std::vector<Vec3> f, t;          // force (N) and torque (N m) accumulators
-  std::vector<real_t> radius;      // m
-  std::vector<real_t> mass;        // kg
+  std::vector<Vec3> x, v, w;   // position (m), velocity (m/s), spin (rad/s)
+  std::vector<Vec3> f, t;      // force (N) and torque (N m) accumulators
+  std::vector<real_t> radius;  // m
+  std::vector<real_t> mass;    // kg
   std::vector<GlobalId> id;
 
   // The moment of inertia of a solid sphere, 2/5 m R^2, and the inverses the half kicks use are

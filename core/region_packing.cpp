@@ -30,8 +30,8 @@ RegionGrid::RegionGrid(const RegionSpec& s, const Vec3& expected, const Vec3& ac
     dims_[k] = 2 * std::max(1, int(expected[k] / (2 * 4 * s.d_max)));
     side_[k] = actual[k] / dims_[k];
     if (side_[k] < s.d_max)
-      throw std::runtime_error("region packing: regions of " + std::to_string(side_[k]) +
-                               " m along axis " + std::to_string(k + 1) + " are narrower than d_max");
+      throw std::runtime_error("region packing: regions of " + std::to_string(side_[k]) + " m along axis " +
+                               std::to_string(k + 1) + " are narrower than d_max");
   }
 }
 
@@ -139,8 +139,8 @@ Particles place_among(const RegionSpec& s, const RegionGrid& grid, const Periodi
     const real_t ra = 0.5 * d[a];
     bool done = false;
     for (int attempt = 0; attempt < 100000 && !done; ++attempt) {
-      const Vec3 x = cell.wrap(Vec3(lo[0] + rng.uniform() * side[0], lo[1] + rng.uniform() * side[1],
-                                    lo[2] + rng.uniform() * side[2]));
+      const Vec3 x = cell.wrap(
+          Vec3(lo[0] + rng.uniform() * side[0], lo[1] + rng.uniform() * side[1], lo[2] + rng.uniform() * side[2]));
       int c[3];
       bin(x, c);
       bool free = true;
@@ -149,8 +149,7 @@ Particles place_among(const RegionSpec& s, const RegionGrid& grid, const Periodi
       for (int dz = -1; dz <= 1 && free; ++dz)
         for (int dy = -1; dy <= 1 && free; ++dy)
           for (int dx = -1; dx <= 1 && free; ++dx) {
-            const int n[3] = {(c[0] + dx + nb[0]) % nb[0], (c[1] + dy + nb[1]) % nb[1],
-                              (c[2] + dz + nb[2]) % nb[2]};
+            const int n[3] = {(c[0] + dx + nb[0]) % nb[0], (c[1] + dy + nb[1]) % nb[1], (c[2] + dz + nb[2]) % nb[2]};
             const std::int64_t k = key(n);
             if (std::find(seen, seen + nseen, k) != seen + nseen) continue;  // a small cell
             seen[nseen++] = k;
@@ -171,9 +170,8 @@ Particles place_among(const RegionSpec& s, const RegionGrid& grid, const Periodi
       }
     }
     if (!done)
-      throw std::runtime_error("region packing: no room for sphere " + std::to_string(first + a) +
-                               " of diameter " + std::to_string(d[a]) + " m in region " +
-                               std::to_string(g) + "; lower solid_fraction");
+      throw std::runtime_error("region packing: no room for sphere " + std::to_string(first + a) + " of diameter " +
+                               std::to_string(d[a]) + " m in region " + std::to_string(g) + "; lower solid_fraction");
   }
   std::sort(order.begin(), order.end());
   for (Index a : order) out.add({GlobalId(first + std::int64_t(a)), 0.5 * d[a], s.density, placed[a]});

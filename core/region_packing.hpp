@@ -27,7 +27,7 @@
 namespace fabrica {
 
 struct RegionSpec {
-  std::int64_t count = 0;  // N
+  std::int64_t count = 0;                      // N
   real_t D = 1.9, d_min = 0.01, d_max = 0.06;  // the truncated fractal gradation (core/generate.hpp)
   std::uint64_t seed = 1;
   real_t density = 2650;
@@ -43,7 +43,7 @@ class RegionGrid {
   RegionGrid(const RegionSpec& s, const Vec3& expected, const Vec3& actual);
   int regions() const { return dims_[0] * dims_[1] * dims_[2]; }
   const std::array<int, 3>& dims() const { return dims_; }
-  int colour(int g) const;                  // 0..7
+  int colour(int g) const;                   // 0..7
   std::vector<int> neighbours(int g) const;  // the distinct adjacent regions (periodic), not g
   int region_of(const Vec3& x) const;        // x in [0, L)
   Vec3 lower(int g) const;
@@ -74,8 +74,7 @@ Particles place_region(const RegionSpec& s, const RegionGrid& grid, const Period
 // other ranks placed in regions adjacent to 'mine' (a serial run returns none). 'exchange' is
 // called 8 times per size class whatever happens (it may be collective); a sphere that found no room throws
 // std::runtime_error after the last call.
-using RegionExchange =
-    std::function<Particles(const Particles& placed, const std::vector<int>& region_of_placed)>;
+using RegionExchange = std::function<Particles(const Particles& placed, const std::vector<int>& region_of_placed)>;
 Particles region_packing(const RegionSpec& s, const RegionGrid& grid, const PeriodicCell& cell,
                          std::span<const int> mine, const RegionExchange& exchange);
 

@@ -17,9 +17,8 @@ class SerialDomain final : public Domain {
   void max_all(std::span<double> values) override;
   void sum_all(std::span<double> values) override;
   void sum_all(std::span<std::int64_t> values) override;
-  void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-             const DecompositionRecord* decomposed_as = nullptr, Holding holding = Holding::Whole,
-             HistoryMap* history = nullptr) override;
+  void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff, const DecompositionRecord* decomposed_as = nullptr,
+             Holding holding = Holding::Whole, HistoryMap* history = nullptr) override;
   DecompositionRecord decomposition_record() const override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
                const std::vector<std::int32_t>* work) override;

@@ -26,10 +26,20 @@ namespace fabrica::simd {
 typedef double d4 __attribute__((vector_size(32)));
 typedef decltype(d4{} < d4{}) m4;  // 64-bit integer lanes, 0 (false) or -1 (true)
 
-template <class T> struct Lanes;
-template <> struct Lanes<double> { using mask = bool; static constexpr int n = 1; };
-template <> struct Lanes<d4> { using mask = m4; static constexpr int n = 4; };
-template <class T> using mask_t = typename Lanes<T>::mask;
+template <class T>
+struct Lanes;
+template <>
+struct Lanes<double> {
+  using mask = bool;
+  static constexpr int n = 1;
+};
+template <>
+struct Lanes<d4> {
+  using mask = m4;
+  static constexpr int n = 4;
+};
+template <class T>
+using mask_t = typename Lanes<T>::mask;
 
 inline double sqrt(double x) { return std::sqrt(x); }
 inline d4 sqrt(d4 x) {
@@ -60,9 +70,16 @@ inline bool all(m4 m) {
 #endif
 }
 
-template <class T> mask_t<T> all_true();
-template <> inline bool all_true<double>() { return true; }
-template <> inline m4 all_true<d4>() { return m4{-1, -1, -1, -1}; }
+template <class T>
+mask_t<T> all_true();
+template <>
+inline bool all_true<double>() {
+  return true;
+}
+template <>
+inline m4 all_true<d4>() {
+  return m4{-1, -1, -1, -1};
+}
 
 // Lane l of a value or a mask (l = 0 for the scalar types).
 inline double lane(double v, int) { return v; }
@@ -74,16 +91,26 @@ inline void set_lane(double& v, int, double x) { v = x; }
 inline void set_lane(d4& v, int l, double x) { v[l] = x; }
 
 // a[idx[0]], ..., a[idx[n-1]].
-template <class T> T gather(const real_t* a, const Index* idx);
-template <> inline double gather<double>(const real_t* a, const Index* idx) { return a[idx[0]]; }
-template <> inline d4 gather<d4>(const real_t* a, const Index* idx) {
+template <class T>
+T gather(const real_t* a, const Index* idx);
+template <>
+inline double gather<double>(const real_t* a, const Index* idx) {
+  return a[idx[0]];
+}
+template <>
+inline d4 gather<d4>(const real_t* a, const Index* idx) {
   return d4{a[idx[0]], a[idx[1]], a[idx[2]], a[idx[3]]};
 }
 
 // a[0], ..., a[n-1] (contiguous, any alignment).
-template <class T> T load(const real_t* a);
-template <> inline double load<double>(const real_t* a) { return a[0]; }
-template <> inline d4 load<d4>(const real_t* a) {
+template <class T>
+T load(const real_t* a);
+template <>
+inline double load<double>(const real_t* a) {
+  return a[0];
+}
+template <>
+inline d4 load<d4>(const real_t* a) {
   d4 v;
   __builtin_memcpy(&v, a, sizeof v);
   return v;
@@ -92,24 +119,51 @@ inline void store(real_t* a, double v) { a[0] = v; }
 inline void store(real_t* a, d4 v) { __builtin_memcpy(a, &v, sizeof v); }
 
 // A 3-vector with one lane type per component (structure of arrays over the lanes).
-template <class T> struct V3 {
+template <class T>
+struct V3 {
   T x, y, z;
 };
-template <class T> inline V3<T> operator+(const V3<T>& a, const V3<T>& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-template <class T> inline V3<T> operator-(const V3<T>& a, const V3<T>& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-template <class T, class S> inline V3<T> operator*(const S& s, const V3<T>& a) { return {s * a.x, s * a.y, s * a.z}; }
-template <class T, class S> inline V3<T> operator*(const V3<T>& a, const S& s) { return {a.x * s, a.y * s, a.z * s}; }
-template <class T, class S> inline V3<T> operator/(const V3<T>& a, const S& s) { return {a.x / s, a.y / s, a.z / s}; }
+template <class T>
+inline V3<T> operator+(const V3<T>& a, const V3<T>& b) {
+  return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+template <class T>
+inline V3<T> operator-(const V3<T>& a, const V3<T>& b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+template <class T, class S>
+inline V3<T> operator*(const S& s, const V3<T>& a) {
+  return {s * a.x, s * a.y, s * a.z};
+}
+template <class T, class S>
+inline V3<T> operator*(const V3<T>& a, const S& s) {
+  return {a.x * s, a.y * s, a.z * s};
+}
+template <class T, class S>
+inline V3<T> operator/(const V3<T>& a, const S& s) {
+  return {a.x / s, a.y / s, a.z / s};
+}
 // In Eigen's order for 3-vectors (checked bit for bit against Eigen 3.4): (x + y) + z.
-template <class T> inline T dot(const V3<T>& a, const V3<T>& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-template <class T> inline T squared_norm(const V3<T>& a) { return a.x * a.x + a.y * a.y + a.z * a.z; }
-template <class T> inline V3<T> cross(const V3<T>& a, const V3<T>& b) {
+template <class T>
+inline T dot(const V3<T>& a, const V3<T>& b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+template <class T>
+inline T squared_norm(const V3<T>& a) {
+  return a.x * a.x + a.y * a.y + a.z * a.z;
+}
+template <class T>
+inline V3<T> cross(const V3<T>& a, const V3<T>& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-template <class T, class M> inline V3<T> select(const M& m, const V3<T>& a, const V3<T>& b) {
+template <class T, class M>
+inline V3<T> select(const M& m, const V3<T>& a, const V3<T>& b) {
   return {select(m, a.x, b.x), select(m, a.y, b.y), select(m, a.z, b.z)};
 }
-template <class T> inline V3<T> zero3() { return {T{}, T{}, T{}}; }
+template <class T>
+inline V3<T> zero3() {
+  return {T{}, T{}, T{}};
+}
 
 inline V3<double> from_vec(const Vec3& v) { return {v[0], v[1], v[2]}; }
 inline Vec3 to_vec(const V3<double>& v) { return Vec3(v.x, v.y, v.z); }
@@ -117,9 +171,14 @@ inline Vec3 lane(const V3<d4>& v, int l) { return Vec3(v.x[l], v.y[l], v.z[l]); 
 inline Vec3 lane(const V3<double>& v, int) { return to_vec(v); }
 
 // a[idx[0]], ..., a[idx[n-1]] of an array of Vec3 (24-byte records), as components.
-template <class T> V3<T> gather3(const Vec3* a, const Index* idx);
-template <> inline V3<double> gather3<double>(const Vec3* a, const Index* idx) { return from_vec(a[idx[0]]); }
-template <> inline V3<d4> gather3<d4>(const Vec3* a, const Index* idx) {
+template <class T>
+V3<T> gather3(const Vec3* a, const Index* idx);
+template <>
+inline V3<double> gather3<double>(const Vec3* a, const Index* idx) {
+  return from_vec(a[idx[0]]);
+}
+template <>
+inline V3<d4> gather3<d4>(const Vec3* a, const Index* idx) {
 #if defined(__AVX__)
   // Four rows (x, y, z, -) loaded with a mask (no read past the last record), transposed.
   const __m256i m = _mm256_set_epi64x(0, -1, -1, -1);

@@ -14,10 +14,8 @@
 
 namespace fabrica {
 
-Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
-                       Domain* domain, Holding holding)
-    : domain_(domain ? domain : &serial_domain()), p_(std::move(particles)), cell_(cell),
-      par_(std::move(params)) {
+Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams params, Domain* domain, Holding holding)
+    : domain_(domain ? domain : &serial_domain()), p_(std::move(particles)), cell_(cell), par_(std::move(params)) {
   const real_t rmax = domain_->max_all(p_.max_radius());  // of every rank's particles
   cutoff_max_ = 2 * rmax + par_.skin;
   check_cell_size(cell_, rmax, par_.skin);
@@ -78,15 +76,13 @@ Simulation::Simulation(Simulation&& other, Domain* domain) : Simulation(std::mov
 }
 
 Simulation::Simulation(SimulationSnapshot s, Domain* domain)
-    : domain_(domain ? domain : &serial_domain()), p_(std::move(s.particles)), cell_(s.cell),
-      par_(std::move(s.params)), diss_(s.dissipation), macro_(s.macro), step_(s.step),
-      time_(s.time) {
+    : domain_(domain ? domain : &serial_domain()), p_(std::move(s.particles)), cell_(s.cell), par_(std::move(s.params)),
+      diss_(s.dissipation), macro_(s.macro), step_(s.step), time_(s.time) {
   const real_t rmax = domain_->max_all(p_.max_radius());
   cutoff_max_ = 2 * rmax + par_.skin;
   check_cell_size(cell_, rmax, par_.skin);
   carry_ = std::move(s.history);
-  domain_->adopt(p_, cell_, cutoff_max_, s.decomposition.empty() ? nullptr : &s.decomposition,
-                 s.holding, &carry_);
+  domain_->adopt(p_, cell_, cutoff_max_, s.decomposition.empty() ? nullptr : &s.decomposition, s.holding, &carry_);
   e0_ = s.energy.e0;
   work_ = s.energy.work;
   volume_prev_ = s.energy.vol_strain[0];
@@ -107,7 +103,7 @@ void Simulation::step(bool measure) {
   double drive = 0;
   Vec3 scale;
   if (driven_.empty()) {  // one pass: [the last step's closing kick,] kick, gravity's power,
-                         // drift, the check's maxima, f and t
+                          // drift, the check's maxima, f and t
     motion = kick_drift_check(p_, cell_, dt, s_ref_, par_.gravity, kick_pending_);
     scale = motion.scale;
     kick_pending_ = false;
@@ -150,10 +146,8 @@ void Simulation::step(bool measure) {
   const bool strains = !rate.isZero();
   compute(measure || strains, dt, !measure);  // a straining step needs the contact virial (boundary work)
   clk.lap(&PhaseTimes::force);
-  if (!measure && driven_.empty())
-    kick_pending_ = true;  // to the next step's first pass (or settle())
-  else
-    half_kick(p_, dt);
+  if (!measure && driven_.empty()) kick_pending_ = true;  // to the next step's first pass (or settle())
+  else half_kick(p_, dt);
   if (!par_.driven.empty()) {  // the same on every rank (the sets, not this rank's members)
     drive += impose_driven(0.5 * dt);
     domain_->sum_all(std::span<double>(&drive, 1));
@@ -192,8 +186,7 @@ void Simulation::compute(bool measure, real_t dt, bool virial_only) {
   ctx.fetch_ahead = par_.fetch_ahead;
   owned_ready_ = false;
   real_t power = 0;
-  compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr,
-                 moving ? &power : nullptr);
+  compute_forces(p_, cell_, ctx, pairs_, walls_, diss_, measure ? &sums_ : nullptr, moving ? &power : nullptr);
   if (moving) {  // the walls' work over this step, with the forces at its end (every rank)
     double pw = power;
     domain_->sum_all(std::span<double>(&pw, 1));
@@ -253,8 +246,9 @@ void Simulation::set_skin(real_t skin) {
   const real_t two_rmax = cutoff_max_ - par_.skin;  // global (a rank may not hold the largest)
   const real_t cutoff = two_rmax + skin;
   if (domain_->size() > 1 && cutoff > cutoff_max_)
-    throw std::invalid_argument("Simulation::set_skin: on several ranks the cutoff 2 Rmax + skin "
-                                "cannot grow beyond the one the domain was built with");
+    throw std::invalid_argument(
+        "Simulation::set_skin: on several ranks the cutoff 2 Rmax + skin "
+        "cannot grow beyond the one the domain was built with");
   check_cell_size(cell_, 0.5 * two_rmax, skin);
   par_.skin = skin;
   cutoff_max_ = cutoff;
@@ -304,15 +298,14 @@ bool Simulation::needs_rebuild(const StepStart& motion) {
     guard_rmin_ = -domain_->max_all(-r);
   }
   const real_t bound = 0.5 * guard_rmin_ / par_.dt;  // half the smallest radius in one step
-  if (m[2] > 0) set_overlap_guard(m[2]);  // the earlier event (the previous force computation)
+  if (m[2] > 0) set_overlap_guard(m[2]);             // the earlier event (the previous force computation)
   else if (m[0] == inf || !(m[1] <= bound * bound)) set_step_guard(m[1], bound);
   const real_t strain = (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
   // A moving wall and a sphere approach by at most the wall's travel plus the sphere's.
   real_t wall_travel = 0;
   for (std::size_t w = 0; w < par_.walls.size() && w < wall_ref_.size(); ++w)
     wall_travel = std::max(wall_travel, (par_.walls[w].point - wall_ref_[w]).norm());
-  return 2.0 * std::sqrt(m[0]) + strain * cutoff_max_ > par_.skin ||
-         std::sqrt(m[0]) + wall_travel > par_.skin;
+  return 2.0 * std::sqrt(m[0]) + strain * cutoff_max_ > par_.skin || std::sqrt(m[0]) + wall_travel > par_.skin;
 }
 
 void Simulation::set_step_guard(real_t max_v2, real_t bound) {
@@ -323,19 +316,22 @@ void Simulation::set_step_guard(real_t max_v2, real_t bound) {
   for (std::size_t a = 0; a < p_.n_owned(); ++a) {
     const real_t v2 = p_.v[a].squaredNorm();
     const bool bad = !std::isfinite(v2) || !p_.x[a].allFinite() || (v2 >= max_v2 && std::isfinite(max_v2));
-    if (bad && double(p_.id[a]) > w[0]) w[0] = double(p_.id[a]), w[1] = p_.v[a][0], w[2] = p_.v[a][1], w[3] = p_.v[a][2];
+    if (bad && double(p_.id[a]) > w[0])
+      w[0] = double(p_.id[a]), w[1] = p_.v[a][0], w[2] = p_.v[a][1], w[3] = p_.v[a][2];
   }
   domain_->max_all(std::span<double>(w, 4));
   char b[400];
   if (!std::isfinite(max_v2))
-    std::snprintf(b, sizeof b, "numerical blow-up at step %lld: particle %.0f has a non-finite position "
-                  "or velocity (velocity (%.6g, %.6g, %.6g) m/s)", (long long)(step_ + 1), w[0], w[1], w[2], w[3]);
+    std::snprintf(b, sizeof b,
+                  "numerical blow-up at step %lld: particle %.0f has a non-finite position "
+                  "or velocity (velocity (%.6g, %.6g, %.6g) m/s)",
+                  (long long)(step_ + 1), w[0], w[1], w[2], w[3]);
   else
-    std::snprintf(b, sizeof b, "numerical blow-up at step %lld: particle %.0f moves at %.6g m/s, more than "
+    std::snprintf(b, sizeof b,
+                  "numerical blow-up at step %lld: particle %.0f moves at %.6g m/s, more than "
                   "half the smallest radius (%.6g m) per time step (%.6g s), %.6g m/s: an overlap can "
                   "jump past any bound in one step (velocity (%.6g, %.6g, %.6g) m/s)",
-                  (long long)(step_ + 1), w[0], std::sqrt(max_v2), guard_rmin_, par_.dt, bound, w[1],
-                  w[2], w[3]);
+                  (long long)(step_ + 1), w[0], std::sqrt(max_v2), guard_rmin_, par_.dt, bound, w[1], w[2], w[3]);
   guard_ = b;
 }
 
@@ -344,16 +340,17 @@ void Simulation::set_overlap_guard(real_t max_ratio) {
   // equal ratios); non-holders send -inf.
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   const bool mine = overlap_.ratio == max_ratio;
-  double w[4] = {mine ? double(overlap_.a) : -inf, mine ? double(overlap_.b) : -inf,
-                 mine ? overlap_.overlap : -inf, mine ? overlap_.radius : -inf};
+  double w[4] = {mine ? double(overlap_.a) : -inf, mine ? double(overlap_.b) : -inf, mine ? overlap_.overlap : -inf,
+                 mine ? overlap_.radius : -inf};
   domain_->max_all(std::span<double>(w, 4));
   char b[400];
   const bool wall = w[1] < 0;
-  std::snprintf(b, sizeof b, "numerical blow-up at step %lld: overlap of particle%s %.0f and %s%.0f is %.6g of "
+  std::snprintf(b, sizeof b,
+                "numerical blow-up at step %lld: overlap of particle%s %.0f and %s%.0f is %.6g of "
                 "the smaller radius (%.6g m, radius %.6g m), beyond the geometric limit %.6g (a "
                 "centre inside the other body)",
-                (long long)step_, wall ? "" : "s", w[0], wall ? "wall " : "", wall ? -1 - w[1] : w[1],
-                max_ratio, w[2], w[3], kMaxOverlapRatio);
+                (long long)step_, wall ? "" : "s", w[0], wall ? "wall " : "", wall ? -1 - w[1] : w[1], max_ratio, w[2],
+                w[3], kMaxOverlapRatio);
   guard_ = b;
 }
 
@@ -382,11 +379,9 @@ void Simulation::rebuild(bool forces_spent) {
   std::vector<real_t> mt = std::move(pairs_.spring_mt);
   const bool pairs_rolling = pairs_.rolling, pairs_twisting = pairs_.twisting;
   pairs_ = PairList();  // freed (memory at large N)
-  carry_.adopt_pools(std::move(fs), std::move(mr), rolling && pairs_rolling, std::move(mt),
-                     twisting && pairs_twisting);
+  carry_.adopt_pools(std::move(fs), std::move(mr), rolling && pairs_rolling, std::move(mt), twisting && pairs_twisting);
   for (std::size_t s = 0; s < bodies.size(); ++s)
-    if (bodies[s][0] != Index(-1))
-      carry_.insert_slot(p_.id[bodies[s][0]], p_.id[bodies[s][1]], std::uint32_t(s));
+    if (bodies[s][0] != Index(-1)) carry_.insert_slot(p_.id[bodies[s][0]], p_.id[bodies[s][1]], std::uint32_t(s));
   std::vector<std::array<Index, 2>>().swap(bodies);
   for (std::size_t q = 0; q < walls_.size(); ++q)
     if (walls_.touching[q]) carry_.insert(p_.id[walls_.i[q]], -1 - walls_.wall[q], wall_history(q));
@@ -414,8 +409,7 @@ void Simulation::attach_springs() {
   std::uint32_t used = 0;
   if (carry_.size() != 0)
     for (std::size_t q = 0; q < np; ++q)
-      if (const std::uint32_t s = carry_.find_slot(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]]);
-          s != HistoryMap::kNone) {
+      if (const std::uint32_t s = carry_.find_slot(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]]); s != HistoryMap::kNone) {
         pairs_.touching[q] = 1;
         pairs_.slot[q] = Index(used);
         dest[s] = used++;
@@ -510,8 +504,8 @@ void Simulation::rebuild_lists(bool forces_spent) {
   const auto t2 = timing_ ? clock::now() : clock::time_point{};
   domain_->build_ghosts(p_, cell_, cutoff_max_);
   if (timing_)
-    last_migrate_seconds_ = std::chrono::duration<double>(t1 - t0).count() +
-                            std::chrono::duration<double>(clock::now() - t2).count();
+    last_migrate_seconds_ =
+        std::chrono::duration<double>(t1 - t0).count() + std::chrono::duration<double>(clock::now() - t2).count();
 
   // 3. New lists, with the kept springs attached. The walls' first: they copy their springs
   //    out of the carry, whose pools then become the pairs'.
@@ -519,11 +513,12 @@ void Simulation::rebuild_lists(bool forces_spent) {
   const std::size_t nw = walls_.size();
   walls_.touching.assign(nw, 0);
   walls_.fs.assign(nw, Vec3::Zero());
-  if (rolling) walls_.mr.assign(nw, Vec3::Zero()); else walls_.mr.clear();
-  if (twisting) walls_.mt.assign(nw, 0.0); else walls_.mt.clear();
+  if (rolling) walls_.mr.assign(nw, Vec3::Zero());
+  else walls_.mr.clear();
+  if (twisting) walls_.mt.assign(nw, 0.0);
+  else walls_.mt.clear();
   for (std::size_t q = 0; q < nw; ++q)
-    if (const std::uint32_t s = carry_.find_slot(p_.id[walls_.i[q]], -1 - walls_.wall[q]);
-        s != HistoryMap::kNone) {
+    if (const std::uint32_t s = carry_.find_slot(p_.id[walls_.i[q]], -1 - walls_.wall[q]); s != HistoryMap::kNone) {
       const ContactHistory h = carry_.at(s);
       walls_.touching[q] = 1;
       walls_.fs[q] = h.fs;

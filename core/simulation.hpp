@@ -22,17 +22,17 @@ namespace fabrica {
 
 struct SimulationParams {
   ContactLawParams law;
-  real_t dt = 0;                    // s (see critical_time_step)
-  real_t skin = 0;                  // m, Verlet skin
-  Vec3 gravity = Vec3::Zero();      // m/s^2
-  real_t local_damping = 0;         // alpha [-], 0 <= alpha < 1
-  std::vector<Wall> walls;          // planes (core/contact_list.hpp)
-  std::vector<DrivenSet> driven;    // particles of prescribed motion (core/driven.hpp)
-  bool spatial_sort = true;         // reorder particles in space at rebuilds (cache locality)
-  int kernel_lanes = 4;             // contacts the force loop evaluates at once (4 or 1: the
-                                    // same bits, core/forces.cpp)
-  int fetch_ahead = -1;             // what the force loop fetches ahead: -1 by the particle
-                                    // count, 0 the first lines, 1 everything (the same bits)
+  real_t dt = 0;                  // s (see critical_time_step)
+  real_t skin = 0;                // m, Verlet skin
+  Vec3 gravity = Vec3::Zero();    // m/s^2
+  real_t local_damping = 0;       // alpha [-], 0 <= alpha < 1
+  std::vector<Wall> walls;        // planes (core/contact_list.hpp)
+  std::vector<DrivenSet> driven;  // particles of prescribed motion (core/driven.hpp)
+  bool spatial_sort = true;       // reorder particles in space at rebuilds (cache locality)
+  int kernel_lanes = 4;           // contacts the force loop evaluates at once (4 or 1: the
+                                  // same bits, core/forces.cpp)
+  int fetch_ahead = -1;           // what the force loop fetches ahead: -1 by the particle
+                                  // count, 0 the first lines, 1 everything (the same bits)
 
   // The kernel's switches: the scene's law or a wall's own law needs them.
   bool rolling() const {
@@ -77,8 +77,8 @@ struct PhaseTimes {
 // checkpoint carries it so that a restarted run keeps one unbroken account. The field names are
 // those the checkpoint format stores (io/checkpoint.cpp); their meaning:
 struct EnergyAccount {
-  real_t e0 = 0;                    // kinetic + elastic energy at construction [J]
-  real_t work = 0;                  // boundary work up to the end of the last step [J]
+  real_t e0 = 0;    // kinetic + elastic energy at construction [J]
+  real_t work = 0;  // boundary work up to the end of the last step [J]
   // vol_strain = (V, known, 0): the cell volume [m^3] at the end of the last step whose stress
   // is known (known = 1), or known = 0 when the last step neither strained the cell nor measured.
   Vec3 vol_strain = Vec3::Zero();
@@ -89,17 +89,17 @@ struct EnergyAccount {
 };
 
 struct SimulationSnapshot {
-  Particles particles;       // every particle (or a part, below), forces and torques included
-  HistoryMap history;        // springs of every touching contact (or a part), keyed by the ids
-  PeriodicCell cell;         // lengths and strain rates
-  SimulationParams params;   // contact law, time step, skin, damping, walls
-  MacroState macro;          // the last measured state
-  Dissipation dissipation;   // this rank's accumulators
+  Particles particles;      // every particle (or a part, below), forces and torques included
+  HistoryMap history;       // springs of every touching contact (or a part), keyed by the ids
+  PeriodicCell cell;        // lengths and strain rates
+  SimulationParams params;  // contact law, time step, skin, damping, walls
+  MacroState macro;         // the last measured state
+  Dissipation dissipation;  // this rank's accumulators
   std::int64_t step = 0, rebuilds = 0;
   real_t time = 0;
   DecompositionRecord decomposition;  // see Domain::decomposition_record()
-  EnergyAccount energy;      // the global part, and this rank's gravity work
-  Holding holding = Holding::Whole;  // particles and history: all of them, or this rank's part
+  EnergyAccount energy;               // the global part, and this rank's gravity work
+  Holding holding = Holding::Whole;   // particles and history: all of them, or this rank's part
 };
 
 class Simulation {
@@ -109,8 +109,8 @@ class Simulation {
   // the same complete set of particles (Holding::Whole) or a part of them (Holding::Share, see
   // Domain::adopt) and keeps its own; the domain must outlive the simulation. Without one, the
   // run is serial (serial_domain()).
-  Simulation(Particles particles, PeriodicCell cell, SimulationParams params,
-             Domain* domain = nullptr, Holding holding = Holding::Whole);
+  Simulation(Particles particles, PeriodicCell cell, SimulationParams params, Domain* domain = nullptr,
+             Holding holding = Holding::Whole);
 
   // A copy of 'other' that communicates through 'domain' (a clone of other's domain, or null
   // for a serial run): to branch several runs from one prepared state. The only copy: a plain
@@ -146,14 +146,20 @@ class Simulation {
     positions_exposed_ = true;  // the next ghost update sends positions (step())
     return p_;
   }
-  const Particles& particles() const { settle(); return p_; }
+  const Particles& particles() const {
+    settle();
+    return p_;
+  }
   PeriodicCell& cell() { return cell_; }
   const PeriodicCell& cell() const { return cell_; }
   const SimulationParams& params() const { return par_; }
   void set_law(const ContactLawParams& law);  // e.g. switching mu_s / mu_r between stages
   void set_local_damping(real_t alpha) { par_.local_damping = alpha; }
   // A new time step (s) from the next step on (e.g. a branch run at another step size).
-  void set_time_step(real_t dt) { settle(); par_.dt = dt; }
+  void set_time_step(real_t dt) {
+    settle();
+    par_.dt = dt;
+  }
   // A new Verlet skin (m); rebuilds the lists. Throws std::invalid_argument if the cell is too
   // small, or on several ranks if the cutoff grows beyond the one the domain was built for.
   void set_skin(real_t skin);
@@ -221,8 +227,8 @@ class Simulation {
   // lists from one call to the next (start with {}): ranges taken in order, as a checkpoint
   // writes its blocks, cost one pass over the lists in all, not one pass per range.
   struct ContactCursor {
-    std::size_t q = 0;       // the next entry of the pair list, then of the wall list
-    std::uint64_t k = 0;     // the contacts before it
+    std::size_t q = 0;    // the next entry of the pair list, then of the wall list
+    std::uint64_t k = 0;  // the contacts before it
   };
   template <class F>
   void for_each_contact_in(std::uint64_t first, std::uint64_t n, ContactCursor& at, F&& fn) const {
@@ -245,10 +251,10 @@ class Simulation {
   // outside the list could be touching. Collective. 'motion': this rank's largest
   // displacement^2 since the last rebuild and speed^2 (kick_drift_check, or local_motion()).
   bool needs_rebuild(const StepStart& motion);
-  StepStart local_motion() const;  // the maxima of StepStart by a loop of their own
+  StepStart local_motion() const;                    // the maxima of StepStart by a loop of their own
   void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
   void set_overlap_guard(real_t max_ratio);          // the same for the overlap (collective)
-  void check_cell_still_fits();  // guard_ = the message once a cell length is <= 2 cutoffs
+  void check_cell_still_fits();                      // guard_ = the message once a cell length is <= 2 cutoffs
   // New lists: the springs carried by global ids, the particles migrated and sorted in space,
   // the ghosts, the neighbour search, the springs attached. 'forces_spent': the force and
   // torque accumulators hold nothing the run needs (step(): the first pass has zeroed them, or
@@ -258,7 +264,10 @@ class Simulation {
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable
   // branch). Enabling resets the sums.
-  void enable_phase_timers(bool on) { timing_ = on; times_ = PhaseTimes{}; }
+  void enable_phase_timers(bool on) {
+    timing_ = on;
+    times_ = PhaseTimes{};
+  }
   const PhaseTimes& phase_times() const { return times_; }
 
  private:
@@ -291,7 +300,7 @@ class Simulation {
   // and torque of the half-kick (contacts and gravity), v and w the prescribed motion.
   real_t impose_driven(real_t dt_half);
 
-  Domain* domain_;  // never null: the caller's domain, or serial_domain()
+  Domain* domain_;       // never null: the caller's domain, or serial_domain()
   mutable Particles p_;  // mutable: settle() from particles() const
   // The owned positions were handed out for change (particles() not const) since the last
   // ghost update: the next one sends them rather than letting the ghosts drift.
@@ -309,32 +318,32 @@ class Simulation {
   MacroState macro_;
   std::vector<Vec3> s_ref_;  // reduced positions x / L at the last rebuild
   Vec3 L_ref_;
-  real_t cutoff_max_ = 0;    // 2 Rmax + skin
+  real_t cutoff_max_ = 0;  // 2 Rmax + skin
   std::int64_t step_ = 0, rebuilds_ = 0;
   real_t time_ = 0;
   // Energy account (see boundary_work above).
-  real_t e0_ = 0;                       // kinetic + elastic energy at construction [J]
-  real_t work_ = 0;                     // boundary work up to the end of the last step [J]
-  Vec3 stress_prev_ = Vec3::Zero();     // diagonal stress at the end of the last known step [Pa]
-  real_t volume_prev_ = 0;              // cell volume then [m^3]
-  bool stress_known_ = false;           // the last step (or the construction) knows it
-  real_t gravity_work_local_ = 0;       // work of gravity on the owned particles [J]
-  ExactSums wall_sums_;                 // servo walls: the exact sums of push and stiffness per wall
-  std::vector<double> wall_load_;       // their values (the last step)
-  real_t wall_work_ = 0;                // work of the moving walls [J] (global: reduced each step)
-  real_t drive_work_ = 0;               // work of the drive [J] (global: reduced each step)
+  real_t e0_ = 0;                                       // kinetic + elastic energy at construction [J]
+  real_t work_ = 0;                                     // boundary work up to the end of the last step [J]
+  Vec3 stress_prev_ = Vec3::Zero();                     // diagonal stress at the end of the last known step [Pa]
+  real_t volume_prev_ = 0;                              // cell volume then [m^3]
+  bool stress_known_ = false;                           // the last step (or the construction) knows it
+  real_t gravity_work_local_ = 0;                       // work of gravity on the owned particles [J]
+  ExactSums wall_sums_;                                 // servo walls: the exact sums of push and stiffness per wall
+  std::vector<double> wall_load_;                       // their values (the last step)
+  real_t wall_work_ = 0;                                // work of the moving walls [J] (global: reduced each step)
+  real_t drive_work_ = 0;                               // work of the drive [J] (global: reduced each step)
   std::vector<std::pair<Index, std::int32_t>> driven_;  // owned driven particles and their set
                                                         // (rebuilt with the lists)
-  std::vector<Vec3> wall_ref_;          // wall points at the last rebuild
+  std::vector<Vec3> wall_ref_;                          // wall points at the last rebuild
   bool timing_ = false;
   bool rebuilt_last_ = true;
-  bool owned_ready_ = false;  // the owned f and t hold their starting values (ForceContext)
+  bool owned_ready_ = false;           // the owned f and t hold their starting values (ForceContext)
   mutable bool kick_pending_ = false;  // the last step's closing half kick is still to apply
   void settle() const;                 // applies it
-  std::string guard_;      // step_guard()
-  real_t guard_rmin_ = 0;  // the smallest radius over all ranks (set at the first check)
-  OverlapAlarm overlap_;   // the largest overlap beyond the limit in the last force computation
-  double last_migrate_seconds_ = 0;  // communication time of the last rebuild (when timing)
+  std::string guard_;                  // step_guard()
+  real_t guard_rmin_ = 0;              // the smallest radius over all ranks (set at the first check)
+  OverlapAlarm overlap_;               // the largest overlap beyond the limit in the last force computation
+  double last_migrate_seconds_ = 0;    // communication time of the last rebuild (when timing)
   PhaseTimes times_;
 };
 

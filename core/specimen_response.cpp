@@ -9,8 +9,8 @@ namespace fabrica {
 
 namespace {
 template <class Model, bool Viscous>
-void add_response(const Particles& P, const PairList& pl, const PeriodicCell& cell,
-                  const ContactLawParams& law, double* m) {
+void add_response(const Particles& P, const PairList& pl, const PeriodicCell& cell, const ContactLawParams& law,
+                  double* m) {
   const Vec3& L = cell.lengths();
   for (std::size_t q = 0; q < pl.size(); ++q) {
     if (!pl.touching[q] || std::size_t(pl.i[q]) >= P.n_owned()) continue;
@@ -39,10 +39,8 @@ void add_specimen_response(const Particles& p, const PairList& pairs, const Peri
                            const ContactLawParams& law, double m[18]) {
   with_model(law.model, [&](auto model) {
     using Model = decltype(model);
-    if (law.viscous())
-      add_response<Model, true>(p, pairs, cell, law, m);
-    else
-      add_response<Model, false>(p, pairs, cell, law, m);
+    if (law.viscous()) add_response<Model, true>(p, pairs, cell, law, m);
+    else add_response<Model, false>(p, pairs, cell, law, m);
   });
 }
 

@@ -10,8 +10,7 @@ namespace fabrica {
 namespace {
 real_t damping_factor(real_t beta) { return std::sqrt(1.0 + beta * beta) - beta; }
 
-real_t linear_time_step(const Particles& p, const ContactLawParams& law, bool walls, real_t rmin,
-                        real_t rmax) {
+real_t linear_time_step(const Particles& p, const ContactLawParams& law, bool walls, real_t rmin, real_t rmax) {
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   real_t best = inf;
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
@@ -45,8 +44,7 @@ real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool 
   return critical_time_step(p, law, walls, p.min_radius(), p.max_radius());
 }
 
-real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls,
-                          real_t rmin, real_t rmax) {
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls, real_t rmin, real_t rmax) {
   if (law.model == ContactModel::Linear) return linear_time_step(p, law, walls, rmin, rmax);
   // Hertz-Mindlin: the Rayleigh time of every sphere of this share (its own density).
   real_t best = std::numeric_limits<real_t>::infinity();

@@ -27,7 +27,6 @@ real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool 
 real_t rayleigh_time_step(real_t radius, real_t density, const ContactLawParams& law);
 // The same over a part of the particles (one rank's), with the smallest and largest radius of
 // all of them as the partners: the minimum over the ranks of this is the whole set's estimate.
-real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls,
-                          real_t rmin, real_t rmax);
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls, real_t rmin, real_t rmax);
 
 }  // namespace fabrica

@@ -15,8 +15,7 @@ real_t servo_speed(const Wall& w, real_t push, real_t stiffness, real_t area, re
   return std::clamp(u, -w.servo_max_speed, w.servo_max_speed);
 }
 
-void update_servo_walls(std::vector<Wall>& walls, std::span<const double> load,
-                        const PeriodicCell& cell, real_t dt) {
+void update_servo_walls(std::vector<Wall>& walls, std::span<const double> load, const PeriodicCell& cell, real_t dt) {
   const Vec3 L = cell.lengths();
   const real_t V = L.prod();
   for (std::size_t k = 0; k < walls.size(); ++k) {

@@ -28,8 +28,7 @@ std::size_t servo_wall_count(const std::vector<Wall>& walls);
 
 // The servo update of every servo wall. 'load' holds, per wall of 'walls' (servo or not), the
 // pair {push F [N], stiffness K [N/m]}, summed over every rank.
-void update_servo_walls(std::vector<Wall>& walls, std::span<const double> load,
-                        const PeriodicCell& cell, real_t dt);
+void update_servo_walls(std::vector<Wall>& walls, std::span<const double> load, const PeriodicCell& cell, real_t dt);
 
 // The normal speed the servo gives one wall (the formula above).
 real_t servo_speed(const Wall& w, real_t push, real_t stiffness, real_t area, real_t dt);

@@ -32,7 +32,7 @@ constexpr char kEndMagic[8] = {'F', 'A', 'B', 'R', 'E', 'N', 'D', '\0'};
 constexpr std::size_t kTrailerBytes = 16;
 constexpr std::size_t kNameBytes = 24;
 constexpr std::size_t kEntryBytes = kNameBytes + 32;  // name, offset, bytes, records, record size, kind
-constexpr std::size_t kTableFirst = 128;  // the section table starts here in the header
+constexpr std::size_t kTableFirst = 128;              // the section table starts here in the header
 constexpr std::size_t kMaxSections = (kHeaderBytes - kTableFirst) / kEntryBytes;
 constexpr std::uint32_t kFlagBlowup = 1;
 constexpr std::uint64_t kChunk = std::uint64_t(1) << 30;  // bytes per MPI-IO call at most
@@ -107,12 +107,12 @@ std::string decode_header(const std::string& in, CheckpointHeader& h) {
     return "not a Fabrica checkpoint (no FABRCKPT magic at the start)";
   if (in.size() < kHeaderBytes)
     return "truncated: " + std::to_string(in.size()) + " bytes, shorter than the header (" +
-           std::to_string(kHeaderBytes) + " bytes)";
+        std::to_string(kHeaderBytes) + " bytes)";
   h.format = std::uint32_t(peek(in, 8, 4));
   if (h.format < kOldestCheckpointFormat || h.format > kCheckpointFormat)
-    return "checkpoint format version " + std::to_string(h.format) + ", this build of Fabrica (" +
-           FABRICA_VERSION + ") reads versions " + std::to_string(kOldestCheckpointFormat) + " to " +
-           std::to_string(kCheckpointFormat) + " only";
+    return "checkpoint format version " + std::to_string(h.format) + ", this build of Fabrica (" + FABRICA_VERSION +
+        ") reads versions " + std::to_string(kOldestCheckpointFormat) + " to " + std::to_string(kCheckpointFormat) +
+        " only";
   if (peek(in, 12, 4) != kHeaderBytes) return "corrupted header (header size)";
   h.software = read_fixed(in.data() + 16, 16);
   h.scene_fingerprint = peek(in, 32, 8);
@@ -166,8 +166,7 @@ void check_mpi(int err, MPI_Comm comm, const std::string& what, const std::strin
   MPI_Bcast(&len, 1, MPI_INT, first, comm);
   msg.resize(std::size_t(len));
   MPI_Bcast(msg.data(), len, MPI_CHAR, first, comm);
-  throw CollectiveError(path + ": cannot write the checkpoint (" + msg +
-                        "); the previous checkpoint, if any, is kept");
+  throw CollectiveError(path + ": cannot write the checkpoint (" + msg + "); the previous checkpoint, if any, is kept");
 }
 
 // The message of the lowest rank whose 'error' is not empty ("" if none), on every rank.
@@ -200,8 +199,8 @@ std::string read_at(MPI_File fh, std::uint64_t offset, std::uint64_t n, std::str
       int tl = 0;
       if (err != MPI_SUCCESS) MPI_Error_string(err, text, &tl);
       return "cannot read " + std::to_string(len) + " bytes at offset " + std::to_string(offset + k) +
-             (err != MPI_SUCCESS ? " (" + std::string(text, std::size_t(tl)) + ")"
-                                 : " (" + std::to_string(count) + " read)");
+          (err != MPI_SUCCESS ? " (" + std::string(text, std::size_t(tl)) + ")"
+                              : " (" + std::to_string(count) + " read)");
     }
   }
   return "";
@@ -231,8 +230,7 @@ void BytesIn::need(std::size_t n) const {
 
 // ---------------------------------------------------------------------------------- writing
 
-CheckpointWriter::CheckpointWriter(MPI_Comm comm, std::uint64_t fingerprint, std::string app,
-                                   bool blowup)
+CheckpointWriter::CheckpointWriter(MPI_Comm comm, std::uint64_t fingerprint, std::string app, bool blowup)
     : comm_(comm) {
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &size_);
@@ -297,23 +295,20 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   g.f64("energy.wall_work", ea.wall_work).f64("energy.drive_work", ea.drive_work);
   add_fields(prefix + ".global", g);
 
-  Staged parts{prefix + ".particles", SectionKind::Distributed,
-               std::uint32_t(particle_record_bytes()), {}};
+  Staged parts{prefix + ".particles", SectionKind::Distributed, std::uint32_t(particle_record_bytes()), {}};
   parts.records = sim.particles().n_owned();
   parts.produce = [&sim](std::uint64_t first, std::uint64_t n, std::string& out) {
     write_particles(sim.particles(), std::size_t(first), std::size_t(n), out);
   };
   staged_.push_back(std::move(parts));
-  Staged contacts{prefix + ".contacts", SectionKind::Distributed,
-                  std::uint32_t(contact_record_bytes(twisting)), {}};
+  Staged contacts{prefix + ".contacts", SectionKind::Distributed, std::uint32_t(contact_record_bytes(twisting)), {}};
   sim.for_each_contact([&](GlobalId, GlobalId, const ContactHistory&) { ++contacts.records; });
   // Records [first, first + n) of the contacts in for_each_contact's order; the cursor makes
   // the blocks, written in order, one pass over the lists in all.
   contacts.produce = [&sim, twisting, at = Simulation::ContactCursor{}](std::uint64_t first, std::uint64_t n,
-                                                                         std::string& out) mutable {
-    sim.for_each_contact_in(first, n, at, [&](GlobalId a, GlobalId b, const ContactHistory& h) {
-      write_contact(a, b, h, twisting, out);
-    });
+                                                                        std::string& out) mutable {
+    sim.for_each_contact_in(
+        first, n, at, [&](GlobalId a, GlobalId b, const ContactHistory& h) { write_contact(a, b, h, twisting, out); });
   };
   staged_.push_back(std::move(contacts));
   FieldWriter d;
@@ -358,11 +353,10 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
   if (rank_ == 0) part += checksum(header.data(), header.size(), 0);
   const std::string tmp = path + ".tmp";
   MPI_File fh;
-  check_mpi(MPI_File_open(comm_, tmp.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &fh),
-            comm_, "open " + tmp, path);
+  check_mpi(MPI_File_open(comm_, tmp.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &fh), comm_,
+            "open " + tmp, path);
   MPI_File_set_errhandler(fh, MPI_ERRORS_RETURN);
-  auto write_at = [&](std::uint64_t offset, const std::string& bytes, bool mine_to_write,
-                      const std::string& what) {
+  auto write_at = [&](std::uint64_t offset, const std::string& bytes, bool mine_to_write, const std::string& what) {
     const std::string& b = mine_to_write ? bytes : std::string();
     if (b.size() > std::size_t(std::numeric_limits<int>::max()))
       throw std::runtime_error(path + ": a checkpoint block above 2 GiB on one rank");
@@ -375,9 +369,8 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
     if (err == MPI_SUCCESS && (count != int(b.size()) || fault_injected("ckpt_write"))) {
       err = MPI_ERR_IO;
       detail = fault_injected("ckpt_write")
-                   ? " (" + fault_text("ckpt_write") + ")"
-                   : " (" + std::to_string(count) + " of " + std::to_string(b.size()) +
-                         " bytes written: is the disk full?)";
+          ? " (" + fault_text("ckpt_write") + ")"
+          : " (" + std::to_string(count) + " of " + std::to_string(b.size()) + " bytes written: is the disk full?)";
     }
     check_mpi(err, comm_, "write " + what + " to " + tmp, path, detail);
   };
@@ -434,8 +427,7 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
   if (short_file && rank_ == 0) std::remove(tmp.c_str());
   if (short_file)
     check_mpi(rank_ == 0 ? MPI_ERR_IO : MPI_SUCCESS, comm_, "check " + tmp, path,
-              " (" + std::to_string(on_disk) + " bytes on disk, " +
-                  std::to_string(head_.file_bytes) + " written)");
+              " (" + std::to_string(on_disk) + " bytes on disk, " + std::to_string(head_.file_bytes) + " written)");
   // Rank 0 replaces the previous checkpoint (atomic rename) and syncs the directory entry.
   int err = 0;
   if (rank_ == 0) {
@@ -451,8 +443,7 @@ std::uint64_t CheckpointWriter::write(const std::string& path) {
     }
   }
   MPI_Bcast(&err, 1, MPI_INT, 0, comm_);
-  if (err)
-    throw CollectiveError(path + ": cannot rename " + tmp + " to it (" + std::strerror(err) + ")");
+  if (err) throw CollectiveError(path + ": cannot rename " + tmp + " to it (" + std::strerror(err) + ")");
   return head_.file_bytes;
 }
 
@@ -470,8 +461,7 @@ Checkpoint Checkpoint::read(MPI_Comm comm, const std::string& path, const Expect
   // Every rank reads for itself: the header, the small sections, and its share of the records of
   // the distributed ones (particles, contacts); no rank reads or holds the whole file.
   std::string error;
-  if (fault_injected("checkpoint"))
-    error = "cannot read the checkpoint (" + fault_text("checkpoint") + ")";
+  if (fault_injected("checkpoint")) error = "cannot read the checkpoint (" + fault_text("checkpoint") + ")";
   else if (std::error_code ec; std::filesystem::is_directory(path, ec))
     error = "cannot open the checkpoint (it is a directory)";
   else if (::access(path.c_str(), R_OK) != 0)
@@ -496,7 +486,7 @@ Checkpoint Checkpoint::read(MPI_Comm comm, const std::string& path, const Expect
     if (error.empty()) error = decode_header(head, c.head_);
     if (error.empty() && std::uint64_t(on_disk) != c.head_.file_bytes)
       error = "truncated or extended: " + std::to_string(on_disk) + " bytes, the header says " +
-              std::to_string(c.head_.file_bytes) + " (an interrupted copy?)";
+          std::to_string(c.head_.file_bytes) + " (an interrupted copy?)";
     // The sections follow one another from the header to the trailer, with no gap.
     std::uint64_t at = kHeaderBytes;
     for (const CheckpointSection& s : c.head_.sections) {
@@ -531,8 +521,7 @@ Checkpoint Checkpoint::read(MPI_Comm comm, const std::string& path, const Expect
     std::uint64_t sum = 0;
     MPI_Allreduce(&part, &sum, 1, MPI_UINT64_T, MPI_SUM, comm);  // unsigned: modulo 2^64
     if (std::memcmp(trailer.data(), kEndMagic, 8) != 0) error = "corrupted: no trailer at the end";
-    else if (sum != get_le(trailer.data() + 8, 8))
-      error = "corrupted: the checksum does not match the contents";
+    else if (sum != get_le(trailer.data() + 8, 8)) error = "corrupted: the checksum does not match the contents";
     fail(error);
   } catch (...) {
     if (opened) MPI_File_close(&fh);
@@ -542,16 +531,17 @@ Checkpoint Checkpoint::read(MPI_Comm comm, const std::string& path, const Expect
 
   const CheckpointHeader& h = c.head_;
   if (expect.scene_text && h.scene_fingerprint != scene_fingerprint(*expect.scene_text))
-    throw InputError(path + ": checkpoint of another scene (scene fingerprint " +
-                     std::to_string(h.scene_fingerprint) + " in the checkpoint, " +
-                     std::to_string(scene_fingerprint(*expect.scene_text)) +
+    throw InputError(path + ": checkpoint of another scene (scene fingerprint " + std::to_string(h.scene_fingerprint) +
+                     " in the checkpoint, " + std::to_string(scene_fingerprint(*expect.scene_text)) +
                      " for this scene file): restart with the scene it was written for");
   if (!expect.app.empty() && h.app != expect.app)
-    throw InputError(path + ": checkpoint of a \"" + h.app + "\" run, this scene runs \"" +
-                     expect.app + "\"");
+    throw InputError(path + ": checkpoint of a \"" + h.app + "\" run, this scene runs \"" + expect.app + "\"");
   if (h.blowup && !expect.allow_blowup)
-    throw InputError(path + ": blow-up checkpoint (the state when a numerical blow-up was detected "
-                     "at step " + std::to_string(h.step) + ", kept for post-mortem): a run cannot "
+    throw InputError(path +
+                     ": blow-up checkpoint (the state when a numerical blow-up was detected "
+                     "at step " +
+                     std::to_string(h.step) +
+                     ", kept for post-mortem): a run cannot "
                      "restart from it; restart from an earlier checkpoint");
   return c;
 }
@@ -594,9 +584,8 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   // The twisting spring is in the records of a scene with twisting resistance only.
   const bool twisting = crec == contact_record_schema(true);
   if (!twisting && crec != contact_record_schema(false))
-    throw InputError(where + ".global: written by a build with other contact records ('" + crec +
-                     "'; this build: '" + contact_record_schema(false) + "' or '" + contact_record_schema(true) +
-                     "')");
+    throw InputError(where + ".global: written by a build with other contact records ('" + crec + "'; this build: '" +
+                     contact_record_schema(false) + "' or '" + contact_record_schema(true) + "')");
   snap.cell = PeriodicCell(g.vec3("cell.lengths"));
   snap.cell.set_strain_rate(g.vec3("cell.strain_rate"));
   SimulationParams& par = snap.params;
@@ -641,8 +630,8 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   const std::int64_t cuts = g.i64("decomposition_cuts");
   if (cuts < 0 || cuts > 3 * std::int64_t(head_.ranks))
     throw InputError(where + ": decomposition_cuts = " + std::to_string(cuts) + ", expected 0 to " +
-                     std::to_string(3 * head_.ranks) + " (three axes of at most " +
-                     std::to_string(head_.ranks) + " runs)");
+                     std::to_string(3 * head_.ranks) + " (three axes of at most " + std::to_string(head_.ranks) +
+                     " runs)");
   for (std::int64_t c = 0; c < cuts; ++c) snap.decomposition.cuts.push_back(g.i32("decomposition_cut"));
   snap.decomposition.since_check = g.i64("decomposition_since_check");
   snap.energy.e0 = g.f64("energy.e0");
@@ -661,9 +650,8 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   auto records = [&](const std::string& name, std::size_t bytes) -> const std::string& {
     const CheckpointSection& s = find(name);
     if (s.kind != SectionKind::Distributed || s.record_bytes != bytes)
-      throw InputError(where + ": section " + name + " has records of " +
-                       std::to_string(s.record_bytes) + " bytes, this build reads " +
-                       std::to_string(bytes));
+      throw InputError(where + ": section " + name + " has records of " + std::to_string(s.record_bytes) +
+                       " bytes, this build reads " + std::to_string(bytes));
     return chunks_.at(name).bytes;
   };
   const std::string& parts = records(prefix + ".particles", particle_records.bytes());
@@ -676,11 +664,10 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   // Per-rank records: the same ranks' when the rank count is unchanged, else the totals to rank 0.
   auto per_rank = [&](const std::string& name, std::uint32_t bytes) -> const std::string& {
     const CheckpointSection& s = find(name);
-    if (s.kind != SectionKind::PerRank || s.record_bytes != bytes ||
-        s.records != std::uint64_t(head_.ranks))
-      throw InputError(where + ": section " + name + ": " + std::to_string(s.records) +
-                       " records of " + std::to_string(s.record_bytes) + " bytes for " +
-                       std::to_string(head_.ranks) + " ranks (corrupted)");
+    if (s.kind != SectionKind::PerRank || s.record_bytes != bytes || s.records != std::uint64_t(head_.ranks))
+      throw InputError(where + ": section " + name + ": " + std::to_string(s.records) + " records of " +
+                       std::to_string(s.record_bytes) + " bytes for " + std::to_string(head_.ranks) +
+                       " ranks (corrupted)");
     return small_.at(name);
   };
   const std::string& diss = per_rank(prefix + ".dissipation", 32);
@@ -717,8 +704,8 @@ std::string describe(const CheckpointHeader& h, const std::string& path) {
     << "  sections (name, offset, bytes, records, bytes per record, kind):\n";
   static const char* kinds[3] = {"global", "per-rank", "distributed"};
   for (const CheckpointSection& c : h.sections)
-    s << "    " << c.name << " " << c.offset << " " << c.bytes << " " << c.records << " "
-      << c.record_bytes << " " << kinds[int(c.kind)] << "\n";
+    s << "    " << c.name << " " << c.offset << " " << c.bytes << " " << c.records << " " << c.record_bytes << " "
+      << kinds[int(c.kind)] << "\n";
   return s.str();
 }
 
@@ -760,8 +747,7 @@ double wall_seconds() {
 }
 }  // namespace
 
-CheckpointSchedule::CheckpointSchedule(MPI_Comm comm, std::int64_t every, double seconds,
-                                       std::int64_t step)
+CheckpointSchedule::CheckpointSchedule(MPI_Comm comm, std::int64_t every, double seconds, std::int64_t step)
     : comm_(comm), every_(every), seconds_(seconds), last_step_(step), last_time_(wall_seconds()) {}
 
 bool CheckpointSchedule::due(const Simulation& sim) {

@@ -101,8 +101,7 @@ std::string line_of(const Piece& p, std::size_t k) {
 }
 
 // The distributed read of a data file: this rank's share (from the directory), its box.
-DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int ranks,
-                         std::int64_t& natoms_out) {
+DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int ranks, std::int64_t& natoms_out) {
   DataHeader h;
   agree(comm, [&] { h = read_data_header(path); });
   natoms_out = h.natoms;
@@ -114,8 +113,7 @@ DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int r
   });
   const int node = ranks_on_this_node(comm);
   agree(comm, [&] {
-    check_memory(path + ":" + std::to_string(h.natoms_line) + ": '" + std::to_string(h.natoms) +
-                     " atoms'",
+    check_memory(path + ":" + std::to_string(h.natoms_line) + ": '" + std::to_string(h.natoms) + " atoms'",
                  double(h.natoms) * kBytesPerSphere / ranks * node,
                  "200 B per sphere at least, " + std::to_string(h.natoms / ranks) + " spheres on each of " +
                      std::to_string(node) + " rank(s) of this node");
@@ -152,13 +150,12 @@ DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int r
       c += n;
     }
   std::vector<DataSection> section_of;  // of each keyword
-  agree(comm, [&] {  // the same on every rank: every rank checks, rank 0's message is kept
+  agree(comm, [&] {                     // the same on every rank: every rank checks, rank 0's message is kept
     bool seen[2] = {false, false};
     for (const Keyword& k : keywords) {
       const DataSection s = data_section_keyword(k.word, path, int(k.line));
       bool& was = seen[s == DataSection::Atoms ? 0 : 1];
-      if (was)
-        throw InputError(path + ":" + std::to_string(k.line) + ": section '" + k.word + "' appears twice");
+      if (was) throw InputError(path + ":" + std::to_string(k.line) + ": section '" + k.word + "' appears twice");
       was = true;
       section_of.push_back(s);
     }
@@ -273,7 +270,8 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     GlobalId first = out < s.particles.n_owned() ? s.particles.id[out] : std::numeric_limits<GlobalId>::max();
     MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT64_T, MPI_MIN, comm);
     agree(comm, [&] {
-      if (out < s.particles.n_owned() && s.particles.id[out] == first) refuse_outside_cell(sc, s.particles, out, L, df.lo);
+      if (out < s.particles.n_owned() && s.particles.id[out] == first)
+        refuse_outside_cell(sc, s.particles, out, L, df.lo);
     });
     double rmin = s.particles.n_owned() ? s.particles.min_radius() : 1e300;
     MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
@@ -287,8 +285,8 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     agree(comm, [&] {
       check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
                    double(g.count) * kBytesPerSphere / ranks * node,
-                   "200 B per sphere at least, " + std::to_string(g.count / ranks) +
-                       " spheres on each of " + std::to_string(node) + " rank(s) of this node");
+                   "200 B per sphere at least, " + std::to_string(g.count / ranks) + " spheres on each of " +
+                       std::to_string(node) + " rank(s) of this node");
     });
     std::optional<RegionCut> cut;
     agree(comm, [&] { cut = region_cut(sc); });
@@ -312,8 +310,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     if (options.kind == DecompositionKind::Cartesian) {
       const Decomposition dec = Decomposition::cartesian(ranks, s.cell.lengths(), g.d_max + sc.skin);
       for (int q = 0; q < G; ++q)
-        owner_of[std::size_t(q)] =
-            dec.owner(dec.bin_of(cut->grid.lower(q) + 0.5 * cut->grid.side(), s.cell.lengths()));
+        owner_of[std::size_t(q)] = dec.owner(dec.bin_of(cut->grid.lower(q) + 0.5 * cut->grid.side(), s.cell.lengths()));
     }
     auto owner = [&](int region) { return owner_of[std::size_t(region)]; };
     mine.clear();
@@ -328,8 +325,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
         for (int h : cut->grid.neighbours(region_of[a])) {
           const int r = owner(h);
           if (r == rank || std::find(to.begin(), to.end(), r) != to.end()) continue;
-          if (box_distance2(placed.x[a], cut->grid.lower(h), cut->grid.side(), s.cell.lengths()) <
-              g.d_max * g.d_max)
+          if (box_distance2(placed.x[a], cut->grid.lower(h), cut->grid.side(), s.cell.lengths()) < g.d_max * g.d_max)
             to.push_back(r);
         }
         for (int r : to) {
@@ -363,7 +359,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     agree(comm, [&] {
       Scene one = sc;
       one.max_initial_overlap = std::numeric_limits<double>::infinity();  // checked below
-      one.density_scaling = 1.0;                                           // applied below
+      one.density_scaling = 1.0;                                          // applied below
       Setup whole = make_setup(one);
       s.particles = std::move(whole.particles);
       s.cell = whole.cell;
@@ -377,9 +373,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
   agree(comm, [&] {
     try {
       check_cell_size(s.cell, rmax, sc.skin);
-    } catch (const std::exception& e) {
-      throw InputError(sc.path + ": [cell] " + e.what());
-    }
+    } catch (const std::exception& e) { throw InputError(sc.path + ": [cell] " + e.what()); }
   });
   for (std::size_t a = 0; a < s.particles.n_owned(); ++a) s.particles.x[a] = s.cell.wrap(s.particles.x[a]);
 

@@ -28,7 +28,7 @@ bool fault_injected(std::string_view site) {
 
 std::string fault_text(std::string_view site) {
   return "failure injected at site '" + std::string(site) + "' on rank " + std::to_string(g_rank) +
-         " (FABRICA_FAULT_INJECT, a test hook)";
+      " (FABRICA_FAULT_INJECT, a test hook)";
 }
 
 }  // namespace fabrica

@@ -87,8 +87,7 @@ FieldWriter& FieldWriter::text(const char* name, const std::string& v) {
   return *this;
 }
 
-FieldReader::FieldReader(const std::string& schema, const char* bytes, std::size_t size,
-                         std::string where)
+FieldReader::FieldReader(const std::string& schema, const char* bytes, std::size_t size, std::string where)
     : where_(std::move(where)), data_(bytes), size_(size) {
   std::size_t at = 0;
   while (at <= schema.size() && !schema.empty()) {
@@ -110,8 +109,7 @@ void FieldReader::expect(const char* name, const char* type, int n) {
 }
 
 const char* FieldReader::take(std::size_t n) {
-  if (size_ - pos_ < n)
-    throw InputError(where_ + ": ends early, in field '" + fields_[field_ - 1] + "' (corrupted)");
+  if (size_ - pos_ < n) throw InputError(where_ + ": ends early, in field '" + fields_[field_ - 1] + "' (corrupted)");
   const char* p = data_ + pos_;
   pos_ += n;
   return p;
@@ -168,8 +166,7 @@ void FieldReader::done() const {
     throw InputError(where_ + ": field " + std::to_string(field_ + 1) + " '" + fields_[field_] +
                      "' is not read by this build: written by another version");
   if (pos_ != size_)
-    throw InputError(where_ + ": " + std::to_string(size_ - pos_) +
-                     " bytes after the last field (corrupted)");
+    throw InputError(where_ + ": " + std::to_string(size_ - pos_) + " bytes after the last field (corrupted)");
 }
 
 }  // namespace fabrica

@@ -31,12 +31,11 @@ std::string error_stack_text() {
   return acc.outer.empty() || acc.outer.ends_with(acc.inner) ? acc.inner : acc.outer + " (" + acc.inner + ")";
 }
 
-constexpr unsigned kIstoreK = 2;  // chunk-index B-tree: nodes of 2 K = 4 entries
+constexpr unsigned kIstoreK = 2;                   // chunk-index B-tree: nodes of 2 K = 4 entries
 constexpr hsize_t kChunkBytes = hsize_t(1) << 20;  // at most 1 MiB per chunk of a fixed-size dataset
 
 Handle dataspace(std::span<const hsize_t> dims, std::span<const hsize_t> maxdims = {}) {
-  return Handle(H5Screate_simple(int(dims.size()), dims.data(), maxdims.empty() ? nullptr : maxdims.data()),
-                H5Sclose);
+  return Handle(H5Screate_simple(int(dims.size()), dims.data(), maxdims.empty() ? nullptr : maxdims.data()), H5Sclose);
 }
 
 Handle string_type(std::size_t n) {
@@ -79,16 +78,17 @@ bool checksums_enabled() { return g_checksums; }
 
 hid_t native(Type t) {
   switch (t) {
-    case Type::F64: return H5T_NATIVE_DOUBLE;
-    case Type::I64: return H5T_NATIVE_INT64;
-    case Type::U8: return H5T_NATIVE_UINT8;
+    case Type::F64:
+      return H5T_NATIVE_DOUBLE;
+    case Type::I64:
+      return H5T_NATIVE_INT64;
+    case Type::U8:
+      return H5T_NATIVE_UINT8;
   }
   return H5T_NATIVE_DOUBLE;
 }
 
-void Object::fail(const std::string& what) const {
-  throw Error(file_ + ": " + name_ + ": " + what);
-}
+void Object::fail(const std::string& what) const { throw Error(file_ + ": " + name_ + ": " + what); }
 
 void Object::check(herr_t status, const std::string& what) const {
   if (status < 0) fail(what + ": " + error_stack_text());
@@ -182,8 +182,7 @@ std::vector<double> Object::attr_doubles(const std::string& attr) const {
 std::string Object::attr_string(const std::string& attr) const {
   Handle a = open_attr(*this, attr);
   Handle t(H5Aget_type(a.get()), H5Tclose);
-  return read_str(*this, t.get(), "attribute " + attr,
-                  [&](hid_t mt, void* buf) { return H5Aread(a.get(), mt, buf); });
+  return read_str(*this, t.get(), "attribute " + attr, [&](hid_t mt, void* buf) { return H5Aread(a.get(), mt, buf); });
 }
 
 // ---- groups --------------------------------------------------------------------------------
@@ -221,12 +220,13 @@ bool Group::exists(const std::string& rel) const {
 
 std::vector<std::string> Group::children() const {
   std::vector<std::string> names;
-  check(H5Literate(id(), H5_INDEX_NAME, H5_ITER_INC, nullptr,
-                   [](hid_t, const char* name, const H5L_info_t*, void* p) -> herr_t {
-                     static_cast<std::vector<std::string>*>(p)->emplace_back(name);
-                     return 0;
-                   },
-                   &names),
+  check(H5Literate(
+            id(), H5_INDEX_NAME, H5_ITER_INC, nullptr,
+            [](hid_t, const char* name, const H5L_info_t*, void* p) -> herr_t {
+              static_cast<std::vector<std::string>*>(p)->emplace_back(name);
+              return 0;
+            },
+            &names),
         "listing");
   return names;
 }
@@ -242,16 +242,13 @@ void Group::link(const std::string& rel, const std::string& target) const {
         "linking " + rel + " to " + target);
 }
 
-Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols,
-                              hsize_t chunk_rows) const {
+Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols, hsize_t chunk_rows) const {
   // Every dataset with data is chunked and carries HDF5's Fletcher-32 checksum of each chunk,
   // verified by every read (docs/output.md, "Checksums"). A fixed-size dataset gets chunks of
   // at most kChunkBytes; an empty fixed-size one stays contiguous (nothing to check).
   const hsize_t width = std::max<hsize_t>(cols, 1) * H5Tget_size(native(t));
   const bool extendible = chunk_rows > 0;
-  const hsize_t chunk_n = extendible ? chunk_rows
-                          : rows > 0 ? std::clamp<hsize_t>(kChunkBytes / width, 1, rows)
-                                     : 0;
+  const hsize_t chunk_n = extendible ? chunk_rows : rows > 0 ? std::clamp<hsize_t>(kChunkBytes / width, 1, rows) : 0;
   std::vector<hsize_t> dims{rows}, maxd{extendible ? H5S_UNLIMITED : rows}, chunk{chunk_n};
   if (cols > 0) dims.push_back(cols), maxd.push_back(cols), chunk.push_back(cols);
   Handle space = dataspace(dims, maxd);
@@ -262,8 +259,7 @@ Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsiz
   }
   // No fill: every element is written (saves a pass over the file under MPI-IO).
   H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER);
-  Handle d(H5Dcreate2(id(), rel.c_str(), native(t), space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
-           H5Dclose);
+  Handle d(H5Dcreate2(id(), rel.c_str(), native(t), space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT), H5Dclose);
   if (!d.valid()) check(-1, "creating dataset " + rel);
   return Dataset(std::move(d), file_, child_name(rel), comm_);
 }
@@ -278,8 +274,7 @@ Dataset Group::open_dataset(const std::string& rel) const {
 void Group::write_string(const std::string& rel, const std::string& text, bool writer) const {
   Handle t = string_type(text.size());
   Handle space(H5Screate(H5S_SCALAR), H5Sclose);
-  Handle d(H5Dcreate2(id(), rel.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-           H5Dclose);
+  Handle d(H5Dcreate2(id(), rel.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
   if (!d.valid()) check(-1, "creating dataset " + rel);
   Handle fs(H5Dget_space(d.get()), H5Sclose);
   Handle ms(H5Screate(H5S_SCALAR), H5Sclose);
@@ -408,8 +403,7 @@ File File::create_parallel(const std::string& path, MPI_Comm comm, bool truncate
   // have a chunk or a few, and HDF5's default node (K = 32) reserves about 2 KB per dataset.
   Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
   H5Pset_istore_k(fcpl.get(), kIstoreK);
-  Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, fcpl.get(), fapl.get()),
-           H5Fclose);
+  Handle f(H5Fcreate(path.c_str(), truncate ? H5F_ACC_TRUNC : H5F_ACC_EXCL, fcpl.get(), fapl.get()), H5Fclose);
   File file(std::move(f), path, "/", comm);
   file.check_all(file.valid() ? 0 : -1, "cannot create the HDF5 file");
   return file;
@@ -453,8 +447,9 @@ void File::flush() const {
   errno = 0;
   const herr_t st = H5Fflush(id(), H5F_SCOPE_GLOBAL);
   const int err = errno;
-  check_all(st, std::string("cannot flush the file to disk") +
-                    (st < 0 && err ? " (" + std::string(std::strerror(err)) + ")" : ""));
+  check_all(st,
+            std::string("cannot flush the file to disk") +
+                (st < 0 && err ? " (" + std::string(std::strerror(err)) + ")" : ""));
 }
 
 void File::close() {

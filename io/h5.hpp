@@ -67,9 +67,7 @@ class Object {
   bool valid() const { return h_.valid(); }
   const std::string& file() const { return file_; }
   const std::string& name() const { return name_; }  // absolute path in the file
-  std::string child_name(const std::string& rel) const {
-    return name_ == "/" ? "/" + rel : name_ + "/" + rel;
-  }
+  std::string child_name(const std::string& rel) const { return name_ == "/" ? "/" + rel : name_ + "/" + rel; }
   // Throws Error("<file>: <object>: <what>: <HDF5 message>") if status < 0.
   void check(herr_t status, const std::string& what) const;
   [[noreturn]] void fail(const std::string& what) const;
@@ -113,8 +111,7 @@ class Group : public Object {
 
   // A dataset of 'rows' x 'cols' elements (cols = 0: one-dimensional). With chunk_rows > 0 it is
   // chunked and extendible along the rows (for appending).
-  Dataset create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols,
-                         hsize_t chunk_rows = 0) const;
+  Dataset create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols, hsize_t chunk_rows = 0) const;
   Dataset open_dataset(const std::string& rel) const;
   // A scalar dataset holding a string (any length).
   void write_string(const std::string& rel, const std::string& text, bool writer) const;
@@ -137,7 +134,7 @@ class Dataset : public Object {
   // Reads every element (in the file's own type, discarded), so that HDF5 verifies each chunk's
   // Fletcher-32 checksum; throws Error naming the dataset on a mismatch. Returns the bytes read.
   std::size_t verify() const;
-  bool has_checksum() const;  // the dataset carries the Fletcher-32 filter
+  bool has_checksum() const;            // the dataset carries the Fletcher-32 filter
   [[noreturn]] void fail_read() const;  // after a failed H5Dread: Error naming the dataset
 };
 

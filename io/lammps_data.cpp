@@ -67,8 +67,7 @@ GlobalId parse_particle_id(const std::string& token, const std::string& where) {
 
 DataHeader read_data_header(const std::string& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(path + ": is a directory, not a particle data file");
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": is a directory, not a particle data file");
   std::ifstream in(path, std::ios::binary);
   if (!in || fault_injected("data"))
     throw InputError(path + ": cannot open the particle data file" +
@@ -87,15 +86,17 @@ DataHeader read_data_header(const std::string& path) {
     std::string w1, w2, w3;
     if (!(ls >> w1)) continue;
     if (std::isalpha(static_cast<unsigned char>(w1[0]))) {  // the first section
-      data_section_keyword(w1, path, lineno);  // refuses any other than Atoms and Velocities
-      if (h.natoms < 0) throw InputError(where(path, lineno) + ": section '" + w1 +
-                                         "' before the 'N atoms' line of the header");
+      data_section_keyword(w1, path, lineno);               // refuses any other than Atoms and Velocities
+      if (h.natoms < 0)
+        throw InputError(where(path, lineno) + ": section '" + w1 + "' before the 'N atoms' line of the header");
       for (int k = 0; k < 3; ++k)
         if (!have_box[k]) {
           const std::string axis(1, char('x' + k));
-          throw InputError(where(path, lineno) + ": section '" + w1 + "' before the box bounds '" +
-                           axis + "lo " + axis + "hi' of the header (each of x, y, z needs a "
-                           "line 'LO HI " + axis + "lo " + axis + "hi')");
+          throw InputError(where(path, lineno) + ": section '" + w1 + "' before the box bounds '" + axis + "lo " +
+                           axis +
+                           "hi' of the header (each of x, y, z needs a "
+                           "line 'LO HI " +
+                           axis + "lo " + axis + "hi')");
         }
       h.body_offset = std::uint64_t(at);
       h.body_line = lineno;
@@ -112,8 +113,10 @@ DataHeader read_data_header(const std::string& path) {
     if (w2 == "atoms") {
       const std::optional<long long> n = whole(w1);
       if (!n || *n < 1)
-        throw InputError(where(path, lineno) + ": '" + w1 + " atoms': the atom count must be a "
-                         "whole number of at least 1, in '" + line + "'");
+        throw InputError(where(path, lineno) + ": '" + w1 +
+                         " atoms': the atom count must be a "
+                         "whole number of at least 1, in '" +
+                         line + "'");
       h.natoms = *n;
       h.natoms_line = lineno;
     } else if (w3 == "xlo" || w3 == "ylo" || w3 == "zlo") {
@@ -121,15 +124,14 @@ DataHeader read_data_header(const std::string& path) {
       h.lo[k] = number(w1);
       h.hi[k] = number(w2);
       if (!(h.hi[k] > h.lo[k]))
-        throw InputError(where(path, lineno) + ": " + w3[0] + "hi = " + w2 + " must exceed " + w3 +
-                         " = " + w1 + ", in '" + line + "'");
+        throw InputError(where(path, lineno) + ": " + w3[0] + "hi = " + w2 + " must exceed " + w3 + " = " + w1 +
+                         ", in '" + line + "'");
       have_box[k] = true;
     }
   }
   if (h.natoms < 0) throw InputError(path + ": no 'N atoms' line in the header");
   for (int k = 0; k < 3; ++k)
-    if (!have_box[k])
-      throw InputError(path + ": missing or empty box bounds along axis " + std::to_string(k + 1));
+    if (!have_box[k]) throw InputError(path + ": missing or empty box bounds along axis " + std::to_string(k + 1));
   h.body_offset = std::uint64_t(std::filesystem::file_size(path, ec));
   h.body_line = lineno + 1;
   return h;
@@ -149,13 +151,11 @@ std::string data_line_body(const std::string& line) {
   return hash == std::string::npos ? line : line.substr(0, hash);
 }
 
-SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path,
-                           int lineno) {
+SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path, int lineno) {
   const std::string body = data_line_body(line);
   double val[7];
   if (!parse_numbers(body, 7, val))
-    throw InputError(where(path, lineno) + ": expected 'id type diameter density x y z', got '" +
-                     line + "'");
+    throw InputError(where(path, lineno) + ": expected 'id type diameter density x y z', got '" + line + "'");
   const GlobalId id = parse_particle_id(first_token(body), where(path, lineno));
   const double dia = val[2], rho = val[3];
   auto bad = [&](const char* field, double v, const char* why) {
@@ -185,8 +185,7 @@ DataMotion parse_velocity_line(const std::string& line, const std::string& path,
   for (int k = 0; k < 6; ++k)
     if (!std::isfinite(val[1 + k])) {
       std::ostringstream m;
-      m << where(path, lineno) << ": particle " << id << " " << vnames[k] << " = " << val[1 + k]
-        << " is not finite";
+      m << where(path, lineno) << ": particle " << id << " " << vnames[k] << " = " << val[1 + k] << " is not finite";
       throw InputError(m.str());
     }
   return {id, Vec3(val[1], val[2], val[3]), Vec3(val[4], val[5], val[6])};
@@ -194,8 +193,7 @@ DataMotion parse_velocity_line(const std::string& line, const std::string& path,
 
 std::string data_duplicate_id(const std::string& path, int lineno, GlobalId id, bool velocities) {
   if (velocities)
-    return where(path, lineno) + ": particle " + std::to_string(id) +
-           " appears twice in the Velocities section";
+    return where(path, lineno) + ": particle " + std::to_string(id) + " appears twice in the Velocities section";
   std::ostringstream m;
   m << where(path, lineno) << ": particle " << id << " id = " << double(id) << " appears twice";
   return m.str();
@@ -204,8 +202,7 @@ std::string data_duplicate_id(const std::string& path, int lineno, GlobalId id, 
 DataFile read_lammps_data(const std::string& path) {
   const DataHeader h = read_data_header(path);
   check_memory(where(path, h.natoms_line) + ": '" + std::to_string(h.natoms) + " atoms'",
-               double(h.natoms) * kBytesPerSphere,
-               "200 B per sphere at least");
+               double(h.natoms) * kBytesPerSphere, "200 B per sphere at least");
   std::ifstream in(path, std::ios::binary);
   in.seekg(std::streamoff(h.body_offset));
   DataFile out;
@@ -216,7 +213,10 @@ DataFile read_lammps_data(const std::string& path) {
   std::string line;
   int lineno = h.body_line - 1;
   std::unordered_map<GlobalId, std::size_t> index;  // id -> particle index
-  struct Motion { Vec3 v, w; int line; };
+  struct Motion {
+    Vec3 v, w;
+    int line;
+  };
   std::unordered_map<GlobalId, Motion> motion;
   while (std::getline(in, line)) {
     ++lineno;
@@ -230,8 +230,7 @@ DataFile read_lammps_data(const std::string& path) {
       seen = true;
       // Room for the header's count, so that the arrays do not double past need (up to
       // 2^26 at once: a wrong count cannot request more than that before the data say so).
-      if (*section == DataSection::Atoms)
-        out.particles.reserve(std::size_t(std::min<long long>(h.natoms, 1ll << 26)));
+      if (*section == DataSection::Atoms) out.particles.reserve(std::size_t(std::min<long long>(h.natoms, 1ll << 26)));
       continue;
     }
     if (*section == DataSection::Atoms) {
@@ -261,15 +260,13 @@ DataFile read_lammps_data(const std::string& path) {
   return out;
 }
 
-std::string data_count_error(const std::string& path, long long natoms, long long read,
-                             bool velocities) {
-  return path + ": header says " + std::to_string(natoms) + " atoms, " +
-         (velocities ? "Velocities" : "Atoms") + " section has " + std::to_string(read);
+std::string data_count_error(const std::string& path, long long natoms, long long read, bool velocities) {
+  return path + ": header says " + std::to_string(natoms) + " atoms, " + (velocities ? "Velocities" : "Atoms") +
+      " section has " + std::to_string(read);
 }
 
 std::string data_orphan_velocity(const std::string& path, int lineno, GlobalId id) {
-  return where(path, lineno) + ": Velocities of particle " + std::to_string(id) +
-         ", which is not in the Atoms section";
+  return where(path, lineno) + ": Velocities of particle " + std::to_string(id) + ", which is not in the Atoms section";
 }
 
 }  // namespace fabrica

@@ -14,7 +14,7 @@
 namespace fabrica {
 
 struct DataFile {
-  Particles particles;  // ids as in the file
+  Particles particles;                        // ids as in the file
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // box bounds (m)
   bool has_velocities = false;
 };
@@ -42,8 +42,7 @@ enum class DataSection { Atoms, Velocities };
 DataSection data_section_keyword(const std::string& word, const std::string& path, int lineno);
 std::string data_line_body(const std::string& line);  // without its comment
 // An Atoms line: the sphere, its position relative to the box's lower corner.
-SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path,
-                           int lineno);
+SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path, int lineno);
 struct DataMotion {
   GlobalId id;
   Vec3 v, w;
@@ -51,8 +50,7 @@ struct DataMotion {
 DataMotion parse_velocity_line(const std::string& line, const std::string& path, int lineno);
 // The messages of the whole-file checks.
 std::string data_duplicate_id(const std::string& path, int lineno, GlobalId id, bool velocities);
-std::string data_count_error(const std::string& path, long long natoms, long long read,
-                             bool velocities);
+std::string data_count_error(const std::string& path, long long natoms, long long read, bool velocities);
 std::string data_orphan_velocity(const std::string& path, int lineno, GlobalId id);
 
 // Particle ids are whole numbers in [1, 2^53]: exact in a double (Python readers of run.h5) and

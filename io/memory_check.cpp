@@ -24,8 +24,7 @@ double machine_memory_bytes() {
 void check_memory(const std::string& what, double bytes, const std::string& why) {
   const double have = machine_memory_bytes();
   if (have > 0 && bytes > have)
-    throw InputError(what + ": needs at least " + gb(bytes) + " of memory (" + why + "), the machine has " +
-                     gb(have));
+    throw InputError(what + ": needs at least " + gb(bytes) + " of memory (" + why + "), the machine has " + gb(have));
 }
 
 void check_neighbour_grid(const std::string& what, const Vec3& L, real_t rmin, real_t skin) {
@@ -33,8 +32,8 @@ void check_neighbour_grid(const std::string& what, const Vec3& L, real_t rmin, r
   double cells = 1;
   for (int k = 0; k < 3; ++k) cells *= std::max(1.0, std::floor(L[k] / edge));
   char b[160];
-  std::snprintf(b, sizeof b, "a neighbour grid of %.3g cells of %.3g m for a cell of %.3g x %.3g x %.3g m",
-                cells, edge, L[0], L[1], L[2]);
+  std::snprintf(b, sizeof b, "a neighbour grid of %.3g cells of %.3g m for a cell of %.3g x %.3g x %.3g m", cells, edge,
+                L[0], L[1], L[2]);
   if (!(cells < 2147483648.0))
     throw InputError(what + ": " + b + " (more than 2^31 cells): the box is far larger than its spheres");
   check_memory(what, cells * 16, b);

@@ -36,8 +36,9 @@ constexpr hsize_t kVertexChunk = 4096;  // rows per chunk of /xdmf/vertices
 // everything else (strains, ratios, counts, coordination numbers) dimensionless "1".
 std::string series_unit(const std::string& c) {
   if (c == "time") return "s";
-  if (c == "p" || c == "q" || (c.size() == 3 && c[0] == 's' && std::isdigit(static_cast<unsigned char>(c[1])) &&
-                                std::isdigit(static_cast<unsigned char>(c[2]))))
+  if (c == "p" || c == "q" ||
+      (c.size() == 3 && c[0] == 's' && std::isdigit(static_cast<unsigned char>(c[1])) &&
+       std::isdigit(static_cast<unsigned char>(c[2]))))
     return "Pa";
   if (c == "kinetic" || c.starts_with("e_") || c.starts_with("diss_") || c == "boundary_work") return "J";
   return "1";
@@ -73,7 +74,8 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
   });
   MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
   if (exists && !overwrite)
-    throw InputError(path_ + ": the output file exists already; give --overwrite to replace it "
+    throw InputError(path_ +
+                     ": the output file exists already; give --overwrite to replace it "
                      "or choose another output directory");
   file_ = h5::File::create_parallel(path_, comm, overwrite);
   try {
@@ -100,16 +102,12 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
     if (exists) {
       try {
         const RunFileInfo ri = read_run_info(path_);
-        if (ri.scene_text != scene.text)
-          error = path_ + ": the output file holds another scene than " + scene.path;
-        else
-          verify_run_file(path_);  // every dataset's checksum, before anything is appended
-      } catch (const std::exception& e) {
-        error = e.what();
-      }
+        if (ri.scene_text != scene.text) error = path_ + ": the output file holds another scene than " + scene.path;
+        else verify_run_file(path_);  // every dataset's checksum, before anything is appended
+      } catch (const std::exception& e) { error = e.what(); }
       if (!error.empty())
         error = "cannot continue the output file of the restarted run: " + error +
-                "; move it aside (a new run.h5 is then written from the restart on) and run again";
+            "; move it aside (a new run.h5 is then written from the restart on) and run again";
     }
   }
   int len = int(error.size());
@@ -136,8 +134,7 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
 }
 
-void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& cases,
-                             std::size_t current) {
+void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& cases, std::size_t current) {
   const auto t0 = clock_type::now();
   // Every rank makes the same calls in the same order (HDF5 metadata operations are collective).
   auto order = [&](const std::string& c) {  // the case's place relative to the current one
@@ -208,12 +205,10 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
       const std::int64_t m = sg.exists("contacts/ends") ? sg.attr_int("contacts") : 0;
       entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles"), m});
     }
-    std::sort(entries.begin(), entries.end(),
-              [](const XmfEntry& a, const XmfEntry& b) { return a.step < b.step; });
+    std::sort(entries.begin(), entries.end(), [](const XmfEntry& a, const XmfEntry& b) { return a.step < b.step; });
     xmf_.insert(xmf_.end(), entries.begin(), entries.end());
   }
-  if (file_.exists(layout::kVertexIndex))
-    vertices_ = std::int64_t(file_.open_dataset(layout::kVertexIndex).shape()[0]);
+  if (file_.exists(layout::kVertexIndex)) vertices_ = std::int64_t(file_.open_dataset(layout::kVertexIndex).shape()[0]);
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
   flush();
 }
@@ -265,8 +260,8 @@ RunOutput::~RunOutput() {
   }
 }
 
-void RunOutput::series_row(const std::string& case_name, const std::string& csv_header,
-                           const std::string& stage, std::int64_t step, std::span<const double> values) {
+void RunOutput::series_row(const std::string& case_name, const std::string& csv_header, const std::string& stage,
+                           std::int64_t step, std::span<const double> values) {
   SeriesBuffer& b = series_[case_name];
   if (b.header.empty()) {
     for (const std::string& c : split_csv(csv_header)) {
@@ -277,8 +272,8 @@ void RunOutput::series_row(const std::string& case_name, const std::string& csv_
     b.values.resize(b.columns.size());
   }
   if (values.size() != b.columns.size())
-    throw std::logic_error("RunOutput::series_row: " + std::to_string(values.size()) +
-                           " values for " + std::to_string(b.columns.size()) + " columns");
+    throw std::logic_error("RunOutput::series_row: " + std::to_string(values.size()) + " values for " +
+                           std::to_string(b.columns.size()) + " columns");
   b.step.push_back(step);
   if (b.has_stage) {
     auto it = std::find(b.labels.begin(), b.labels.end(), stage);
@@ -304,7 +299,8 @@ void RunOutput::flush_series() {
     if (!b.created) {
       g.set_attr("columns", b.header);
       g.create_dataset("step", h5::Type::I64, 0, 0, kSeriesChunk).set_attr("unit", std::string("1"));
-      if (b.has_stage) g.create_dataset("stage", h5::Type::U8, 0, 0, kSeriesChunk).set_attr("unit", std::string("code"));
+      if (b.has_stage)
+        g.create_dataset("stage", h5::Type::U8, 0, 0, kSeriesChunk).set_attr("unit", std::string("code"));
       for (const std::string& c : b.columns)
         g.create_dataset(c, h5::Type::F64, 0, 0, kSeriesChunk).set_attr("unit", series_unit(c));
       b.created = true;
@@ -350,13 +346,11 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   // refused before anything of it is written, and the file keeps every earlier snapshot.
   // The XDMF connectivity grows by whole chunks of kVertexChunk rows of 8 bytes.
   const auto chunks = [](double rows, double per) { return std::ceil(rows / per); };
-  const double vertex_bytes =
-      std::int64_t(np) > vertices_
-          ? (chunks(double(np), kVertexChunk) - chunks(double(vertices_), kVertexChunk)) * kVertexChunk * 8
-          : 0.0;
+  const double vertex_bytes = std::int64_t(np) > vertices_
+      ? (chunks(double(np), kVertexChunk) - chunks(double(vertices_), kVertexChunk)) * kVertexChunk * 8
+      : 0.0;
   agree(comm_, [&] {
-    if (rank_ == 0)
-      check_room(path_, 1.25 * (double(np) * 112 + double(nc) * 130) + vertex_bytes + 24576);
+    if (rank_ == 0) check_room(path_, 1.25 * (double(np) * 112 + double(nc) * 130) + vertex_bytes + 24576);
   });
   h5::Group g = file_.create_group(gp);
   const Vec3 L = sim.cell().lengths();
@@ -404,8 +398,8 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   flush();
 }
 
-void RunOutput::link_snapshots(const std::string& source_case, const std::string& case_name,
-                               std::int64_t first_step, std::int64_t last_step) {
+void RunOutput::link_snapshots(const std::string& source_case, const std::string& case_name, std::int64_t first_step,
+                               std::int64_t last_step) {
   const auto t0 = clock_type::now();
   mark_failure([&] {
     std::vector<XmfEntry> linked;

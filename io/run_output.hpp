@@ -50,8 +50,8 @@ class RunOutput {
   // (its columns name the datasets; "stage" and "step" are stored apart); 'stage' is the
   // row's value of the stage column ("" if the header has none); 'values' are the remaining
   // columns in header order. Rows are buffered and appended at the next snapshot or flush().
-  void series_row(const std::string& case_name, const std::string& csv_header,
-                  const std::string& stage, std::int64_t step, std::span<const double> values);
+  void series_row(const std::string& case_name, const std::string& csv_header, const std::string& stage,
+                  std::int64_t step, std::span<const double> values);
 
   std::int64_t snapshot_every() const { return every_; }
   bool snapshot_due(std::int64_t step) const { return step % every_ == 0; }
@@ -61,8 +61,8 @@ class RunOutput {
   // The snapshots of 'source_case' with a step in (first_step, last_step] also become snapshots
   // of 'case_name' (the same steps), as HDF5 hard links: stored once, read through either path.
   // For a stage that two cases share (apps/stage_record.hpp).
-  void link_snapshots(const std::string& source_case, const std::string& case_name,
-                      std::int64_t first_step, std::int64_t last_step);
+  void link_snapshots(const std::string& source_case, const std::string& case_name, std::int64_t first_step,
+                      std::int64_t last_step);
 
   // A restart from a checkpoint taken at 'step' in case cases[current] ('cases': every case of
   // the run in the order it writes them): removes the series rows with a step after 'step' and
@@ -80,8 +80,8 @@ class RunOutput {
   // full) is not reported again; the file keeps what the last successful flush wrote.
   void close_after_error();
 
-  double seconds() const { return seconds_; }    // wall time spent in output so far
-  double bytes() const { return bytes_; }        // bytes of data written so far (all ranks)
+  double seconds() const { return seconds_; }  // wall time spent in output so far
+  double bytes() const { return bytes_; }      // bytes of data written so far (all ranks)
   std::int64_t snapshots() const { return std::int64_t(xmf_.size()); }
   const std::string& path() const { return path_; }
 
@@ -89,7 +89,7 @@ class RunOutput {
   struct SeriesBuffer {
     std::vector<std::string> columns;  // value columns
     bool has_stage = false;
-    std::vector<std::string> labels;   // stage names, code = index
+    std::vector<std::string> labels;  // stage names, code = index
     std::vector<std::int64_t> step;
     std::vector<std::uint8_t> stage;
     std::vector<std::vector<double>> values;  // per column, pending rows
@@ -107,7 +107,8 @@ class RunOutput {
   void write_header(const Scene& scene);
   void write_snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
   void flush_all();
-  void mark_failure(const std::function<void()>& f);  // failed_ = true if f throws  // version attributes, /scene, empty groups
+  void mark_failure(
+      const std::function<void()>& f);  // failed_ = true if f throws  // version attributes, /scene, empty groups
   void flush_series();
   void write_xmf() const;
 

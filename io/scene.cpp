@@ -28,8 +28,7 @@ class Section {
   Section(const toml::table* t, std::string file, std::string name)
       : t_(t), file_(std::move(file)), name_(std::move(name)) {}
 
-  [[noreturn]] void fail(const std::string& key, const std::string& value,
-                         const std::string& why) const {
+  [[noreturn]] void fail(const std::string& key, const std::string& value, const std::string& why) const {
     throw InputError(file_ + ": [" + name_ + "] " + key + " = " + value + ": " + why);
   }
 
@@ -128,26 +127,34 @@ void require(Section& s, const std::string& key, real_t v, bool ok, const std::s
 // restitution_normal / restitution_shear of a [contact] (or [[wall]]) table, converted to the
 // damping ratios of the law (core/restitution.hpp); refused together with a damping key.
 void parse_restitution(Section& s, ContactLawParams& law) {
-  struct Key { const char* e; const char* ratio; const char* rate; real_t* beta; real_t* eta; bool normal; };
-  const Key keys[2] = {
-      {"restitution_normal", "damping_ratio_normal", "damping_rate_normal", &law.damping_ratio_n, &law.damping_rate_n, true},
-      {"restitution_shear", "damping_ratio_shear", "damping_rate_shear", &law.damping_ratio_s, &law.damping_rate_s, false}};
+  struct Key {
+    const char* e;
+    const char* ratio;
+    const char* rate;
+    real_t* beta;
+    real_t* eta;
+    bool normal;
+  };
+  const Key keys[2] = {{"restitution_normal", "damping_ratio_normal", "damping_rate_normal", &law.damping_ratio_n,
+                        &law.damping_rate_n, true},
+                       {"restitution_shear", "damping_ratio_shear", "damping_rate_shear", &law.damping_ratio_s,
+                        &law.damping_rate_s, false}};
   for (const Key& k : keys) {
     const auto e = s.number(k.e);
     if (!e) continue;
     if (s.has(k.ratio) || s.has(k.rate))
-      s.fail(k.e, number_text(*e, 10), std::string("give ") + k.e + " or " + (s.has(k.ratio) ? k.ratio : k.rate) + ", not both");
+      s.fail(k.e, number_text(*e, 10),
+             std::string("give ") + k.e + " or " + (s.has(k.ratio) ? k.ratio : k.rate) + ", not both");
     require(s, k.e, *e, *e > 0 && *e <= 1, "must lie in (0, 1] (a coefficient of restitution)");
     if (law.model == ContactModel::HertzMindlin)
       *k.beta = k.normal ? hertz_damping_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
-    else
-      *k.beta = k.normal ? damping_ratio_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
+    else *k.beta = k.normal ? damping_ratio_for_restitution(*e) : shear_damping_ratio_for_restitution(*e);
     *k.eta = 0;
   }
   // Hertz-Mindlin without restitution_shear nor damping_ratio_shear: the tangential dashpot
   // has the normal one's beta (LIGGGHTS, Tsuji et al. 1992).
-  if (law.model == ContactModel::HertzMindlin && s.has("restitution_normal") &&
-      !s.has("restitution_shear") && !s.has("damping_ratio_shear"))
+  if (law.model == ContactModel::HertzMindlin && s.has("restitution_normal") && !s.has("restitution_shear") &&
+      !s.has("damping_ratio_shear"))
     law.damping_ratio_s = law.damping_ratio_n;
 }
 
@@ -187,8 +194,7 @@ bool parse_law_numbers(Section& s, const toml::table* t, ContactLawParams& law, 
   bool given = false;
   for (const LawParameter& p : kLawParameters) {
     if (!p.key || (wall && !p.wall)) continue;
-    if (p.model != ForModel::Any &&
-        (p.model == ForModel::HertzMindlin) != (law.model == ContactModel::HertzMindlin))
+    if (p.model != ForModel::Any && (p.model == ForModel::HertzMindlin) != (law.model == ContactModel::HertzMindlin))
       continue;  // refused above if given
     const auto v = s.number(p.key);
     if (!v) continue;
@@ -231,13 +237,15 @@ void parse_walls(const toml::node* node, const std::string& path, Scene& sc) {
     w.law = sc.law;
     const auto point = W.vec3("point"), normal = W.vec3("normal");
     if (!point) W.fail("point", "(missing)", "a wall needs a point of its plane [x, y, z] (m)");
-    if (!normal) W.fail("normal", "(missing)", "a wall needs its normal [nx, ny, nz], pointing into the granular domain");
+    if (!normal)
+      W.fail("normal", "(missing)", "a wall needs its normal [nx, ny, nz], pointing into the granular domain");
     const std::string ntext = Section::node_text(*t->get("normal"));
     int axes = 0;
     for (int c = 0; c < 3; ++c) axes += (*normal)[c] != 0;
     if (axes == 0) W.fail("normal", ntext, "must be a non-zero vector");
     if (axes != 1)
-      W.fail("normal", ntext, "must be parallel to a cell axis (the cell is periodic along every axis; "
+      W.fail("normal", ntext,
+             "must be parallel to a cell axis (the cell is periodic along every axis; "
              "for an incline, tilt [run] gravity instead)");
     w.point = *point;
     w.normal = normal->normalized();
@@ -256,8 +264,7 @@ void parse_walls(const toml::node* node, const std::string& path, Scene& sc) {
       require(W, "max_speed", w.max_speed, w.max_speed > 0 || !W.has("max_speed"), "must be positive (m/s)");
     } else {
       for (const char* key : {"servo_relaxation", "max_speed"})
-        if (W.has(key))
-          W.fail(key, Section::node_text(*t->get(key)), "is a setting of the servo: give pressure too");
+        if (W.has(key)) W.fail(key, Section::node_text(*t->get(key)), "is a setting of the servo: give pressure too");
     }
     parse_wall_law(W, t, w);
     W.reject_unknown();
@@ -291,8 +298,8 @@ void parse_driven(const toml::node* node, const std::string& path, Scene& sc) {
     const toml::node* n = t->get(key);
     const toml::array* ids = n->as_array();
     if (!ids || ids->empty() || (!has_ids && ids->size() != 2))
-      D.fail(key, Section::node_text(*n), has_ids ? "must be a non-empty array of particle ids"
-                                                  : "must be [first, last], two particle ids");
+      D.fail(key, Section::node_text(*n),
+             has_ids ? "must be a non-empty array of particle ids" : "must be [first, last], two particle ids");
     std::vector<GlobalId> v;
     for (const toml::node& e : *ids) {
       if (!e.is_integer() || *e.value<std::int64_t>() < 0)
@@ -311,9 +318,10 @@ void parse_driven(const toml::node* node, const std::string& path, Scene& sc) {
     d.velocity = D.vec3("velocity").value_or(Vec3::Zero());
     d.spin = D.vec3("spin").value_or(Vec3::Zero());
     if (!(d.velocity.isZero() && d.spin.isZero()) && sc.local_damping > 0)
-      D.fail(D.has("velocity") ? "velocity" : "spin", Section::node_text(*t->get(D.has("velocity") ? "velocity" : "spin")),
+      D.fail(D.has("velocity") ? "velocity" : "spin",
+             Section::node_text(*t->get(D.has("velocity") ? "velocity" : "spin")),
              "a moving driven particle is not damped, but [run] local_damping = " + number_text(sc.local_damping, 10) +
-             " would book its damping as dissipated; use local_damping = 0 or hold them fixed");
+                 " would book its damping as dissipated; use local_damping = 0 or hold them fixed");
     D.reject_unknown();
     for (std::size_t j = 0; j < sc.driven.size(); ++j) {  // each particle in one set at most
       const DrivenSet& o = sc.driven[j];
@@ -324,11 +332,14 @@ void parse_driven(const toml::node* node, const std::string& path, Scene& sc) {
         const DrivenSet& list = d.ids.empty() ? o : d;
         const DrivenSet& other = d.ids.empty() ? d : o;
         for (GlobalId id : list.ids)
-          if (other.contains(id)) { shared = id; break; }
+          if (other.contains(id)) {
+            shared = id;
+            break;
+          }
       }
       if (shared >= 0)
-        D.fail(key, Section::node_text(*n), "names particle " + std::to_string(shared) +
-               " of [driven #" + std::to_string(j + 1) + "] too");
+        D.fail(key, Section::node_text(*n),
+               "names particle " + std::to_string(shared) + " of [driven #" + std::to_string(j + 1) + "] too");
     }
     sc.driven.push_back(d);
   }
@@ -348,11 +359,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       << ": TOML syntax error: " << e.description();
     throw InputError(m.str());
   }
-  static const std::set<std::string> tables = {"particles", "cell", "contact", "compress", "run",
-                                               "triaxial", "parallel", "fabric"};
+  static const std::set<std::string> tables = {"particles", "cell",     "contact",  "compress",
+                                               "run",       "triaxial", "parallel", "fabric"};
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
-    if (key == "stage") continue;  // [[stage]]: io/stage_parse.cpp, below
+    if (key == "stage") continue;                    // [[stage]]: io/stage_parse.cpp, below
     if (key == "wall" || key == "driven") continue;  // [[wall]], [[driven]]: parse_walls, parse_driven
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
@@ -387,8 +398,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (auto n = P.integer("count")) g.count = *n;
   if (g.count < 2) P.fail("count", std::to_string(g.count), "must be at least 2");
   g.fractal_dimension = P.number("fractal_dimension", g.fractal_dimension);
-  require(P, "fractal_dimension", g.fractal_dimension,
-          g.fractal_dimension > 0 && g.fractal_dimension < 3, "must lie in (0, 3)");
+  require(P, "fractal_dimension", g.fractal_dimension, g.fractal_dimension > 0 && g.fractal_dimension < 3,
+          "must lie in (0, 3)");
   g.d_min = P.number("d_min", g.d_min);
   require(P, "d_min", g.d_min, g.d_min >= kMinDiameter && g.d_min <= kMaxDiameter,
           "must be positive and lie in [1e-09, 1000] m (a sphere diameter in metres)");
@@ -403,13 +414,14 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(P, "solid_fraction", g.solid_fraction, g.solid_fraction > 0 && g.solid_fraction < 0.5,
           "must lie in (0, 0.5) for a random loose placement");
   if (auto a = P.vec3("aspect")) {
-    if (!(a->minCoeff() > 0)) P.fail("aspect", Section::node_text(*table("particles")->get("aspect")), "must be positive");
+    if (!(a->minCoeff() > 0))
+      P.fail("aspect", Section::node_text(*table("particles")->get("aspect")), "must be positive");
     g.aspect = *a;
   }
   // Default: sequential below kRegionsFrom spheres (the study's specimens, unchanged), regions
   // from there on (no rank makes the whole specimen).
-  g.placement = g.count >= GenerateSpec::kRegionsFrom ? GenerateSpec::Placement::Regions
-                                                      : GenerateSpec::Placement::Sequential;
+  g.placement =
+      g.count >= GenerateSpec::kRegionsFrom ? GenerateSpec::Placement::Regions : GenerateSpec::Placement::Sequential;
   if (auto pl = P.string("placement")) {
     if (*pl == "sequential") g.placement = GenerateSpec::Placement::Sequential;
     else if (*pl == "regions") g.placement = GenerateSpec::Placement::Regions;
@@ -433,14 +445,17 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (const auto m = K.string("model")) {
     if (*m == "linear") law.model = ContactModel::Linear;
     else if (*m == "hertz_mindlin") law.model = ContactModel::HertzMindlin;
-    else K.fail("model", "\"" + *m + "\"", "must be \"linear\" or \"hertz_mindlin\" (docs/scene.md, \"Contact models\")");
+    else
+      K.fail("model", "\"" + *m + "\"", "must be \"linear\" or \"hertz_mindlin\" (docs/scene.md, \"Contact models\")");
   }
   if (const auto m = K.string("rolling_model")) {
     if (*m == "elastic_plastic") law.rolling_model = RollingModel::ElasticPlastic;
     else if (*m == "epsd") law.rolling_model = RollingModel::Epsd;
     else if (*m == "constant_torque") law.rolling_model = RollingModel::ConstantTorque;
-    else K.fail("rolling_model", "\"" + *m + "\"",
-                "must be \"elastic_plastic\", \"epsd\" or \"constant_torque\" (docs/scene.md, \"Rolling resistance models\")");
+    else
+      K.fail(
+          "rolling_model", "\"" + *m + "\"",
+          "must be \"elastic_plastic\", \"epsd\" or \"constant_torque\" (docs/scene.md, \"Rolling resistance models\")");
   }
   parse_law_numbers(K, table("contact"), law, false);
   parse_restitution(K, law);
@@ -463,8 +478,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (auto s = R.integer("steps")) sc.steps = *s;
   if (sc.steps < 0) R.fail("steps", std::to_string(sc.steps), "must be >= 0");
   sc.time_step_fraction = R.number("time_step_fraction", sc.time_step_fraction);
-  require(R, "time_step_fraction", sc.time_step_fraction, sc.time_step_fraction > 0,
-          "must be positive");
+  require(R, "time_step_fraction", sc.time_step_fraction, sc.time_step_fraction > 0, "must be positive");
   if (auto dt = R.number("time_step")) {
     if (R.has("time_step_fraction"))
       R.fail("time_step", number_text(*dt, 10), "give time_step or time_step_fraction, not both");
@@ -484,24 +498,20 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   require(R, "kinetic_runaway", sc.kinetic_runaway, sc.kinetic_runaway >= 1,
           "must be >= 1 (a multiple of the energy put into the system)");
   sc.max_initial_overlap = R.number("max_initial_overlap", sc.max_initial_overlap);
-  require(R, "max_initial_overlap", sc.max_initial_overlap,
-          sc.max_initial_overlap > 0 && sc.max_initial_overlap <= 1,
+  require(R, "max_initial_overlap", sc.max_initial_overlap, sc.max_initial_overlap > 0 && sc.max_initial_overlap <= 1,
           "must lie in (0, 1] (fraction of the smaller radius)");
   sc.density_scaling = R.number("density_scaling", sc.density_scaling);
   require(R, "density_scaling", sc.density_scaling, sc.density_scaling > 0, "must be positive");
   sc.local_damping = R.number("local_damping", sc.local_damping);
-  require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1,
-          "must lie in [0, 1)");
+  require(R, "local_damping", sc.local_damping, sc.local_damping >= 0 && sc.local_damping < 1, "must lie in [0, 1)");
   if (auto k = R.integer("snapshot_every")) sc.snapshot_every = *k;
-  if (sc.snapshot_every <= 0)
-    R.fail("snapshot_every", std::to_string(sc.snapshot_every), "must be positive");
+  if (sc.snapshot_every <= 0) R.fail("snapshot_every", std::to_string(sc.snapshot_every), "must be positive");
   sc.hdf5 = R.boolean("hdf5").value_or(sc.hdf5);
   if (auto c = R.integer("checkpoint_every")) sc.checkpoint_every = *c;
   if (sc.checkpoint_every < 0)
     R.fail("checkpoint_every", std::to_string(sc.checkpoint_every), "must be >= 0 (0 = off)");
   sc.checkpoint_seconds = R.number("checkpoint_seconds", sc.checkpoint_seconds);
-  require(R, "checkpoint_seconds", sc.checkpoint_seconds, sc.checkpoint_seconds >= 0,
-          "must be >= 0 (0 = off)");
+  require(R, "checkpoint_seconds", sc.checkpoint_seconds, sc.checkpoint_seconds >= 0, "must be >= 0 (0 = off)");
   R.reject_unknown();
 
   Section T(table("triaxial"), path, "triaxial");
@@ -518,7 +528,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (eq != "case" && eq != "common" && eq != "none")
     T.fail("equilibration", "\"" + eq + "\"", "must be \"case\", \"common\" or \"none\"");
   tx.equilibration = eq == "common" ? TriaxialSpec::Equilibration::Common
-                     : eq == "none" ? TriaxialSpec::Equilibration::None
+      : eq == "none"                ? TriaxialSpec::Equilibration::None
                                     : TriaxialSpec::Equilibration::Case;
   const bool gains_given = T.has("servo_gain") || T.has("servo_integral_gain");
   const std::string servo = T.string("servo").value_or(gains_given ? "gains" : "stiffness");
@@ -536,8 +546,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   tx.servo_integral_gain = T.number("servo_integral_gain", tx.servo_integral_gain);
   require(T, "servo_integral_gain", tx.servo_integral_gain, tx.servo_integral_gain >= 0, "must be >= 0");
   tx.servo_relaxation = T.number("servo_relaxation", tx.servo_relaxation);
-  require(T, "servo_relaxation", tx.servo_relaxation,
-          tx.servo_relaxation > 0 && tx.servo_relaxation <= 0.5, "must lie in (0, 0.5]");
+  require(T, "servo_relaxation", tx.servo_relaxation, tx.servo_relaxation > 0 && tx.servo_relaxation <= 0.5,
+          "must lie in (0, 0.5]");
   tx.servo_integral_relaxation = T.number("servo_integral_relaxation", tx.servo_integral_relaxation);
   require(T, "servo_integral_relaxation", tx.servo_integral_relaxation,
           tx.servo_integral_relaxation >= 0 && tx.servo_integral_relaxation <= tx.servo_relaxation,
@@ -552,7 +562,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   positive("axial_strain", tx.axial_strain);
   require(T, "axial_strain", tx.axial_strain, tx.axial_strain < 1, "must be below 1");
   tx.preparation_damping = T.number("preparation_damping", tx.preparation_damping);
-  require(T, "preparation_damping", tx.preparation_damping, tx.preparation_damping >= 0 && tx.preparation_damping < 1, "must lie in [0, 1)");
+  require(T, "preparation_damping", tx.preparation_damping, tx.preparation_damping >= 0 && tx.preparation_damping < 1,
+          "must lie in [0, 1)");
   tx.shear_damping = T.number("shear_damping", tx.shear_damping);
   require(T, "shear_damping", tx.shear_damping, tx.shear_damping >= 0 && tx.shear_damping < 1, "must lie in [0, 1)");
   if (auto k = T.integer("max_stage_steps")) tx.max_stage_steps = *k;
@@ -561,7 +572,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (T.has("rolling_friction_cases")) {
     const toml::node* n = table("triaxial")->get("rolling_friction_cases");
     const toml::array* a = n->as_array();
-    if (!a || a->empty()) T.fail("rolling_friction_cases", Section::node_text(*n), "must be a non-empty array of numbers");
+    if (!a || a->empty())
+      T.fail("rolling_friction_cases", Section::node_text(*n), "must be a non-empty array of numbers");
     for (const toml::node& e : *a) {
       const std::optional<double> v = e.value<double>();
       if (!v || e.is_boolean() || !std::isfinite(*v) || *v < 0)
@@ -575,16 +587,19 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
                      ": not used with [triaxial], which runs until [triaxial] axial_strain; remove it");
   if (tx.enabled && cp.enabled)
-    throw InputError(path + ": [compress] and [triaxial] both given: the triaxial test consolidates "
+    throw InputError(path +
+                     ": [compress] and [triaxial] both given: the triaxial test consolidates "
                      "the specimen itself; remove [compress]");
 
   // The loading stages ([[stage]], io/stage_parse.cpp): one protocol per scene.
   sc.stages = parse_stages(root.get("stage"), path);
   if (!sc.stages.empty() && tx.enabled)
-    throw InputError(path + ": [[stage]] and [triaxial] both given: [triaxial] is the study's "
+    throw InputError(path +
+                     ": [[stage]] and [triaxial] both given: [triaxial] is the study's "
                      "protocol as stages (docs/triaxial.md); give one of them");
   if (!sc.stages.empty() && cp.enabled)
-    throw InputError(path + ": [[stage]] and [compress] both given: prepare the specimen with a "
+    throw InputError(path +
+                     ": [[stage]] and [compress] both given: prepare the specimen with a "
                      "stage (type = \"isotropic\"); remove [compress]");
   if (!sc.stages.empty() && R.has("steps"))
     throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
@@ -602,8 +617,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (ps.rebalance_interval <= 0)
     M.fail("rebalance_interval", std::to_string(ps.rebalance_interval), "must be positive");
   ps.cut = M.string("cut").value_or(ps.cut);
-  if (ps.cut != "work" && ps.cut != "even")
-    M.fail("cut", "\"" + ps.cut + "\"", "must be \"work\" or \"even\"");
+  if (ps.cut != "work" && ps.cut != "even") M.fail("cut", "\"" + ps.cut + "\"", "must be \"work\" or \"even\"");
   M.reject_unknown();
 
   Section F(table("fabric"), path, "fabric");
@@ -619,18 +633,19 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   parse_driven(root.get("driven"), path, sc);
   // The stages strain the cell, which walls and driven particles do not follow (as [triaxial]).
   if (!sc.stages.empty() && !sc.walls.empty())
-    throw InputError(path + ": [[stage]] and [[wall]] both given: the stages deform the periodic "
+    throw InputError(path +
+                     ": [[stage]] and [[wall]] both given: the stages deform the periodic "
                      "cell and the walls would not follow it; remove one of them");
   if (!sc.stages.empty() && !sc.driven.empty())
-    throw InputError(path + ": [[stage]] and [[driven]] both given: the stages deform the periodic "
+    throw InputError(path +
+                     ": [[stage]] and [[driven]] both given: the stages deform the periodic "
                      "cell and the driven particles would not follow it; remove one of them");
   return sc;
 }
 
 Scene load_scene(const std::string& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(path + ": is a directory, not a scene file (TOML)");
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": is a directory, not a scene file (TOML)");
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   const int err = errno;  // what open(2) said: no such file, permission denied (a directory that cannot be entered)

@@ -29,8 +29,8 @@ struct GenerateSpec {
   real_t d_min = 0.010;            // m
   real_t d_max = 0.060;            // m
   std::uint64_t seed = 1;
-  real_t solid_fraction = 0.30;    // of the initial (loose) cloud
-  Vec3 aspect = Vec3(2, 1, 1);     // cell length ratios (axis 1 = loading axis)
+  real_t solid_fraction = 0.30;  // of the initial (loose) cloud
+  Vec3 aspect = Vec3(2, 1, 1);   // cell length ratios (axis 1 = loading axis)
   // "sequential": one random sequential addition over the whole cell (the study's specimens;
   // every rank makes the whole specimen); "regions": region by region (core/region_packing.hpp),
   // each rank only its share, the same specimen on any rank count. Without the key:
@@ -47,7 +47,7 @@ struct CompressSpec {
   real_t target_pressure = 100e3;  // Pa
   real_t strain_rate = -1.0;       // 1/s, negative = compression
   std::int64_t max_steps = 1000000;
-  real_t friction = 0.0;           // mu_s while compressing (a lower value packs denser)
+  real_t friction = 0.0;  // mu_s while compressing (a lower value packs denser)
 };
 
 // The periodic triaxial test of shared/spec/reference-problem.md section 4: servo-controlled
@@ -70,28 +70,28 @@ struct TriaxialSpec {
   // servo = "stiffness": each servo interval corrects this fraction of the stress error, with
   // the gain derived from the specimen's stiffness (re-measured at every servo update), and the
   // integral fraction of the summed past errors.
-  real_t servo_relaxation = 0.5;           // (0, 0.5]
-  real_t servo_integral_relaxation = 0.05; // [0, servo_relaxation]
+  real_t servo_relaxation = 0.5;            // (0, 0.5]
+  real_t servo_integral_relaxation = 0.05;  // [0, servo_relaxation]
   // servo = "gains": a PI controller of each servo-controlled axis' strain rate on its relative
   // stress error e = (sigma_ii - target) / target: edot_i = gain e + integral_gain int e dt.
-  real_t servo_gain = 4.0;              // 1/s
-  real_t servo_integral_gain = 2000.0;  // 1/s^2
-  real_t max_strain_rate = 1.0;         // 1/s, cap of the servo's strain rates
-  real_t stress_tolerance = 0.005;      // relative, to end consolidation / re-equilibration
-  real_t unbalanced_tolerance = 1e-4;   // unbalanced-force ratio to end them
-  std::int64_t servo_interval = 2;      // steps between stress measurements of the servo (5 with
-                                        // servo = "gains", the interval its gains were tuned at)
-  real_t axial_strain_rate = 0.5;       // 1/s, compression of axis 1 during shear
-  real_t axial_strain = 0.25;           // eps_1 at the end of shear
-  real_t preparation_damping = 0.7;     // local damping alpha while consolidating / equilibrating
-  real_t shear_damping = 0.0;           // alpha during shear
-  std::int64_t max_stage_steps = 2000000;  // a stage that does not converge ends the run
+  real_t servo_gain = 4.0;                     // 1/s
+  real_t servo_integral_gain = 2000.0;         // 1/s^2
+  real_t max_strain_rate = 1.0;                // 1/s, cap of the servo's strain rates
+  real_t stress_tolerance = 0.005;             // relative, to end consolidation / re-equilibration
+  real_t unbalanced_tolerance = 1e-4;          // unbalanced-force ratio to end them
+  std::int64_t servo_interval = 2;             // steps between stress measurements of the servo (5 with
+                                               // servo = "gains", the interval its gains were tuned at)
+  real_t axial_strain_rate = 0.5;              // 1/s, compression of axis 1 during shear
+  real_t axial_strain = 0.25;                  // eps_1 at the end of shear
+  real_t preparation_damping = 0.7;            // local damping alpha while consolidating / equilibrating
+  real_t shear_damping = 0.0;                  // alpha during shear
+  std::int64_t max_stage_steps = 2000000;      // a stage that does not converge ends the run
   std::vector<real_t> rolling_friction_cases;  // a sweep over mu_r (empty: [contact] value)
-  real_t progress_seconds = 5.0;        // a progress line at most this often
+  real_t progress_seconds = 5.0;               // a progress line at most this often
   // The servo keys above as the stages take them (apps/triaxial_stages.hpp).
   ServoSettings servo_settings() const {
-    return {servo, servo_relaxation, servo_integral_relaxation, servo_gain, servo_integral_gain,
-            max_strain_rate, servo_interval, stress_tolerance, unbalanced_tolerance};
+    return {servo,           servo_relaxation, servo_integral_relaxation, servo_gain,          servo_integral_gain,
+            max_strain_rate, servo_interval,   stress_tolerance,          unbalanced_tolerance};
   }
 };
 
@@ -106,8 +106,8 @@ struct ParallelSpec {
 // Fabric analysis of the contact sub-networks (core/fabric.hpp, docs/fabric.md) at the output
 // rows of a triaxial test's shear stage and at the end of consolidation.
 struct FabricSpec {
-  bool enabled = true;       // used by [triaxial] and [[stage]] scenes
-  real_t strong_ratio = 1.0; // strong contact: f_n > strong_ratio * mean f_n (> 0)
+  bool enabled = true;          // used by [triaxial] and [[stage]] scenes
+  real_t strong_ratio = 1.0;    // strong contact: f_n > strong_ratio * mean f_n (> 0)
   std::int64_t rose_bins = 36;  // rose diagram bins over [0, pi) (1 .. 3600)
 };
 
@@ -119,37 +119,37 @@ struct WallSpec {
   Vec3 velocity = Vec3::Zero();  // m/s
   // Servo control (pressure > 0, core/wall_servo.hpp): the wall moves along its normal to keep
   // the spheres' push on it at pressure x the cell's cross-section.
-  real_t pressure = 0;           // Pa
-  real_t servo_relaxation = 0.5; // fraction of the force error one step corrects, (0, 1)
-  real_t max_speed = 0;          // m/s; 0: 1e-3 of the smallest radius per time step
-  bool own_law = false;          // some [contact] key given in the wall's table
-  ContactLawParams law;          // the scene's law with the wall's keys
+  real_t pressure = 0;            // Pa
+  real_t servo_relaxation = 0.5;  // fraction of the force error one step corrects, (0, 1)
+  real_t max_speed = 0;           // m/s; 0: 1e-3 of the smallest radius per time step
+  bool own_law = false;           // some [contact] key given in the wall's table
+  ContactLawParams law;           // the scene's law with the wall's keys
 };
 
 struct Scene {
-  std::string path;               // the scene file ("<built-in demo>" for the default)
-  std::string text;               // the scene file's text, kept for the output
+  std::string path;  // the scene file ("<built-in demo>" for the default)
+  std::string text;  // the scene file's text, kept for the output
   ParticleSource source = ParticleSource::Generate;
   GenerateSpec generate;
   real_t density = 2650;          // kg/m^3 (generated spheres)
   std::string data_file;          // resolved path (source = file)
   std::optional<Vec3> cell_size;  // m; for a data file, the box in the file by default
   ContactLawParams law;
-  real_t local_damping = 0;       // alpha
+  real_t local_damping = 0;  // alpha
   CompressSpec compress;
   std::int64_t steps = 1000;
   real_t time_step_fraction = 0.25;
   std::optional<real_t> time_step;  // s; overrides the fraction when given
   bool force_time_step = false;
-  real_t skin = 0.001;            // m
+  real_t skin = 0.001;  // m
   std::int64_t output_every = 100;
-  Vec3 gravity = Vec3::Zero();    // m/s^2
-  real_t max_overlap = 1.0;       // stop when an overlap exceeds this fraction of the smaller radius
+  Vec3 gravity = Vec3::Zero();          // m/s^2
+  real_t max_overlap = 1.0;             // stop when an overlap exceeds this fraction of the smaller radius
   std::int64_t snapshot_every = 10000;  // steps between HDF5 snapshots (docs/output.md)
-  bool hdf5 = true;               // write OUT/run.h5 and OUT/run.xmf
-  real_t kinetic_runaway = 1.5;   // stop when kinetic (or stored + dissipated) energy > this x the energy put in (>= 1)
-  real_t max_initial_overlap = 0.2;  // refuse an initial overlap above this fraction of the smaller radius
-  real_t density_scaling = 1.0;   // masses and moments of inertia multiplied by this (> 0)
+  bool hdf5 = true;                     // write OUT/run.h5 and OUT/run.xmf
+  real_t kinetic_runaway = 1.5;  // stop when kinetic (or stored + dissipated) energy > this x the energy put in (>= 1)
+  real_t max_initial_overlap = 0.2;   // refuse an initial overlap above this fraction of the smaller radius
+  real_t density_scaling = 1.0;       // masses and moments of inertia multiplied by this (> 0)
   std::int64_t checkpoint_every = 0;  // steps between checkpoints (0 = none by count)
   real_t checkpoint_seconds = 600;    // s of wall-clock time between checkpoints (0 = none by time)
   TriaxialSpec triaxial;
@@ -164,6 +164,6 @@ struct Scene {
 
 Scene load_scene(const std::string& path);
 Scene parse_scene(const std::string& text, const std::string& path);  // path: for messages
-Scene default_scene();  // examples/demo.toml, built into the executable
+Scene default_scene();                                                // examples/demo.toml, built into the executable
 
 }  // namespace fabrica

@@ -23,9 +23,8 @@ real_t scene_time_step(const Scene& sc, real_t critical_dt) {
   const std::string where = sc.path + ": [run] ";
   if (sc.time_step) {
     if (*sc.time_step > critical_dt && !sc.force_time_step)
-      throw InputError(where + "time_step = " + number_text(*sc.time_step) +
-                       " s exceeds the critical estimate " + number_text(critical_dt) +
-                       " s; lower it or set force_time_step = true");
+      throw InputError(where + "time_step = " + number_text(*sc.time_step) + " s exceeds the critical estimate " +
+                       number_text(critical_dt) + " s; lower it or set force_time_step = true");
     return *sc.time_step;
   }
   if (sc.time_step_fraction > 1.0 && !sc.force_time_step)
@@ -54,8 +53,7 @@ OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell) {
   const Vec3& L = cell.lengths();
   for (std::size_t q = 0; q < pairs.size(); ++q) {
     const Index i = pairs.i[q], j = pairs.j[q];
-    const real_t un = w.radius[i] + w.radius[j] -
-                      (w.x[j] + image_offset(pairs.image[q], L) - w.x[i]).norm();
+    const real_t un = w.radius[i] + w.radius[j] - (w.x[j] + image_offset(pairs.image[q], L) - w.x[i]).norm();
     const real_t ratio = un / std::min(w.radius[i], w.radius[j]);
     if (un > 0 && ratio > r.ratio) r = {ratio, un, w.id[i], w.id[j]};
   }
@@ -64,19 +62,20 @@ OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell) {
 
 RegionCut region_cut(const Scene& sc) {
   const GenerateSpec& g = sc.generate;
-  RegionCut c{{g.count, g.fractal_dimension, g.d_min, g.d_max, g.seed, sc.density}, Vec3::Zero(),
+  RegionCut c{{g.count, g.fractal_dimension, g.d_min, g.d_max, g.seed, sc.density},
+              Vec3::Zero(),
               RegionGrid({}, Vec3::Ones(), Vec3::Ones())};
-  c.expected = sc.cell_size ? *sc.cell_size
-                            : Vec3(g.aspect * std::cbrt(expected_solid_volume(c.spec) / g.solid_fraction /
-                                                        g.aspect.prod()));
+  c.expected = sc.cell_size
+      ? *sc.cell_size
+      : Vec3(g.aspect * std::cbrt(expected_solid_volume(c.spec) / g.solid_fraction / g.aspect.prod()));
   c.grid = RegionGrid(c.spec, c.expected, c.expected);
   return c;
 }
 
 PeriodicCell region_cell(const Scene& sc, RegionCut& cut, real_t solid_volume) {
   const GenerateSpec& g = sc.generate;
-  const Vec3 L = sc.cell_size ? *sc.cell_size
-                              : Vec3(g.aspect * std::cbrt(solid_volume / g.solid_fraction / g.aspect.prod()));
+  const Vec3 L =
+      sc.cell_size ? *sc.cell_size : Vec3(g.aspect * std::cbrt(solid_volume / g.solid_fraction / g.aspect.prod()));
   check_neighbour_grid(sc.path + ": [particles] d_min = " + number_text(g.d_min), L, 0.5 * g.d_min, sc.skin);
   PeriodicCell cell(L);
   check_cell_size(cell, 0.5 * g.d_max, sc.skin);
@@ -86,13 +85,12 @@ PeriodicCell region_cell(const Scene& sc, RegionCut& cut, real_t solid_volume) {
 
 std::string overlap_message(const Scene& sc, const OverlapReport& ov) {
   const std::string from = sc.source == ParticleSource::File
-                               ? sc.data_file
-                               : sc.path + ": [particles] (generated, seed " +
-                                     std::to_string(sc.generate.seed) + ")";
-  return from + ": particles " + std::to_string(ov.a) + " and " + std::to_string(ov.b) +
-         " overlap by " + number_text(ov.ratio) + " of the smaller radius (" + number_text(ov.overlap) +
-         " m), above " + sc.path + ": [run] max_initial_overlap = " + number_text(sc.max_initial_overlap) +
-         "; fix the specimen (a bad generation or data file) or raise the limit";
+      ? sc.data_file
+      : sc.path + ": [particles] (generated, seed " + std::to_string(sc.generate.seed) + ")";
+  return from + ": particles " + std::to_string(ov.a) + " and " + std::to_string(ov.b) + " overlap by " +
+      number_text(ov.ratio) + " of the smaller radius (" + number_text(ov.overlap) + " m), above " + sc.path +
+      ": [run] max_initial_overlap = " + number_text(sc.max_initial_overlap) +
+      "; fix the specimen (a bad generation or data file) or raise the limit";
 }
 
 namespace {
@@ -114,9 +112,9 @@ void refuse_outside_cell(const Scene& sc, const Particles& p, std::size_t a, con
   int k = 0;
   while (k < 2 && p.x[a][k] >= 0 && p.x[a][k] <= L[k]) ++k;
   throw InputError(sc.path + ": [cell] size = [" + number_text(L[0]) + ", " + number_text(L[1]) + ", " +
-                   number_text(L[2]) + "]: particle " + std::to_string(p.id[a]) + " of " +
-                   sc.data_file + " lies outside the cell (coordinate " + std::to_string(k + 1) +
-                   " = " + number_text(p.x[a][k] + lo[k]) + ")");
+                   number_text(L[2]) + "]: particle " + std::to_string(p.id[a]) + " of " + sc.data_file +
+                   " lies outside the cell (coordinate " + std::to_string(k + 1) + " = " +
+                   number_text(p.x[a][k] + lo[k]) + ")");
 }
 
 void apply_scene_run(const Scene& sc, Setup& s) {
@@ -140,8 +138,8 @@ Setup make_setup(const Scene& sc) {
     s.cell = PeriodicCell(L);
   } else {
     const GenerateSpec& g = sc.generate;
-    check_memory(sc.path + ": [particles] count = " + std::to_string(g.count),
-                 double(g.count) * kBytesPerSphere, "200 B per sphere at least");
+    check_memory(sc.path + ": [particles] count = " + std::to_string(g.count), double(g.count) * kBytesPerSphere,
+                 "200 B per sphere at least");
     if (g.placement == GenerateSpec::Placement::Regions) {
       try {
         RegionCut cut = region_cut(sc);
@@ -154,45 +152,40 @@ Setup make_setup(const Scene& sc) {
         std::iota(all.begin(), all.end(), 0);
         s.particles = region_packing(cut.spec, cut.grid, s.cell, all,
                                      [](const Particles&, const std::vector<int>&) { return Particles(); });
-      } catch (const InputError&) {
-        throw;
-      } catch (const std::bad_alloc&) {
+      } catch (const InputError&) { throw; } catch (const std::bad_alloc&) {
         throw;
       } catch (const std::exception& e) {
         throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
       }
     } else {
-    Random rng(g.seed);
-    const auto d = fractal_diameters(std::size_t(g.count), g.fractal_dimension, g.d_min, g.d_max, rng);
-    real_t vs = 0;
-    for (real_t x : d) vs += std::numbers::pi / 6 * x * x * x;
-    Vec3 L;
-    if (sc.cell_size) {
-      L = *sc.cell_size;
-    } else {
-      const real_t V = vs / g.solid_fraction;
-      L = g.aspect * std::cbrt(V / g.aspect.prod());
-    }
-    check_neighbour_grid(sc.path + ": [particles] d_min = " + number_text(g.d_min), L, 0.5 * g.d_min, sc.skin);
-    s.cell = PeriodicCell(L);
-    try {
-      check_cell_size(s.cell, 0.5 * g.d_max, sc.skin);
-      s.particles = random_packing(d, sc.density, s.cell, rng);
-    } catch (const std::bad_alloc&) {
-      throw;  // not the input's fault as such: reported as what it is
-    } catch (const std::exception& e) {
-      throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
-    }
+      Random rng(g.seed);
+      const auto d = fractal_diameters(std::size_t(g.count), g.fractal_dimension, g.d_min, g.d_max, rng);
+      real_t vs = 0;
+      for (real_t x : d) vs += std::numbers::pi / 6 * x * x * x;
+      Vec3 L;
+      if (sc.cell_size) {
+        L = *sc.cell_size;
+      } else {
+        const real_t V = vs / g.solid_fraction;
+        L = g.aspect * std::cbrt(V / g.aspect.prod());
+      }
+      check_neighbour_grid(sc.path + ": [particles] d_min = " + number_text(g.d_min), L, 0.5 * g.d_min, sc.skin);
+      s.cell = PeriodicCell(L);
+      try {
+        check_cell_size(s.cell, 0.5 * g.d_max, sc.skin);
+        s.particles = random_packing(d, sc.density, s.cell, rng);
+      } catch (const std::bad_alloc&) {
+        throw;  // not the input's fault as such: reported as what it is
+      } catch (const std::exception& e) {
+        throw InputError(sc.path + ": [particles] count = " + std::to_string(g.count) + ": " + e.what());
+      }
     }
   }
   try {
     check_cell_size(s.cell, s.particles.max_radius(), sc.skin);
-  } catch (const std::exception& e) {
-    throw InputError(sc.path + ": [cell] " + e.what());
-  }
+  } catch (const std::exception& e) { throw InputError(sc.path + ": [cell] " + e.what()); }
   // Wrapped now as the simulation would (the same positions; the overlap check needs them).
-  for (std::size_t a = 0; a < s.particles.n_owned(); ++a)
-    s.particles.x[a] = s.cell.wrap(s.particles.x[a]);
+  for (std::size_t a = 0; a < s.particles.n_owned(); ++a) s.particles.x[a] = s.cell.wrap(s.particles.x[a]);
   const OverlapReport ov = largest_overlap(s.particles, s.cell);
   if (ov.ratio > sc.max_initial_overlap) throw InputError(overlap_message(sc, ov));
   apply_scene_run(sc, s);
@@ -201,8 +194,8 @@ Setup make_setup(const Scene& sc) {
     s.params.walls = scene_walls(sc, s.cell);
     if (const WallOffence o = first_wall_offence(sc, s.params.walls, s.particles); o.wall < s.params.walls.size())
       refuse_wall_offence(sc, s.params.walls, s.particles, o);
-    s.critical_dt = std::min(s.critical_dt, walls_critical_time_step(sc, s.particles, s.particles.min_radius(),
-                                                                     s.particles.max_radius()));
+    s.critical_dt = std::min(
+        s.critical_dt, walls_critical_time_step(sc, s.particles, s.particles.min_radius(), s.particles.max_radius()));
   }
   if (!sc.driven.empty()) {  // [[driven]] (io/wall_setup.hpp)
     check_driven_counts(sc, driven_counts(sc, s.particles));

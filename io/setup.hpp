@@ -50,8 +50,8 @@ std::string overlap_message(const Scene& scene, const OverlapReport& ov);
 // refuses particle a, with its coordinate as the data file has it (the cell's corner at lo
 // there). The smallest id, so that the same particle is named on any rank count.
 std::size_t outside_cell(const Particles& p, const Vec3& L);
-[[noreturn]] void refuse_outside_cell(const Scene& scene, const Particles& p, std::size_t a,
-                                      const Vec3& L, const Vec3& lo);
+[[noreturn]] void refuse_outside_cell(const Scene& scene, const Particles& p, std::size_t a, const Vec3& L,
+                                      const Vec3& lo);
 
 // [run] density_scaling applied to the particles, and the contact law, skin, gravity and local
 // damping of the scene copied into the parameters (make_setup and make_distributed_setup).

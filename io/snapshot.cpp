@@ -16,9 +16,7 @@ h5::File open_run(const std::string& path) {
   h5::File f;
   try {
     f = h5::File::open_read(path);
-  } catch (const h5::Error& e) {
-    throw InputError(e.what());
-  }
+  } catch (const h5::Error& e) { throw InputError(e.what()); }
   if (!f.has_attr(layout::kVersionAttr))
     throw InputError(path + ": not a Fabrica output file (HDF5 without the attribute '" +
                      std::string(layout::kVersionAttr) + "' at /)");
@@ -29,9 +27,7 @@ template <class Fn>
 auto guarded(Fn fn) {
   try {
     return fn();
-  } catch (const h5::Error& e) {
-    throw InputError(e.what());
-  }
+  } catch (const h5::Error& e) { throw InputError(e.what()); }
 }
 
 std::vector<Vec3> vec3s(const h5::Dataset& d, std::size_t n) {
@@ -63,8 +59,8 @@ SnapshotInfo info_of(const h5::Group& g, const std::string& case_name) {
 h5::Group open_snapshot(const h5::File& f, const std::string& case_name, std::int64_t step) {
   const std::string p = layout::snapshot_path(case_name, step);
   if (!f.exists(p))
-    throw InputError(f.file() + ": no snapshot of case '" + case_name + "' at step " +
-                     std::to_string(step) + " (no group /" + p + ")");
+    throw InputError(f.file() + ": no snapshot of case '" + case_name + "' at step " + std::to_string(step) +
+                     " (no group /" + p + ")");
   return f.open_group(p);
 }
 
@@ -106,17 +102,14 @@ std::vector<SnapshotInfo> list_snapshots(const std::string& path) {
 
 std::vector<std::string> list_series(const std::string& path) {
   h5::File f = open_run(path);
-  return guarded([&] {
-    return f.exists("series") ? f.open_group("series").children() : std::vector<std::string>{};
-  });
+  return guarded([&] { return f.exists("series") ? f.open_group("series").children() : std::vector<std::string>{}; });
 }
 
-ContactSnapshot read_contact_snapshot(const std::string& path, const std::string& case_name,
-                                      std::int64_t step) {
+ContactSnapshot read_contact_snapshot(const std::string& path, const std::string& case_name, std::int64_t step) {
   h5::File f = open_run(path);
   if (fault_injected("snapshot"))
-    throw InputError(path + ": cannot read the snapshot of case \"" + case_name + "\" at step " +
-                     std::to_string(step) + " (" + fault_text("snapshot") + ")");
+    throw InputError(path + ": cannot read the snapshot of case \"" + case_name + "\" at step " + std::to_string(step) +
+                     " (" + fault_text("snapshot") + ")");
   return guarded([&] {
     h5::Group g = open_snapshot(f, case_name, step);
     ContactSnapshot r;
@@ -133,8 +126,8 @@ ContactSnapshot read_contact_snapshot(const std::string& path, const std::string
     const std::vector<Vec3> mr = vec3s(c.open_dataset("mr"), n);
     const std::vector<std::uint8_t> sliding = c.open_dataset("sliding").read_bytes();
     const std::vector<std::uint8_t> rolling = c.open_dataset("rolling").read_bytes();
-    if (id2.size() != n || overlap.size() != n || fn.size() != n || sliding.size() != n ||
-        rolling.size() != n || std::int64_t(n) != r.info.contacts)
+    if (id2.size() != n || overlap.size() != n || fn.size() != n || sliding.size() != n || rolling.size() != n ||
+        std::int64_t(n) != r.info.contacts)
       c.fail("datasets of different lengths");
     r.contacts.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -147,8 +140,7 @@ ContactSnapshot read_contact_snapshot(const std::string& path, const std::string
   });
 }
 
-ParticleSnapshot read_particle_snapshot(const std::string& path, const std::string& case_name,
-                                        std::int64_t step) {
+ParticleSnapshot read_particle_snapshot(const std::string& path, const std::string& case_name, std::int64_t step) {
   h5::File f = open_run(path);
   return guarded([&] {
     h5::Group g = open_snapshot(f, case_name, step);

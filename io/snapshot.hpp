@@ -18,9 +18,9 @@ namespace fabrica {
 struct SnapshotInfo {
   std::string case_name;
   std::int64_t step = 0;
-  real_t time = 0;                     // s
-  Vec3 cell_lengths = Vec3::Zero();    // m
-  Vec3 strain = Vec3::Zero();          // eps_i = ln(l_i0 / l_i), compression positive
+  real_t time = 0;                   // s
+  Vec3 cell_lengths = Vec3::Zero();  // m
+  Vec3 strain = Vec3::Zero();        // eps_i = ln(l_i0 / l_i), compression positive
   std::int64_t particles = 0, contacts = 0;
 };
 
@@ -32,11 +32,11 @@ struct ContactSnapshot {
 
 struct ParticleSnapshot {
   SnapshotInfo info;
-  std::vector<GlobalId> id;             // increasing
-  std::vector<Vec3> position;           // m
-  std::vector<Vec3> velocity;           // m/s
-  std::vector<Vec3> spin;               // rad/s
-  std::vector<real_t> radius;           // m
+  std::vector<GlobalId> id;    // increasing
+  std::vector<Vec3> position;  // m
+  std::vector<Vec3> velocity;  // m/s
+  std::vector<Vec3> spin;      // rad/s
+  std::vector<real_t> radius;  // m
 };
 
 // One series table /series/<case>: a column per quantity, as in the CSV series.
@@ -44,7 +44,7 @@ struct Series {
   std::vector<std::string> columns;         // names, in CSV order (without stage and step)
   std::vector<std::vector<double>> values;  // values[c][row]
   std::vector<std::int64_t> step;
-  std::vector<std::string> stage;           // per row; empty if the table has no stage column
+  std::vector<std::string> stage;  // per row; empty if the table has no stage column
   std::size_t rows() const { return step.size(); }
   const std::vector<double>& column(const std::string& name) const;  // throws if absent
 };
@@ -59,10 +59,8 @@ RunFileInfo read_run_info(const std::string& path);
 // Every snapshot of the file, by case (in name order), then step.
 std::vector<SnapshotInfo> list_snapshots(const std::string& path);
 std::vector<std::string> list_series(const std::string& path);  // case names with a series
-ContactSnapshot read_contact_snapshot(const std::string& path, const std::string& case_name,
-                                      std::int64_t step);
-ParticleSnapshot read_particle_snapshot(const std::string& path, const std::string& case_name,
-                                        std::int64_t step);
+ContactSnapshot read_contact_snapshot(const std::string& path, const std::string& case_name, std::int64_t step);
+ParticleSnapshot read_particle_snapshot(const std::string& path, const std::string& case_name, std::int64_t step);
 Series read_series(const std::string& path, const std::string& case_name);
 
 }  // namespace fabrica

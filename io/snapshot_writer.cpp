@@ -64,8 +64,8 @@ std::vector<Rec> redistribute(MPI_Comm comm, int size, std::vector<Rec> recs, De
   }
   std::vector<Rec>().swap(recs);
   std::vector<Rec> recv(std::size_t(rdisp[size - 1] + rcount[size - 1]) / sizeof(Rec));
-  MPI_Alltoallv(send.data(), scount.data(), sdisp.data(), MPI_BYTE, recv.data(), rcount.data(),
-                rdisp.data(), MPI_BYTE, comm);
+  MPI_Alltoallv(send.data(), scount.data(), sdisp.data(), MPI_BYTE, recv.data(), rcount.data(), rdisp.data(), MPI_BYTE,
+                comm);
   return recv;
 }
 
@@ -97,13 +97,11 @@ Column<Rec> f64(const char* name, const char* unit, hsize_t cols, F f) {
 }
 template <class Rec, class F>
 Column<Rec> i64(const char* name, F f) {
-  return {name, "1", 0, h5::Type::I64,
-          [f](const Rec& r, void* d) { *static_cast<std::int64_t*>(d) = f(r); }};
+  return {name, "1", 0, h5::Type::I64, [f](const Rec& r, void* d) { *static_cast<std::int64_t*>(d) = f(r); }};
 }
 template <class Rec, class F>
 Column<Rec> flag(const char* name, F f) {
-  return {name, "bool", 0, h5::Type::U8,
-          [f](const Rec& r, void* d) { *static_cast<std::uint8_t*>(d) = f(r) ? 1 : 0; }};
+  return {name, "bool", 0, h5::Type::U8, [f](const Rec& r, void* d) { *static_cast<std::uint8_t*>(d) = f(r) ? 1 : 0; }};
 }
 
 std::vector<Column<PartRec>> particle_columns() {
@@ -120,8 +118,7 @@ std::vector<Column<ContRec>> contact_columns(double strong_threshold) {
   using R = ContRec;
   auto copy3 = [](const double* s, double* d) { std::copy(s, s + 3, d); };
   auto norm3 = [](const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
-  return {i64<R>("id1", [](const R& r) { return r.id1; }),
-          i64<R>("id2", [](const R& r) { return r.id2; }),
+  return {i64<R>("id1", [](const R& r) { return r.id1; }), i64<R>("id2", [](const R& r) { return r.id2; }),
           f64<R>("normal", "1", 3, [=](const R& r, double* d) { copy3(r.normal, d); }),
           f64<R>("branch", "m", 3, [=](const R& r, double* d) { copy3(r.branch, d); }),
           f64<R>("overlap", "m", 0, [](const R& r, double* d) { *d = r.overlap; }),
@@ -141,8 +138,8 @@ std::vector<Column<ContRec>> contact_columns(double strong_threshold) {
 
 // Creates the datasets of 'cols' in g with 'total' rows; adds their bytes to 'bytes'.
 template <class Rec>
-std::vector<h5::Dataset> create(const h5::Group& g, const std::vector<Column<Rec>>& cols,
-                                hsize_t total, double& bytes) {
+std::vector<h5::Dataset> create(const h5::Group& g, const std::vector<Column<Rec>>& cols, hsize_t total,
+                                double& bytes) {
   std::vector<h5::Dataset> ds;
   for (const Column<Rec>& c : cols) {
     ds.push_back(g.create_dataset(c.name, c.type, total, c.cols));
@@ -155,8 +152,8 @@ std::vector<h5::Dataset> create(const h5::Group& g, const std::vector<Column<Rec
 // Writes 'recs' as rows [row0, row0 + recs.size()) of every dataset (collective: every rank
 // calls it, with its own rows, possibly none).
 template <class Rec>
-void write_round(const std::vector<h5::Dataset>& ds, const std::vector<Column<Rec>>& cols,
-                const std::vector<Rec>& recs, hsize_t row0) {
+void write_round(const std::vector<h5::Dataset>& ds, const std::vector<Column<Rec>>& cols, const std::vector<Rec>& recs,
+                 hsize_t row0) {
   std::vector<unsigned char> buf;
   for (std::size_t c = 0; c < cols.size(); ++c) {
     const std::size_t w = std::max<hsize_t>(cols[c].cols, 1), sz = type_bytes(cols[c].type);
@@ -171,15 +168,13 @@ void for_each_row(const Simulation& sim, const std::function<void(const ContactR
   const Particles& p = sim.particles();
   for_each_contact_record(p, sim.cell(), sim.params().law, sim.pairs(), fn);
   if (!sim.params().walls.empty())
-    for (const ContactRecord& c :
-         wall_contact_records(p, sim.params().law, sim.params().walls, sim.wall_contacts()))
+    for (const ContactRecord& c : wall_contact_records(p, sim.params().law, sim.params().walls, sim.wall_contacts()))
       fn(c);
 }
 
 }  // namespace
 
-SnapshotWriter::SnapshotWriter(MPI_Comm comm, const Simulation& sim, double strong_ratio,
-                               std::int64_t round_records)
+SnapshotWriter::SnapshotWriter(MPI_Comm comm, const Simulation& sim, double strong_ratio, std::int64_t round_records)
     : comm_(comm), sim_(sim) {
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &size_);
@@ -258,9 +253,8 @@ double SnapshotWriter::write(const h5::Group& g) const {
                            [&](const ContRec& r) { return slice_rank(r.id1, b0, b1, size_); });
     }
     std::sort(parts.begin(), parts.end(), [](const PartRec& a, const PartRec& b) { return a.id < b.id; });
-    std::sort(conts.begin(), conts.end(), [](const ContRec& a, const ContRec& b) {
-      return a.id1 != b.id1 ? a.id1 < b.id1 : a.id2 < b.id2;
-    });
+    std::sort(conts.begin(), conts.end(),
+              [](const ContRec& a, const ContRec& b) { return a.id1 != b.id1 ? a.id1 < b.id1 : a.id2 < b.id2; });
     // Body 1 of every contact is here: particles and contacts went by the same id slices (by id
     // and id1). Its centre is the first end of the contact's line cell in the XDMF sidecar.
     for (ContRec& r : conts) {

@@ -31,8 +31,7 @@ class SnapshotWriter {
   // with the exact sum of core/exact_sum.hpp, so the same on any number of ranks). The contact
   // rows are the particle contacts and then the wall contacts (id2 = -1 - wall index; their
   // line cell runs from the sphere's centre to the contact point), never strong.
-  SnapshotWriter(MPI_Comm comm, const Simulation& sim, double strong_ratio,
-                 std::int64_t round_records = kRoundRecords);
+  SnapshotWriter(MPI_Comm comm, const Simulation& sim, double strong_ratio, std::int64_t round_records = kRoundRecords);
 
   std::int64_t particles() const { return np_; }
   std::int64_t contacts() const { return nc_; }  // rows: particle contacts and wall contacts

@@ -84,11 +84,17 @@ class Table {
   std::set<std::string> used_;
 };
 
-const std::map<std::string, int> kTypes = {
-    {"mixed", 0},         {"isotropic", 1},           {"anisotropic", 2},
-    {"triaxial_compression", 3}, {"triaxial_extension", 4}, {"constant_p", 5},
-    {"constant_volume", 6}, {"true_triaxial", 7},     {"cyclic_strain", 8},
-    {"cyclic_stress", 9}, {"hold", 10}};
+const std::map<std::string, int> kTypes = {{"mixed", 0},
+                                           {"isotropic", 1},
+                                           {"anisotropic", 2},
+                                           {"triaxial_compression", 3},
+                                           {"triaxial_extension", 4},
+                                           {"constant_p", 5},
+                                           {"constant_volume", 6},
+                                           {"true_triaxial", 7},
+                                           {"cyclic_strain", 8},
+                                           {"cyclic_stress", 9},
+                                           {"hold", 10}};
 const char* const kTypeList =
     "\"mixed\", \"isotropic\", \"anisotropic\", \"triaxial_compression\", \"triaxial_extension\", "
     "\"constant_p\", \"constant_volume\", \"true_triaxial\", \"cyclic_strain\", \"cyclic_stress\", "
@@ -110,8 +116,7 @@ void parse_axes(const toml::table* c, const std::string& file, const std::string
     Table A(a, file, name + ".control." + key);
     const std::optional<real_t> s = A.number("stress"), r = A.number("strain_rate");
     if (s && r)
-      C.fail(key, text(*c->get(key)),
-             "contradictory controls: give stress or strain_rate on one axis, not both");
+      C.fail(key, text(*c->get(key)), "contradictory controls: give stress or strain_rate on one axis, not both");
     if (!s && !r) C.fail(key, text(*c->get(key)), "give { stress = Pa } or { strain_rate = 1/s }");
     if (s) {
       A.checked("stress", *s, *s > 0, "must be positive (compression; a periodic packing carries no tension)");
@@ -155,7 +160,10 @@ void parse_end(Table& s, const std::string& file, StageSpec& st, bool cyclic) {
     const real_t drive = -st.rate[0];  // compression positive
     if (drive == 0 || drive * *st.end.strain < 0)
       E.fail("strain", number_text(*st.end.strain, 10),
-             std::string("axis 1 is driven ") + (drive > 0 ? "in compression (eps_1 grows)" : drive < 0 ? "in extension (eps_1 falls)" : "at a zero rate") +
+             std::string("axis 1 is driven ") +
+                 (drive > 0       ? "in compression (eps_1 grows)"
+                      : drive < 0 ? "in extension (eps_1 falls)"
+                                  : "at a zero rate") +
                  ": this strain is never reached");
   }
 }
@@ -167,7 +175,8 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
   const std::optional<std::string> type = s.string("type");
   if (!type) s.fail("type", "(missing)", std::string("every stage needs a type: one of ") + kTypeList);
   const auto it = kTypes.find(*type);
-  if (it == kTypes.end()) s.fail("type", "\"" + *type + "\"", std::string("unknown stage type (expected one of ") + kTypeList + ")");
+  if (it == kTypes.end())
+    s.fail("type", "\"" + *type + "\"", std::string("unknown stage type (expected one of ") + kTypeList + ")");
   st.name = s.string("name").value_or(*type);
   if (st.name.empty() || st.name.find_first_of(",\n\"") != std::string::npos)
     s.fail("name", "\"" + st.name + "\"", "must be a non-empty name without commas, quotes or newlines");
@@ -177,7 +186,8 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
     if (!c) s.fail("control", "(missing)", "a stage of type \"mixed\" needs control.axis_1, axis_2 and axis_3");
     parse_axes(c, file, st.where, st);
   } else if (s.has("control")) {
-    s.fail("control", text(*t->get("control")), "is used with type = \"mixed\" only (type \"" + *type + "\" sets the controls itself)");
+    s.fail("control", text(*t->get("control")),
+           "is used with type = \"mixed\" only (type \"" + *type + "\" sets the controls itself)");
   }
   if (ty == 1) {
     const real_t p = required_positive(s, "pressure", *type);
@@ -220,7 +230,8 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
       if (ty == 8) s.checked("amplitude", amp, amp < 0.5, "must lie in (0, 0.5) (an amplitude of eps_1)");
       if (ty == 9)
         s.checked("amplitude", amp, amp < st.pressure,
-                  "must lie below pressure = " + number_text(st.pressure, 10) + " Pa (q = -amplitude needs s11 = pressure - amplitude > 0)");
+                  "must lie below pressure = " + number_text(st.pressure, 10) +
+                      " Pa (q = -amplitude needs s11 = pressure - amplitude > 0)");
       st.amplitude = amp;
       const std::optional<std::int64_t> n = s.integer("cycles");
       if (!n) s.fail("cycles", "(missing)", "a cyclic stage needs the number of cycles");
@@ -240,14 +251,16 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
   parse_end(s, file, st, ty == 8 || ty == 9);
   for (const LawParameter& p : kLawParameters)  // the contact parameters a stage may set
     if (p.stage)
-      if (auto v = s.number(p.key)) st.law.set(p.member, s.checked(p.key, *v, within(p.bound, *v), bound_text(p.bound)));
+      if (auto v = s.number(p.key))
+        st.law.set(p.member, s.checked(p.key, *v, within(p.bound, *v), bound_text(p.bound)));
   if (auto v = s.number("local_damping"))
     st.local_damping = s.checked("local_damping", *v, *v >= 0 && *v < 1, "must lie in [0, 1)");
   st.reset_strain = s.boolean("reset_strain").value_or(false);
   st.fabric = StageFabric::AtRows;  // with [fabric] enabled: at every row of every stage
   st.track_peak = true;             // the peak q/p and stress error of stages.csv
   ServoSettings& sv = st.servo;
-  if (auto v = s.number("max_strain_rate")) sv.max_strain_rate = s.checked("max_strain_rate", *v, *v > 0, "must be positive");
+  if (auto v = s.number("max_strain_rate"))
+    sv.max_strain_rate = s.checked("max_strain_rate", *v, *v > 0, "must be positive");
   if (auto v = s.number("servo_relaxation"))
     sv.relaxation = s.checked("servo_relaxation", *v, *v > 0 && *v <= 0.5, "must lie in (0, 0.5]");
   sv.integral_relaxation = std::min(sv.integral_relaxation, sv.relaxation);
@@ -255,7 +268,8 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
     if (*n <= 0) s.fail("servo_interval", std::to_string(*n), "must be positive");
     sv.interval = *n;
   }
-  if (auto v = s.number("stress_tolerance")) sv.stress_tolerance = s.checked("stress_tolerance", *v, *v > 0, "must be positive");
+  if (auto v = s.number("stress_tolerance"))
+    sv.stress_tolerance = s.checked("stress_tolerance", *v, *v > 0, "must be positive");
   if (auto v = s.number("unbalanced_tolerance"))
     sv.unbalanced_tolerance = s.checked("unbalanced_tolerance", *v, *v > 0, "must be positive");
   if (auto n = s.integer("max_steps")) {
@@ -268,7 +282,8 @@ StageSpec parse_one(const toml::table* t, const std::string& file, int index) {
   for (int k = 0; k < 3; ++k)
     if (st.mode[k] == AxisMode::StrainRate && std::abs(st.rate[k]) > sv.max_strain_rate)
       s.fail(ty == 0 ? "control.axis_" + std::to_string(k + 1) + ".strain_rate" : std::string("axial_strain_rate"),
-             number_text(std::abs(st.rate[k]), 10), "exceeds max_strain_rate = " + number_text(sv.max_strain_rate, 10) + " 1/s");
+             number_text(std::abs(st.rate[k]), 10),
+             "exceeds max_strain_rate = " + number_text(sv.max_strain_rate, 10) + " 1/s");
   s.reject_unknown();
   return st;
 }

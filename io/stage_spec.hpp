@@ -24,14 +24,14 @@ enum class ServoMode { Stiffness, Gains };
 // [triaxial] the values of that table; for a [[stage]] its own keys with these defaults.
 struct ServoSettings {
   ServoMode mode = ServoMode::Stiffness;
-  real_t relaxation = 0.5;            // (0, 0.5]
-  real_t integral_relaxation = 0.05;  // [0, relaxation]
-  real_t gain = 4.0;                  // 1/s (mode Gains)
-  real_t integral_gain = 2000.0;      // 1/s^2 (mode Gains)
-  real_t max_strain_rate = 1.0;       // 1/s, cap of the servo's rates
-  std::int64_t interval = 2;          // steps between servo updates (stress measurements)
-  real_t stress_tolerance = 0.005;    // relative, for the end condition "at rest"
-  real_t unbalanced_tolerance = 1e-4; // unbalanced-force ratio, for "at rest"
+  real_t relaxation = 0.5;             // (0, 0.5]
+  real_t integral_relaxation = 0.05;   // [0, relaxation]
+  real_t gain = 4.0;                   // 1/s (mode Gains)
+  real_t integral_gain = 2000.0;       // 1/s^2 (mode Gains)
+  real_t max_strain_rate = 1.0;        // 1/s, cap of the servo's rates
+  std::int64_t interval = 2;           // steps between servo updates (stress measurements)
+  real_t stress_tolerance = 0.005;     // relative, for the end condition "at rest"
+  real_t unbalanced_tolerance = 1e-4;  // unbalanced-force ratio, for "at rest"
 };
 
 enum class AxisMode : std::int32_t { Stress, StrainRate };
@@ -77,7 +77,7 @@ struct StageSpec {
   std::optional<real_t> local_damping;
   bool reset_strain = false;  // the series' strains measured from this stage's start
   StageFabric fabric = StageFabric::None;
-  bool track_peak = false;    // the result's peak q/p and lateral error over the rows
+  bool track_peak = false;  // the result's peak q/p and lateral error over the rows
   ServoSettings servo;
   std::int64_t max_steps = 2000000;  // a stage that does not end by then stops the run
 };

@@ -202,8 +202,8 @@ ParticleRecordReader::ParticleRecordReader(const std::string& schema, const std:
   }
   for (std::size_t k = 0; k < mine.size(); ++k)
     if (!seen[k])
-      throw InputError(where + ": the particle records have no field '" + mine[k] + "' (their layout: '" +
-                       schema + "')");
+      throw InputError(where + ": the particle records have no field '" + mine[k] + "' (their layout: '" + schema +
+                       "')");
 }
 
 void ParticleRecordReader::read(const char* in, std::size_t n, Particles& p) const {

@@ -14,13 +14,13 @@ VerifyReport verify_run_file(const std::string& path) {
   try {
     const h5::File f = h5::File::open_read(path);
     std::vector<std::string> names;
-    f.check(H5Ovisit(f.id(), H5_INDEX_NAME, H5_ITER_INC,
-                     [](hid_t, const char* name, const H5O_info_t* info, void* p) -> herr_t {
-                       if (info->type == H5O_TYPE_DATASET)
-                         static_cast<std::vector<std::string>*>(p)->emplace_back(name);
-                       return 0;
-                     },
-                     &names),
+    f.check(H5Ovisit(
+                f.id(), H5_INDEX_NAME, H5_ITER_INC,
+                [](hid_t, const char* name, const H5O_info_t* info, void* p) -> herr_t {
+                  if (info->type == H5O_TYPE_DATASET) static_cast<std::vector<std::string>*>(p)->emplace_back(name);
+                  return 0;
+                },
+                &names),
             "listing the datasets");
     for (const std::string& n : names) {
       const h5::Dataset d = f.open_dataset(n);
@@ -28,9 +28,7 @@ VerifyReport verify_run_file(const std::string& path) {
       ++r.datasets;
       if (d.has_checksum()) ++r.checksummed;
     }
-  } catch (const h5::Error& e) {
-    throw InputError(e.what());
-  }
+  } catch (const h5::Error& e) { throw InputError(e.what()); }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

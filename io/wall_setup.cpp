@@ -16,9 +16,7 @@ std::string vec(const Vec3& v) {
   s << '[' << v[0] << ", " << v[1] << ", " << v[2] << ']';
   return s.str();
 }
-std::string where(const Scene& sc, std::size_t k) {
-  return sc.path + ": [wall #" + std::to_string(k + 1) + "] ";
-}
+std::string where(const Scene& sc, std::size_t k) { return sc.path + ": [wall #" + std::to_string(k + 1) + "] "; }
 int axis_of(const Vec3& n) { return n[0] != 0 ? 0 : (n[1] != 0 ? 1 : 2); }
 
 }  // namespace
@@ -30,9 +28,8 @@ std::vector<Wall> scene_walls(const Scene& sc, const PeriodicCell& cell) {
     const WallSpec& s = sc.walls[k];
     const int a = axis_of(s.normal);
     if (s.point[a] < 0 || s.point[a] > L[a])
-      throw InputError(where(sc, k) + "point = " + vec(s.point) + ": its plane (coordinate " +
-                       std::to_string(a + 1) + " = " + number_text(s.point[a]) + ") lies outside the cell [0, " +
-                       number_text(L[a]) + "] m");
+      throw InputError(where(sc, k) + "point = " + vec(s.point) + ": its plane (coordinate " + std::to_string(a + 1) +
+                       " = " + number_text(s.point[a]) + ") lies outside the cell [0, " + number_text(L[a]) + "] m");
     Wall w{s.point, s.normal, s.velocity, s.own_law, s.law};
     w.servo_pressure = s.pressure;
     w.servo_relaxation = s.servo_relaxation;
@@ -50,9 +47,9 @@ std::vector<Wall> scene_walls(const Scene& sc, const PeriodicCell& cell) {
                          std::to_string(i + 1) + "] along axis " + std::to_string(a + 1) +
                          " but lies behind it: no room between them");
       if (gap >= L[a])
-        throw InputError(where(sc, j) + "point = " + vec(walls[j].point) + ": with [wall #" +
-                         std::to_string(i + 1) + "] it spans the whole cell along axis " +
-                         std::to_string(a + 1) + " (" + number_text(gap) + " m of " + number_text(L[a]) +
+        throw InputError(where(sc, j) + "point = " + vec(walls[j].point) + ": with [wall #" + std::to_string(i + 1) +
+                         "] it spans the whole cell along axis " + std::to_string(a + 1) + " (" + number_text(gap) +
+                         " m of " + number_text(L[a]) +
                          " m); the cell is periodic along every axis: make it longer than the distance "
                          "between the walls");
     }
@@ -89,13 +86,12 @@ void refuse_wall_offence(const Scene& sc, const std::vector<Wall>& walls, const 
   const std::size_t i = o.particle;
   const real_t d = wall_distance(w, p, i), R = p.radius[i];
   if (d <= 0)
-    throw InputError(where(sc, o.wall) + "point = " + vec(w.point) + ", normal = " + vec(w.normal) +
-                     ": particle " + std::to_string(p.id[i]) + " of " + from +
-                     " starts beyond the wall (its centre " + number_text(-d) + " m behind the plane)");
-  throw InputError(where(sc, o.wall) + "point = " + vec(w.point) + ": particle " + std::to_string(p.id[i]) +
-                   " of " + from + " overlaps the wall by " + number_text((R - d) / R) +
-                   " of its radius, above " + sc.path + ": [run] max_initial_overlap = " +
-                   number_text(sc.max_initial_overlap));
+    throw InputError(where(sc, o.wall) + "point = " + vec(w.point) + ", normal = " + vec(w.normal) + ": particle " +
+                     std::to_string(p.id[i]) + " of " + from + " starts beyond the wall (its centre " +
+                     number_text(-d) + " m behind the plane)");
+  throw InputError(where(sc, o.wall) + "point = " + vec(w.point) + ": particle " + std::to_string(p.id[i]) + " of " +
+                   from + " overlaps the wall by " + number_text((R - d) / R) + " of its radius, above " + sc.path +
+                   ": [run] max_initial_overlap = " + number_text(sc.max_initial_overlap));
 }
 
 real_t walls_critical_time_step(const Scene& sc, const Particles& p, real_t rmin, real_t rmax) {
@@ -118,8 +114,8 @@ void check_driven_counts(const Scene& sc, const std::vector<std::int64_t>& count
   for (std::size_t k = 0; k < sc.driven.size(); ++k) {
     const DrivenSet& d = sc.driven[k];
     if (counts[k] == d.size()) continue;
-    const std::string what = d.ids.empty() ? "id_range = [" + std::to_string(d.first) + ", " + std::to_string(d.last) + "]"
-                                           : "ids";
+    const std::string what =
+        d.ids.empty() ? "id_range = [" + std::to_string(d.first) + ", " + std::to_string(d.last) + "]" : "ids";
     throw InputError(sc.path + ": [driven #" + std::to_string(k + 1) + "] " + what + ": names " +
                      std::to_string(d.size()) + " particle(s), of which " + std::to_string(counts[k]) +
                      " are in the specimen (" +

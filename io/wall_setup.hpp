@@ -34,8 +34,8 @@ struct WallOffence {
 };
 WallOffence first_wall_offence(const Scene& scene, const std::vector<Wall>& walls, const Particles& p);
 // Throws its InputError (file, wall, particle id, value).
-[[noreturn]] void refuse_wall_offence(const Scene& scene, const std::vector<Wall>& walls,
-                                      const Particles& p, WallOffence o);
+[[noreturn]] void refuse_wall_offence(const Scene& scene, const std::vector<Wall>& walls, const Particles& p,
+                                      WallOffence o);
 
 // The critical time step (core/timestep.hpp) with the walls: the scene's law with a wall as a
 // partner, and each wall's own law; +infinity without walls. rmin, rmax: of all particles.

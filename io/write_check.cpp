@@ -38,8 +38,7 @@ void throw_write_error(const std::string& path, const std::string& what, int err
 
 void open_checked(std::ofstream& f, const std::string& path, std::ios::openmode mode) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw WriteError(path + ": cannot create the file: it is a directory");
+  if (std::filesystem::is_directory(path, ec)) throw WriteError(path + ": cannot create the file: it is a directory");
   errno = 0;
   f.open(path, std::ios::out | mode);
   if (!f) throw_write_error(path, "create the file", errno);
@@ -77,8 +76,8 @@ void check_room(const std::string& path, double bytes) {
   if (::statvfs(dir_of(path).c_str(), &fs) == 0) {
     const double free = double(fs.f_bavail) * double(fs.f_frsize);
     if (bytes > free)
-      throw WriteError(path + ": cannot grow by " + std::to_string(std::llround(bytes)) + " bytes: " +
-                       std::to_string(std::llround(free)) + " bytes free on its file system (" +
+      throw WriteError(path + ": cannot grow by " + std::to_string(std::llround(bytes)) +
+                       " bytes: " + std::to_string(std::llround(free)) + " bytes free on its file system (" +
                        std::strerror(ENOSPC) + ")");
   }
 }
@@ -93,8 +92,7 @@ void make_output_directory(const std::string& dir) {
   if (ec) throw WriteError(dir + ": cannot create the output directory: " + ec.message());
   if (!std::filesystem::is_directory(dir, ec))
     throw WriteError(dir + ": cannot write the output there: not a directory");
-  if (::access(dir.c_str(), W_OK | X_OK) != 0)
-    throw_write_error(dir, "write the output there", errno);
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) throw_write_error(dir, "write the output there", errno);
 }
 
 void replace_file(const std::string& tmp, const std::string& path) {

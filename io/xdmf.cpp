@@ -11,19 +11,17 @@ namespace fabrica {
 namespace {
 
 // An HDF DataItem of 'rows' (x 'cols' when non-zero) values at 'dataset' (file:/path).
-std::string hdf_item(const std::string& dataset, std::int64_t rows, int cols, const char* type,
-                     int prec) {
+std::string hdf_item(const std::string& dataset, std::int64_t rows, int cols, const char* type, int prec) {
   std::ostringstream d;
   d << "<DataItem Dimensions=\"" << rows;
   if (cols) d << ' ' << cols;
-  d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">"
-    << xml_escape(dataset) << "</DataItem>";
+  d << "\" NumberType=\"" << type << "\" Precision=\"" << prec << "\" Format=\"HDF\">" << xml_escape(dataset)
+    << "</DataItem>";
   return d.str();
 }
 
 // The connectivity: 'n' values from the start of the vertex index, as a hyperslab of 'dims'.
-std::string vertex_slab(const std::string& h5file, const std::string& dims, std::int64_t n,
-                        std::int64_t vertices) {
+std::string vertex_slab(const std::string& h5file, const std::string& dims, std::int64_t n, std::int64_t vertices) {
   std::ostringstream x;
   x << "          <DataItem ItemType=\"HyperSlab\" Dimensions=\"" << dims << "\" Type=\"HyperSlab\">\n"
     << "            <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 " << n << "</DataItem>\n"
@@ -39,9 +37,8 @@ std::string vertex_slab(const std::string& h5file, const std::string& dims, std:
 // cols, type, precision) being the DataItem of dataset 'ds' of the entry's snapshot group
 // 'group' ("particles" or "contacts").
 using ItemFn = std::function<std::string(const std::string&, int, const char*, int)>;
-void write_document(const std::string& path, const std::string& h5file,
-                    const std::vector<XdmfEntry>& entries, const std::string& suffix,
-                    const std::string& group,
+void write_document(const std::string& path, const std::string& h5file, const std::vector<XdmfEntry>& entries,
+                    const std::string& suffix, const std::string& group,
                     const std::function<void(std::ostringstream&, const XdmfEntry&, const ItemFn&)>& grid) {
   std::ostringstream x;
   x.precision(17);  // full precision for the times
@@ -60,7 +57,8 @@ void write_document(const std::string& path, const std::string& h5file,
       const ItemFn item = [&](const std::string& ds, int cols, const char* type, int prec) {
         return hdf_item(base + ds, rows, cols, type, prec);
       };
-      x << "      <Grid Name=\"" << xml_escape(c + suffix) << "_" << layout::step_name(step) << "\" GridType=\"Uniform\">\n"
+      x << "      <Grid Name=\"" << xml_escape(c + suffix) << "_" << layout::step_name(step)
+        << "\" GridType=\"Uniform\">\n"
         << "        <Time Value=\"" << time << "\"/>\n";
       grid(x, e, item);
       x << "      </Grid>\n";
@@ -87,42 +85,46 @@ std::string xml_escape(const std::string& s) {
   return r;
 }
 
-void write_xdmf(const std::string& path, const std::string& h5file,
-                const std::vector<XdmfEntry>& entries, std::int64_t vertices) {
-  write_document(path, h5file, entries, "", "particles",
-                 [&](std::ostringstream& x, const XdmfEntry& e, const ItemFn& item) {
-    const std::int64_t n = std::get<3>(e);
-    auto attribute = [&](const char* name, const char* kind, int cols, const char* type) {
-      return std::string("        <Attribute Name=\"") + name + "\" AttributeType=\"" + kind +
-             "\" Center=\"Node\">\n          " + item(name, cols, type, 8) + "\n        </Attribute>\n";
-    };
-    x << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n"
-      << vertex_slab(h5file, std::to_string(n), n, vertices) << "        </Topology>\n"
-      << "        <Geometry GeometryType=\"XYZ\">\n          " << item("position", 3, "Float", 8) << "\n        </Geometry>\n"
-      << attribute("radius", "Scalar", 0, "Float") << attribute("velocity", "Vector", 3, "Float")
-      << attribute("spin", "Vector", 3, "Float") << attribute("id", "Scalar", 0, "Int");
-  });
+void write_xdmf(const std::string& path, const std::string& h5file, const std::vector<XdmfEntry>& entries,
+                std::int64_t vertices) {
+  write_document(
+      path, h5file, entries, "", "particles", [&](std::ostringstream& x, const XdmfEntry& e, const ItemFn& item) {
+        const std::int64_t n = std::get<3>(e);
+        auto attribute = [&](const char* name, const char* kind, int cols, const char* type) {
+          return std::string("        <Attribute Name=\"") + name + "\" AttributeType=\"" + kind +
+              "\" Center=\"Node\">\n          " + item(name, cols, type, 8) + "\n        </Attribute>\n";
+        };
+        x << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n"
+          << vertex_slab(h5file, std::to_string(n), n, vertices) << "        </Topology>\n"
+          << "        <Geometry GeometryType=\"XYZ\">\n          " << item("position", 3, "Float", 8)
+          << "\n        </Geometry>\n"
+          << attribute("radius", "Scalar", 0, "Float") << attribute("velocity", "Vector", 3, "Float")
+          << attribute("spin", "Vector", 3, "Float") << attribute("id", "Scalar", 0, "Int");
+      });
 }
 
-void write_contacts_xdmf(const std::string& path, const std::string& h5file,
-                         const std::vector<XdmfEntry>& entries, std::int64_t vertices) {
+void write_contacts_xdmf(const std::string& path, const std::string& h5file, const std::vector<XdmfEntry>& entries,
+                         std::int64_t vertices) {
   write_document(path, h5file, entries, "_contacts", "contacts",
                  [&](std::ostringstream& x, const XdmfEntry& e, const ItemFn& item) {
-    const std::int64_t m = std::get<3>(e);
-    auto attribute = [&](const char* name, const char* type, int prec) {
-      return std::string("        <Attribute Name=\"") + name +
-             "\" AttributeType=\"Scalar\" Center=\"Cell\">\n          " + item(name, 0, type, prec) +
-             "\n        </Attribute>\n";
-    };
-    // M two-node line cells over 2M points: the ends (x1, x1 + branch) of every contact,
-    // connectivity 0, 1, ..., 2M-1 (the first 2M values of the vertex index).
-    x << "        <Topology TopologyType=\"Polyline\" NumberOfElements=\"" << m << "\" NodesPerElement=\"2\">\n"
-      << vertex_slab(h5file, std::to_string(m) + " 2", 2 * m, vertices) << "        </Topology>\n"
-      << "        <Geometry GeometryType=\"XYZ\">\n          " << item("ends", 6, "Float", 8) << "\n        </Geometry>\n"
-      << attribute("fn", "Float", 8) << attribute("ft_norm", "Float", 8) << attribute("mr_norm", "Float", 8)
-      << attribute("sliding", "UChar", 1) << attribute("rolling", "UChar", 1) << attribute("strong", "UChar", 1)
-      << attribute("id1", "Int", 8) << attribute("id2", "Int", 8);
-  });
+                   const std::int64_t m = std::get<3>(e);
+                   auto attribute = [&](const char* name, const char* type, int prec) {
+                     return std::string("        <Attribute Name=\"") + name +
+                         "\" AttributeType=\"Scalar\" Center=\"Cell\">\n          " + item(name, 0, type, prec) +
+                         "\n        </Attribute>\n";
+                   };
+                   // M two-node line cells over 2M points: the ends (x1, x1 + branch) of every contact,
+                   // connectivity 0, 1, ..., 2M-1 (the first 2M values of the vertex index).
+                   x << "        <Topology TopologyType=\"Polyline\" NumberOfElements=\"" << m
+                     << "\" NodesPerElement=\"2\">\n"
+                     << vertex_slab(h5file, std::to_string(m) + " 2", 2 * m, vertices) << "        </Topology>\n"
+                     << "        <Geometry GeometryType=\"XYZ\">\n          " << item("ends", 6, "Float", 8)
+                     << "\n        </Geometry>\n"
+                     << attribute("fn", "Float", 8) << attribute("ft_norm", "Float", 8)
+                     << attribute("mr_norm", "Float", 8) << attribute("sliding", "UChar", 1)
+                     << attribute("rolling", "UChar", 1) << attribute("strong", "UChar", 1)
+                     << attribute("id1", "Int", 8) << attribute("id2", "Int", 8);
+                 });
 }
 
 }  // namespace fabrica

@@ -15,13 +15,13 @@ using XdmfEntry = std::tuple<std::string, std::int64_t, double, std::int64_t>;
 // The spheres' sidecar for 'entries' (rows = particles N) in h5file (a name relative to the
 // xmf): each snapshot a Polyvertex grid whose connectivity is the first N values of the
 // dataset layout::kVertexIndex (length 'vertices' >= every N).
-void write_xdmf(const std::string& path, const std::string& h5file,
-                const std::vector<XdmfEntry>& entries, std::int64_t vertices);
+void write_xdmf(const std::string& path, const std::string& h5file, const std::vector<XdmfEntry>& entries,
+                std::int64_t vertices);
 // The contacts' sidecar for 'entries' (rows = contacts M > 0): each snapshot a Polyline grid
 // of M two-node cells whose points are contacts/ends (x1, x1 + branch), with the cell
 // attributes fn, ft_norm, mr_norm, sliding, rolling, strong, id1, id2.
-void write_contacts_xdmf(const std::string& path, const std::string& h5file,
-                         const std::vector<XdmfEntry>& entries, std::int64_t vertices);
+void write_contacts_xdmf(const std::string& path, const std::string& h5file, const std::vector<XdmfEntry>& entries,
+                         std::int64_t vertices);
 
 // s with &, <, > and " escaped for XML text and attributes.
 std::string xml_escape(const std::string& s);

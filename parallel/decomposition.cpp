@@ -64,10 +64,10 @@ Decomposition Decomposition::grid(int nranks, const Vec3& L, real_t cutoff) {
     }
   }
   if (!std::isfinite(best))
-    throw std::runtime_error(
-        "cannot split a cell of " + std::to_string(d.dims_[0]) + " x " + std::to_string(d.dims_[1]) +
-        " x " + std::to_string(d.dims_[2]) + " bins (bin edge >= (2 Rmax + skin) / 2) over " +
-        std::to_string(nranks) + " ranks; use fewer ranks or a larger specimen");
+    throw std::runtime_error("cannot split a cell of " + std::to_string(d.dims_[0]) + " x " +
+                             std::to_string(d.dims_[1]) + " x " + std::to_string(d.dims_[2]) +
+                             " bins (bin edge >= (2 Rmax + skin) / 2) over " + std::to_string(nranks) +
+                             " ranks; use fewer ranks or a larger specimen");
   return d;
 }
 
@@ -130,8 +130,8 @@ Decomposition Decomposition::by_work(int nranks, const Vec3& L, real_t cutoff, c
       throw std::logic_error("Decomposition::by_work: one work value per bin plane expected");
     if (current && int((*current)[k].size()) != d.grid_[k])
       throw std::logic_error("Decomposition::by_work: the current runs are of another rank grid");
-    d.cuts_[k] = current ? balanced_runs(plane_work[k], d.grid_[k], (*current)[k])
-                         : balanced_runs(plane_work[k], d.grid_[k]);
+    d.cuts_[k] =
+        current ? balanced_runs(plane_work[k], d.grid_[k], (*current)[k]) : balanced_runs(plane_work[k], d.grid_[k]);
   }
   d.own_by_cuts();
   return d;
@@ -145,9 +145,8 @@ Decomposition Decomposition::cartesian(int nranks, const Vec3& L, real_t cutoff,
     for (std::size_t j = 1; ok && j < c.size(); ++j) ok = c[j] > c[j - 1];
     ok = ok && c.back() < d.dims_[k];
     if (!ok)
-      throw std::runtime_error("the saved decomposition's cuts along axis " + std::to_string(k + 1) +
-                               " do not fit " + std::to_string(d.grid_[k]) + " runs of " +
-                               std::to_string(d.dims_[k]) + " bins");
+      throw std::runtime_error("the saved decomposition's cuts along axis " + std::to_string(k + 1) + " do not fit " +
+                               std::to_string(d.grid_[k]) + " runs of " + std::to_string(d.dims_[k]) + " bins");
   }
   d.cuts_ = cuts;
   d.own_by_cuts();
@@ -181,7 +180,8 @@ std::pair<std::int64_t, int> lightest_bound(std::span<const std::int64_t> w, int
     if (lo > hi || runs_needed(w, s, hi) > parts) continue;  // cannot beat the best so far
     while (lo < hi) {
       const std::int64_t mid = lo + (hi - lo) / 2;
-      if (runs_needed(w, s, mid) <= parts) hi = mid; else lo = mid + 1;
+      if (runs_needed(w, s, mid) <= parts) hi = mid;
+      else lo = mid + 1;
     }
     best_M = lo, best_s = s;
   }
@@ -266,8 +266,8 @@ std::vector<int> neighbour_bins(const std::array<int, 3>& n, int bin, int reach)
 }
 }  // namespace
 
-Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff,
-                                   const std::vector<double>& bin_work, MPI_Comm comm) {
+Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff, const std::vector<double>& bin_work,
+                                   MPI_Comm comm) {
   Decomposition d;
   d.kind_ = DecompositionKind::Metis;
   d.dims_ = bin_dims(L, cutoff, DecompositionKind::Metis);
@@ -293,8 +293,8 @@ Decomposition Decomposition::metis(int nranks, const Vec3& L, real_t cutoff,
     options[METIS_OPTION_SEED] = 1;
     options[METIS_OPTION_CONTIG] = 0;
     std::vector<idx_t> part(nb);
-    const int rc = METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr,
-                                       nullptr, &np, nullptr, nullptr, options, &objval, part.data());
+    const int rc = METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr, nullptr, &np,
+                                       nullptr, nullptr, options, &objval, part.data());
     if (rc != METIS_OK) throw std::runtime_error("METIS_PartGraphKway failed with code " + std::to_string(rc));
     for (int b = 0; b < nb; ++b) d.owner_[b] = int(part[b]);
   }

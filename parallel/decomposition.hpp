@@ -73,8 +73,8 @@ class Decomposition {
   // std::runtime_error if they do not fit this cell's bins and rank grid.
   static Decomposition cartesian(int nranks, const Vec3& L, real_t cutoff, const CartesianCuts& cuts);
   // METIS decomposition with one weight per bin (size dims product, in bin order).
-  static Decomposition metis(int nranks, const Vec3& L, real_t cutoff,
-                             const std::vector<double>& bin_work, MPI_Comm comm);
+  static Decomposition metis(int nranks, const Vec3& L, real_t cutoff, const std::vector<double>& bin_work,
+                             MPI_Comm comm);
   // The bins of a kind of decomposition for a cell and cutoff: edges >= cutoff / kReach (and for
   // METIS at most 32,768 bins).
   static std::array<int, 3> bin_dims(const Vec3& L, real_t cutoff, DecompositionKind kind);
@@ -85,7 +85,7 @@ class Decomposition {
   const std::array<int, 3>& dims() const { return dims_; }
   int bins() const { return dims_[0] * dims_[1] * dims_[2]; }
   const std::array<int, 3>& rank_grid() const { return grid_; }  // Cartesian only
-  const CartesianCuts& cuts() const { return cuts_; }              // Cartesian only
+  const CartesianCuts& cuts() const { return cuts_; }            // Cartesian only
 
   // Bin of a position wrapped into [0, L).
   int bin_of(const Vec3& x, const Vec3& L) const {

@@ -35,8 +35,7 @@ std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std
 }
 
 std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vector<int>& partners,
-                                                 const std::vector<std::vector<char>>& out,
-                                                 int tag) {
+                                                 const std::vector<std::vector<char>>& out, int tag) {
   const std::size_t n = partners.size();
   std::vector<long long> scount(n), rcount(n);
   std::vector<MPI_Request> req(2 * n);
@@ -46,8 +45,7 @@ std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vecto
     scount[k] = static_cast<long long>(out[k].size());
     MPI_Irecv(&rcount[k], 1, MPI_LONG_LONG, partners[k], tag, comm, &req[k]);
   }
-  for (std::size_t k = 0; k < n; ++k)
-    MPI_Isend(&scount[k], 1, MPI_LONG_LONG, partners[k], tag, comm, &req[n + k]);
+  for (std::size_t k = 0; k < n; ++k) MPI_Isend(&scount[k], 1, MPI_LONG_LONG, partners[k], tag, comm, &req[n + k]);
   MPI_Waitall(int(2 * n), req.data(), MPI_STATUSES_IGNORE);
   std::vector<std::vector<char>> in(n);
   for (std::size_t k = 0; k < n; ++k) {
@@ -78,9 +76,7 @@ void NeighbourExchange::start(MPI_Comm comm, int tag, const std::vector<std::vec
   }
 }
 
-void NeighbourExchange::wait() {
-  MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
-}
+void NeighbourExchange::wait() { MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE); }
 
 std::size_t NeighbourExchange::bytes_sent() const {
   std::size_t b = 0;

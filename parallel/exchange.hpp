@@ -20,8 +20,7 @@ std::vector<std::vector<char>> exchange_all(MPI_Comm comm, const std::vector<std
 // Before: the partner lists are symmetric (r lists s exactly when s lists r), every rank of the
 // pattern calls it with the same tag. After: in.size() == partners.size().
 std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vector<int>& partners,
-                                                 const std::vector<std::vector<char>>& out,
-                                                 int tag);
+                                                 const std::vector<std::vector<char>>& out, int tag);
 
 // A plan for the same exchange repeated every step between fixed partners (ghost updates):
 // what each partner gets, cut into pieces, and where each partner's pieces go. The pieces of
@@ -29,8 +28,8 @@ std::vector<std::vector<char>> exchange_partners(MPI_Comm comm, const std::vecto
 // two ranks (non-overtaking), so the receiver's k-th piece from a rank is the sender's k-th.
 struct NeighbourExchange {
   std::vector<int> send_ranks, recv_ranks;
-  std::vector<std::vector<char>> send_buf;                // per send rank
-  std::vector<std::vector<std::size_t>> send_pieces;      // per send rank: piece sizes, in order
+  std::vector<std::vector<char>> send_buf;            // per send rank
+  std::vector<std::vector<std::size_t>> send_pieces;  // per send rank: piece sizes, in order
   std::vector<MPI_Request> requests;
 
   // Posts one receive per piece of recv_pieces[k] (from recv_ranks[k]) straight into its place,

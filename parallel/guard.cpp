@@ -57,9 +57,7 @@ int run_guarded(const MpiContext& mpi, const std::function<int()>& body) {
   int rc = 1;
   try {
     rc = body();
-  } catch (const std::exception& e) {
-    rc = fail(mpi, guard, e.what());
-  }
+  } catch (const std::exception& e) { rc = fail(mpi, guard, e.what()); }
   MPI_Comm_free(&guard);
   return rc;
 }
@@ -74,9 +72,7 @@ void agree(MPI_Comm comm, const std::function<void()>& phase) {
   int input = 0;
   try {
     phase();
-  } catch (const InputError& e) {
-    msg = e.what(), input = 1;
-  } catch (const std::exception& e) {
+  } catch (const InputError& e) { msg = e.what(), input = 1; } catch (const std::exception& e) {
     msg = e.what();
     if (msg.empty()) msg = "unknown error";
   }

@@ -65,16 +65,15 @@ double MpiDomain::load_imbalance(const Particles& p) {
   return sum > 0 ? mx / (sum / size_) : 1.0;
 }
 
-std::vector<double> MpiDomain::global_bin_work(const Particles& p, const PeriodicCell& cell,
-                                               const Decomposition& d) {
+std::vector<double> MpiDomain::global_bin_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d) {
   std::vector<double> work(d.bins(), 0.0);
   for (std::size_t a = 0; a < p.n_owned(); ++a) work[d.bin_of(p.x[a], cell.lengths())] += 1.0;
   MPI_Allreduce(MPI_IN_PLACE, work.data(), int(work.size()), MPI_DOUBLE, MPI_SUM, comm_);
   return work;
 }
 
-PlaneWork MpiDomain::global_plane_work(const Particles& p, const PeriodicCell& cell,
-                                       const Decomposition& d, const std::vector<std::int32_t>& work) {
+PlaneWork MpiDomain::global_plane_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d,
+                                       const std::vector<std::int32_t>& work) {
   const std::array<int, 3>& n = d.dims();
   std::vector<std::int64_t> flat(std::size_t(n[0] + n[1] + n[2]), 0);  // axis 0, then 1, then 2
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
@@ -90,31 +89,28 @@ PlaneWork MpiDomain::global_plane_work(const Particles& p, const PeriodicCell& c
   return w;
 }
 
-void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell,
-                          const std::vector<std::int32_t>* work) {
+void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>* work) {
   if (opt_.kind == DecompositionKind::Cartesian) {
     decomposed_for_ = cell.lengths();
     if (opt_.balance_work && work) {  // work is null on every rank or on none
       const Decomposition shape = Decomposition::shape(DecompositionKind::Cartesian, cell.lengths(), cutoff_);
-      set_decomposition(Decomposition::by_work(size_, cell.lengths(), cutoff_,
-                                               global_plane_work(p, cell, shape, *work)));
+      set_decomposition(
+          Decomposition::by_work(size_, cell.lengths(), cutoff_, global_plane_work(p, cell, shape, *work)));
     } else {
       set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_));
     }
   } else {
     // Bin work from the current owners (the bins of the new decomposition).
     const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, cell.lengths(), cutoff_);
-    set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_,
-                                           global_bin_work(p, cell, shape), comm_));
+    set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_, global_bin_work(p, cell, shape), comm_));
   }
 }
 
-void MpiDomain::balance_cuts(const Particles& p, const PeriodicCell& cell,
-                             const std::vector<std::int32_t>& work) {
+void MpiDomain::balance_cuts(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>& work) {
   // The runs the current work gives, on the bins of the current decomposition (made for
   // decomposed_for_, so the same bins).
-  Decomposition next = Decomposition::by_work(size_, decomposed_for_, cutoff_,
-                                              global_plane_work(p, cell, *dec_, work), &dec_->cuts());
+  Decomposition next =
+      Decomposition::by_work(size_, decomposed_for_, cutoff_, global_plane_work(p, cell, *dec_, work), &dec_->cuts());
   // Each rank's work with the current runs and with the new ones, summed exactly (integers):
   // every rank takes the same decision.
   std::vector<std::int64_t> load(2 * std::size_t(size_), 0);
@@ -164,8 +160,8 @@ DecompositionRecord MpiDomain::decomposition_record() const {
   return r;
 }
 
-void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-                      const DecompositionRecord* decomposed_as, Holding holding, HistoryMap* history) {
+void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff, const DecompositionRecord* decomposed_as,
+                      Holding holding, HistoryMap* history) {
   cutoff_ = cutoff;
   rmax_ = 0;
   for (std::size_t a = 0; a < p.n_owned(); ++a) rmax_ = std::max(rmax_, p.radius[a]);
@@ -253,7 +249,7 @@ void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap*
   history->for_each([&](GlobalId a, GlobalId b, const ContactHistory& h) {
     put(out[dir(a)], std::int8_t(1));  // to the owner of a
     put(out[dir(a)], HistoryRecord{a, b, h});
-    if (b >= 0) {  // a particle, not a wall
+    if (b >= 0) {                        // a particle, not a wall
       put(out[dir(b)], std::int8_t(2));  // to the owner of b
       put(out[dir(b)], HistoryRecord{a, b, h});
     }
@@ -346,8 +342,7 @@ void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& hist
       int ra = -1;
       if (auto it = dest.find(a); it != dest.end()) hist_out[ra = it->second].push_back({a, b, h});
       if (b >= 0)
-        if (auto it = dest.find(b); it != dest.end() && it->second != ra)
-          hist_out[it->second].push_back({a, b, h});
+        if (auto it = dest.find(b); it != dest.end() && it->second != ra) hist_out[it->second].push_back({a, b, h});
     });
   }
   std::vector<std::vector<char>> out(size_);

@@ -29,16 +29,16 @@ struct MpiDomainOptions {
 };
 
 struct DomainStats {
-  std::int64_t migrations = 0;          // rebuilds with migration
+  std::int64_t migrations = 0;             // rebuilds with migration
   std::int64_t migrations_all_to_all = 0;  // of which after a new decomposition (all ranks)
-  std::int64_t particles_migrated = 0;  // sent by this rank
-  std::int64_t bytes_migrated = 0;      // sent by this rank (particles + history)
-  std::int64_t bytes_ghost_build = 0;   // sent by this rank at ghost creation
-  std::int64_t bytes_forward = 0;       // sent by this rank in forward updates
+  std::int64_t particles_migrated = 0;     // sent by this rank
+  std::int64_t bytes_migrated = 0;         // sent by this rank (particles + history)
+  std::int64_t bytes_ghost_build = 0;      // sent by this rank at ghost creation
+  std::int64_t bytes_forward = 0;          // sent by this rank in forward updates
   std::int64_t forward_updates = 0;
   std::int64_t rebalances = 0;
   double imbalance_before = 1, imbalance_after = 1;  // last rebalance (max/mean owned particles)
-  double imbalance = 1;                 // at the last check
+  double imbalance = 1;                              // at the last check
   // Cartesian runs by work, at the last check: max/mean of the ranks' work (1 + list pairs per
   // owned particle) with the runs in use before it and with those kept after it; the number of
   // checks and of times the runs were moved.
@@ -56,9 +56,8 @@ class MpiDomain final : public Domain {
   void max_all(std::span<double> values) override;
   void sum_all(std::span<double> values) override;
   void sum_all(std::span<std::int64_t> values) override;
-  void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff,
-             const DecompositionRecord* decomposed_as = nullptr, Holding holding = Holding::Whole,
-             HistoryMap* history = nullptr) override;
+  void adopt(Particles& p, const PeriodicCell& cell, real_t cutoff, const DecompositionRecord* decomposed_as = nullptr,
+             Holding holding = Holding::Whole, HistoryMap* history = nullptr) override;
   DecompositionRecord decomposition_record() const override;
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
                const std::vector<std::int32_t>* work) override;
@@ -86,14 +85,13 @@ class MpiDomain final : public Domain {
   void set_decomposition(Decomposition d);  // and its partner ranks
   // adopt() of a share: particles to their owners, springs to the owners of their bodies.
   void gather_share(Particles& p, const PeriodicCell& cell, HistoryMap* history);
-  std::vector<double> global_bin_work(const Particles& p, const PeriodicCell& cell,
-                                      const Decomposition& d);
+  std::vector<double> global_bin_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d);
 
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   MpiDomainOptions opt_;
   real_t cutoff_ = 0;
-  real_t rmax_ = 0;  // the largest radius of all ranks (cutoff_ = 2 rmax_ + skin)
+  real_t rmax_ = 0;                     // the largest radius of all ranks (cutoff_ = 2 rmax_ + skin)
   Vec3 decomposed_for_ = Vec3::Zero();  // cell lengths of the last Cartesian decomposition
   std::optional<Decomposition> dec_;
   std::vector<int> partners_;      // dec_->partners(rank_)
@@ -104,7 +102,7 @@ class MpiDomain final : public Domain {
   std::vector<std::size_t> ghost_recv_first_, ghost_recv_count_;
   NeighbourExchange forward_;
   std::vector<std::vector<BytePiece>> forward_recv_pieces_;  // per recv rank, this update's places
-  std::optional<GhostDrift> forward_drift_;  // the drift end_ghost_update applies (begin's)
+  std::optional<GhostDrift> forward_drift_;                  // the drift end_ghost_update applies (begin's)
   std::int64_t rebuilds_since_check_ = 0;
   std::int64_t rebuilds_since_cut_check_ = -1;  // -1: not checked yet
   DomainStats stats_;

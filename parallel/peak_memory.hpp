@@ -17,13 +17,13 @@
 namespace fabrica {
 
 struct PeakMemory {
-  double max = 0, mean = 0, min = 0;  // bytes, over the ranks
-  int max_rank = 0;                   // a rank with the largest peak
+  double max = 0, mean = 0, min = 0;         // bytes, over the ranks
+  int max_rank = 0;                          // a rank with the largest peak
   double private_max = 0, private_mean = 0;  // bytes: peak less shared and file-backed pages
   int private_max_rank = 0;
-  double shared_max = 0;                     // bytes: those pages, the largest rank
-  std::int64_t ghosts_max = 0;               // the most ghosts a rank held at once
-  std::int64_t owned_at_ghosts_max = 0;      // that rank's owned particles then
+  double shared_max = 0;                 // bytes: those pages, the largest rank
+  std::int64_t ghosts_max = 0;           // the most ghosts a rank held at once
+  std::int64_t owned_at_ghosts_max = 0;  // that rank's owned particles then
 };
 
 // Collective. The peak of this process so far; 0 where /proc is not available.

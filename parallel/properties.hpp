@@ -42,10 +42,14 @@ enum class Message { Forward, Refresh, Full, All };
 
 inline bool carries(Message m, Travel t) {
   switch (t) {
-    case Travel::EveryStep: return true;
-    case Travel::Drifted: return m != Message::Forward;
-    case Travel::AtCreation: return m == Message::Full || m == Message::All;
-    case Travel::Never: return m == Message::All;
+    case Travel::EveryStep:
+      return true;
+    case Travel::Drifted:
+      return m != Message::Forward;
+    case Travel::AtCreation:
+      return m == Message::Full || m == Message::All;
+    case Travel::Never:
+      return m == Message::All;
   }
   return false;
 }
@@ -61,8 +65,7 @@ inline std::size_t bytes_per_particle(Message m) {
 }
 
 // Appends the properties of particles idx to buf, particle by particle.
-inline void pack(const Particles& p, const std::vector<Index>& idx, Message m,
-                 std::vector<char>& buf) {
+inline void pack(const Particles& p, const std::vector<Index>& idx, Message m, std::vector<char>& buf) {
   const std::size_t start = buf.size();
   buf.resize(start + idx.size() * bytes_per_particle(m));
   char* out = buf.data() + start;
@@ -87,8 +90,7 @@ inline const char* unpack(Particles& p, std::size_t first, std::size_t n, Messag
 
 // The same messages field by field: every particle's first property, then every particle's
 // second, ... (the forward update: each field of a contiguous range of ghosts is one copy).
-inline void pack_fields(const Particles& p, const std::vector<Index>& idx, Message m,
-                        std::vector<char>& buf) {
+inline void pack_fields(const Particles& p, const std::vector<Index>& idx, Message m, std::vector<char>& buf) {
   const std::size_t start = buf.size();
   buf.resize(start + idx.size() * bytes_per_particle(m));
   char* out = buf.data() + start;
@@ -105,8 +107,7 @@ inline void pack_fields(const Particles& p, const std::vector<Index>& idx, Messa
 // The places in p of a field-by-field message for the contiguous range [first, first + n):
 // one piece per carried field, in the message's order (a receive can go straight there).
 // Written into 'out' (cleared first; its room is kept, so the per-step update allocates nothing).
-inline void field_pieces(Particles& p, std::size_t first, std::size_t n, Message m,
-                         std::vector<BytePiece>& out) {
+inline void field_pieces(Particles& p, std::size_t first, std::size_t n, Message m, std::vector<BytePiece>& out) {
   out.clear();
   for_each_property(p, [&](const char*, auto& vec, Travel t) {
     if (!carries(m, t) || n == 0) return;
@@ -134,8 +135,7 @@ inline std::vector<std::size_t> field_piece_bytes(std::size_t n, Message m) {
   return out;
 }
 
-inline const char* unpack_fields(Particles& p, std::size_t first, std::size_t n, Message m,
-                                 const char* in) {
+inline const char* unpack_fields(Particles& p, std::size_t first, std::size_t n, Message m, const char* in) {
   for (const BytePiece& piece : field_pieces(p, first, n, m)) {
     std::memcpy(piece.at, in, piece.bytes);
     in += piece.bytes;

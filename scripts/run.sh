@@ -16,7 +16,7 @@ packages=(build-essential cmake pkg-config openmpi-bin libopenmpi-dev libeigen3-
 # report page in headless Chromium (cli.output.paraview*, cli.report.html). On a fresh Debian 12
 # machine these add about 270 MB of downloads and 1.2 GB on disk, 2-3 minutes (docs/output.md).
 if [ "$mode" = test ]; then
-  packages+=(paraview python3-paraview xvfb xauth chromium)
+  packages+=(paraview python3-paraview xvfb xauth chromium clang-format)  # clang-format: test style.clang_format
 fi
 missing=()
 for p in "${packages[@]}"; do

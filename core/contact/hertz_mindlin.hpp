@@ -48,7 +48,8 @@
 
 namespace fabrica {
 
-template <class T> struct HertzPairL {
+template <class T>
+struct HertzPairL {
   T kn0;   // 2 E* sqrt(R*): k_n = kn0 sqrt(u_n) [N/m^1.5]
   T kt0;   // 8 G* sqrt(R*): k_t = kt0 sqrt(u_n) [N/m^1.5]
   T dn;    // 2 sqrt(5/6) beta_n sqrt(m*): c_n = dn sqrt(k_n) [kg^0.5]
@@ -60,7 +61,8 @@ template <class T> struct HertzPairL {
 struct HertzMindlin {
   static constexpr ContactModel kModel = ContactModel::HertzMindlin;
   static constexpr bool kPreviousOverlap = true;  // reads ContactKinematics::un_prev
-  template <class T> using Pair = HertzPairL<T>;
+  template <class T>
+  using Pair = HertzPairL<T>;
 
   // The effective moduli of two bodies of the scene's one material [Pa].
   static real_t effective_modulus(const ContactLawParams& law) {
@@ -74,8 +76,8 @@ struct HertzMindlin {
   static constexpr real_t kTsuji = 1.8257418583505538;  // 2 sqrt(5/6)
 
   template <int Roll, bool Viscous, class T>
-  [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj,
-                                             const T&, const T& sum_r, const T& mi, const T& mj) {
+  [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj, const T&,
+                                             const T& sum_r, const T& mi, const T& mj) {
     Pair<T> c;
     const T rstar = Ri * Rj / sum_r;
     const T sr = simd::sqrt(rstar);
@@ -116,8 +118,8 @@ struct HertzMindlin {
 
   template <int Roll, bool Viscous, class T, bool Twist = false>
   [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
-                                                           const ContactKinematicsL<T>& k,
-                                                           ContactHistoryL<T>& h, real_t dt) {
+                                                           const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
+                                                           real_t dt) {
     using namespace simd;
     ContactResultL<T> r;
     r.e_friction = r.e_rolling = r.e_viscous = T{};
@@ -155,8 +157,8 @@ struct HertzMindlin {
     // The energy a spring of stiffness k_prev (k now) and squared length f2 loses.
     auto lost = [&](const T& f2, const T& r2) {  // r2 = k_r / k_t for the rolling spring, else 1
       const T before = select(was, 0.5 * f2 / (ktp_safe * r2), T{});
-      const T after = select(unload, 0.5 * f2 * kt / (ktp_safe * ktp_safe * r2),
-                             select(kt > 0.0, 0.5 * f2 / (kt_safe * r2), T{}));
+      const T after =
+          select(unload, 0.5 * f2 * kt / (ktp_safe * ktp_safe * r2), select(kt > 0.0, 0.5 * f2 / (kt_safe * r2), T{}));
       return before - after;
     };
     const T fr2 = squared_norm(h.fs);
@@ -217,9 +219,7 @@ struct HertzMindlin {
     return r;
   }
 
-  static real_t normal_force(const Pair<real_t>& c, real_t un) {
-    return (2.0 / 3.0) * (c.kn0 * std::sqrt(un)) * un;
-  }
+  static real_t normal_force(const Pair<real_t>& c, real_t un) { return (2.0 / 3.0) * (c.kn0 * std::sqrt(un)) * un; }
   static Vec3 shear_force(const Pair<real_t>&, real_t, const Vec3& stored) { return stored; }
   static real_t normal_stiffness(const Pair<real_t>& c, real_t un) { return c.kn0 * std::sqrt(un); }
   static real_t shear_stiffness(const Pair<real_t>& c, real_t un) { return c.kt0 * std::sqrt(un); }

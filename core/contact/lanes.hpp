@@ -21,10 +21,10 @@ struct ContactHistory {
 };
 
 struct ContactKinematics {
-  Vec3 n;        // unit normal from body 1 to body 2
-  real_t un;     // overlap [m], > 0
-  Vec3 vrel;     // velocity of body 2 relative to body 1 at the contact point [m/s]
-  Vec3 w1, w2;   // spins [rad/s]
+  Vec3 n;       // unit normal from body 1 to body 2
+  real_t un;    // overlap [m], > 0
+  Vec3 vrel;    // velocity of body 2 relative to body 1 at the contact point [m/s]
+  Vec3 w1, w2;  // spins [rad/s]
   // The overlap one step before [m] (<= 0 on the step a contact forms), from the positions
   // before this step's drift; set only for a model with kPreviousOverlap (Hertz-Mindlin).
   real_t un_prev = 0;
@@ -54,17 +54,20 @@ struct ContactResult {
   real_t mt = 0;      // the twisting moment on body 2 along n (included in mr) [N m]
 };
 
-template <class T> struct ContactKinematicsL {
+template <class T>
+struct ContactKinematicsL {
   simd::V3<T> n;
   T un;
   simd::V3<T> vrel, w1, w2;
   T un_prev;  // as ContactKinematics::un_prev
 };
-template <class T> struct ContactHistoryL {
+template <class T>
+struct ContactHistoryL {
   simd::V3<T> fs, mr;
   T mt{};
 };
-template <class T> struct ContactResultL {
+template <class T>
+struct ContactResultL {
   T fn;
   simd::V3<T> fs, mr;
   simd::mask_t<T> sliding, rolling;
@@ -90,7 +93,8 @@ inline Vec3 carry_with_plane(const Vec3& a, const Vec3& n, real_t phi) {
 }
 
 // at_limit() over lanes.
-template <class T> inline simd::mask_t<T> at_limit_l(const T& norm2, const T& limit) {
+template <class T>
+inline simd::mask_t<T> at_limit_l(const T& norm2, const T& limit) {
   const T l = (1.0 - kLimitTolerance) * limit;
   return norm2 >= l * l;
 }

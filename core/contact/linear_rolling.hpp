@@ -42,8 +42,7 @@ struct PairConstants {
 
 // Body 2 may be a wall: pass R2 = infinity and m2 = infinity.
 template <bool Rolling, bool Viscous>
-inline PairConstants pair_constants(const ContactLawParams& p, real_t R1, real_t R2, real_t m1,
-                                    real_t m2) {
+inline PairConstants pair_constants(const ContactLawParams& p, real_t R1, real_t R2, real_t m1, real_t m2) {
   PairConstants c;
   const bool wall = std::isinf(R2);
   if (p.stiffness_mode == NormalStiffnessMode::Direct) {
@@ -65,7 +64,8 @@ inline PairConstants pair_constants(const ContactLawParams& p, real_t R1, real_t
   return c;
 }
 
-template <class T> struct PairConstantsL {
+template <class T>
+struct PairConstantsL {
   T kn, ks, kr, cn, cs, rbar;
   T ir{};  // I_r of the epsd rolling dashpot [kg m^2] (epsd with dashpots only)
 };
@@ -77,8 +77,8 @@ template <class T> struct PairConstantsL {
 // Twist: the twisting spring-slider.
 template <int Roll, bool Viscous, class T, bool Twist = false>
 [[gnu::always_inline]] inline ContactResultL<T> contact_law_l(const ContactLawParams& p, const PairConstantsL<T>& c,
-                                       const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
-                                       real_t dt) {
+                                                              const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
+                                                              real_t dt) {
   using namespace simd;
   ContactResultL<T> r;
   r.e_friction = r.e_rolling = r.e_viscous = T{};
@@ -124,19 +124,18 @@ template <int Roll, bool Viscous, class T, bool Twist = false>
 
 // One contact, in the form the tests use.
 template <int Roll, bool Viscous, bool Twist = false>
-inline ContactResult contact_law(const ContactLawParams& p, const PairConstants& c,
-                                 const ContactKinematics& k, ContactHistory& h, real_t dt) {
+inline ContactResult contact_law(const ContactLawParams& p, const PairConstants& c, const ContactKinematics& k,
+                                 ContactHistory& h, real_t dt) {
   using simd::from_vec, simd::to_vec;
   const PairConstantsL<real_t> cl{c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar, 0.0};
-  const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1),
-                                      from_vec(k.w2), k.un_prev};
+  const ContactKinematicsL<real_t> kl{from_vec(k.n), k.un, from_vec(k.vrel), from_vec(k.w1), from_vec(k.w2), k.un_prev};
   ContactHistoryL<real_t> hl{from_vec(h.fs), from_vec(h.mr), h.mt};
   const ContactResultL<real_t> rl = contact_law_l<Roll, Viscous, real_t, Twist>(p, cl, kl, hl, dt);
   h.fs = to_vec(hl.fs);
   if constexpr (Roll != kNoRolling) h.mr = to_vec(hl.mr);
   if constexpr (Twist) h.mt = hl.mt;
-  return ContactResult{rl.fn, to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
-                       rl.e_friction, rl.e_rolling, rl.e_viscous, rl.mt};
+  return ContactResult{rl.fn,         to_vec(rl.fs), to_vec(rl.mr), rl.sliding, rl.rolling,
+                       rl.e_friction, rl.e_rolling,  rl.e_viscous,  rl.mt};
 }
 
 // Elastic energy stored in the three springs of one contact [J].
@@ -153,13 +152,14 @@ inline real_t spring_energy_rolling(const PairConstants& c, const ContactHistory
 struct LinearRolling {
   static constexpr ContactModel kModel = ContactModel::Linear;
   static constexpr bool kPreviousOverlap = false;  // ContactKinematics::un_prev is not read
-  template <class T> using Pair = PairConstantsL<T>;
+  template <class T>
+  using Pair = PairConstantsL<T>;
 
   // Two spheres, lane by lane (rmin = min(Ri, Rj), sum_r = Ri + Rj; mi, mj only if Viscous):
   // the operations of pair_constants, so that both give the same bits.
   template <int Roll, bool Viscous, class T>
-  [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj,
-                                             const T& rmin, const T& sum_r, const T& mi, const T& mj) {
+  [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj, const T& rmin,
+                                             const T& sum_r, const T& mi, const T& mj) {
     Pair<T> pc;
     if (law.stiffness_mode == NormalStiffnessMode::Direct) {
       pc.kn = T{} + law.normal_stiffness;
@@ -184,7 +184,8 @@ struct LinearRolling {
   static Pair<real_t> constants(const ContactLawParams& law, real_t R1, real_t R2, real_t m1, real_t m2) {
     const PairConstants c = pair_constants<Roll != kNoRolling, Viscous>(law, R1, R2, m1, m2);
     Pair<real_t> p{c.kn, c.ks, c.kr, c.cn, c.cs, c.rbar, 0.0};
-    if constexpr (Roll != kNoRolling && Roll != kElasticPlastic) p.kr = rolling_stiffness<Roll>(law, p.kn, p.ks, p.rbar);
+    if constexpr (Roll != kNoRolling && Roll != kElasticPlastic)
+      p.kr = rolling_stiffness<Roll>(law, p.kn, p.ks, p.rbar);
     if constexpr (Roll == kEpsd && Viscous)
       p.ir = std::isinf(m2) ? rolling_inertia_wall(m1, R1) : rolling_inertia(m1, R1, m2, R2);
     return p;
@@ -196,8 +197,8 @@ struct LinearRolling {
 
   template <int Roll, bool Viscous, class T, bool Twist = false>
   [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
-                                                           const ContactKinematicsL<T>& k,
-                                                           ContactHistoryL<T>& h, real_t dt) {
+                                                           const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
+                                                           real_t dt) {
     return contact_law_l<Roll, Viscous, T, Twist>(law, c, k, h, dt);
   }
 

@@ -17,8 +17,10 @@ namespace fabrica {
 template <class F>
 decltype(auto) with_model(ContactModel m, F&& f) {
   switch (m) {
-    case ContactModel::HertzMindlin: return f(HertzMindlin{});
-    case ContactModel::Linear: break;
+    case ContactModel::HertzMindlin:
+      return f(HertzMindlin{});
+    case ContactModel::Linear:
+      break;
   }
   return f(LinearRolling{});
 }

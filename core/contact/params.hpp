@@ -25,35 +25,33 @@ enum class RollingModel : std::uint8_t { ElasticPlastic = 0, Epsd = 1, ConstantT
 struct ContactLawParams {
   ContactModel model = ContactModel::Linear;
   NormalStiffnessMode stiffness_mode = NormalStiffnessMode::Deformability;  // linear only
-  real_t youngs_modulus = 100e6;   // E [Pa]: linear (deformability mode) and Hertz-Mindlin
-  real_t poisson_ratio = 0.25;     // nu [-], Hertz-Mindlin only
-  real_t normal_stiffness = 0.0;   // k_n [N/m], linear, direct mode
-  real_t stiffness_ratio = 1.0;    // kappa = k_n / k_s [-], linear only
-  real_t friction = 0.3;           // mu_s [-]
-  real_t rolling_friction = 0.0;   // mu_r [-]
+  real_t youngs_modulus = 100e6;  // E [Pa]: linear (deformability mode) and Hertz-Mindlin
+  real_t poisson_ratio = 0.25;    // nu [-], Hertz-Mindlin only
+  real_t normal_stiffness = 0.0;  // k_n [N/m], linear, direct mode
+  real_t stiffness_ratio = 1.0;   // kappa = k_n / k_s [-], linear only
+  real_t friction = 0.3;          // mu_s [-]
+  real_t rolling_friction = 0.0;  // mu_r [-]
   RollingModel rolling_model = RollingModel::ElasticPlastic;
   real_t rolling_damping = 0.0;    // eta_r [-], the epsd model's rolling dashpot (of its critical)
   real_t twisting_friction = 0.0;  // mu_t [-], the twisting spring-slider (rolling.hpp); 0: none
   // Dashpots. Linear: beta is the critical damping ratio, c = 2 beta sqrt(m_eff k).
   // Hertz-Mindlin: beta is Tsuji's coefficient, c = 2 sqrt(5/6) beta sqrt(m_eff S) with S the
   // tangent stiffness of the contact (hertz_mindlin.hpp).
-  real_t damping_ratio_n = 0.0;    // beta_n [-]
-  real_t damping_ratio_s = 0.0;    // beta_s [-]
-  real_t damping_rate_n = 0.0;     // eta_n [1/s], c_n = eta_n m_eff (linear only)
-  real_t damping_rate_s = 0.0;     // eta_s [1/s] (linear only)
+  real_t damping_ratio_n = 0.0;  // beta_n [-]
+  real_t damping_ratio_s = 0.0;  // beta_s [-]
+  real_t damping_rate_n = 0.0;   // eta_n [1/s], c_n = eta_n m_eff (linear only)
+  real_t damping_rate_s = 0.0;   // eta_s [1/s] (linear only)
 
   bool rolling() const { return rolling_friction > 0.0; }
   bool twisting() const { return twisting_friction > 0.0; }
   bool viscous() const {
     return damping_ratio_n > 0 || damping_ratio_s > 0 || damping_rate_n > 0 || damping_rate_s > 0 ||
-           (rolling_damping > 0 && rolling_model == RollingModel::Epsd);
+        (rolling_damping > 0 && rolling_model == RollingModel::Epsd);
   }
 };
 
 // The name a scene file gives a model ([contact] model, rolling_model).
-inline const char* model_name(ContactModel m) {
-  return m == ContactModel::HertzMindlin ? "hertz_mindlin" : "linear";
-}
+inline const char* model_name(ContactModel m) { return m == ContactModel::HertzMindlin ? "hertz_mindlin" : "linear"; }
 inline const char* rolling_model_name(RollingModel m) {
   return m == RollingModel::Epsd ? "epsd" : m == RollingModel::ConstantTorque ? "constant_torque" : "elastic_plastic";
 }
@@ -77,25 +75,25 @@ struct LawParameter {
   real_t ContactLawParams::*member;  // a Real's place
   Bound bound;
   ForModel model;
-  bool wall;          // a [[wall]] may replace it for its contacts
-  bool stage;         // a [[stage]] may set it from its start
-  int since;          // the checkpoint format that added it
+  bool wall;   // a [[wall]] may replace it for its contacts
+  bool stage;  // a [[stage]] may set it from its start
+  int since;   // the checkpoint format that added it
   // The dashpot a damping ratio replaces when given (its rate form set to 0), or nullptr.
   real_t ContactLawParams::*clears = nullptr;
 };
 
 inline constexpr LawParameter kLawParameters[] = {
     // field, scene key, unit, kind, member; bound, model, [[wall]], [[stage]], since (, clears)
-    {"law.stiffness_mode", nullptr, "-", LawValue::StiffnessMode, nullptr,
-     Bound::None, ForModel::Linear, false, false, 6},
-    {"law.youngs_modulus", "youngs_modulus", "Pa", LawValue::Real, &ContactLawParams::youngs_modulus,
-     Bound::Positive, ForModel::Any, true, false, 6},
+    {"law.stiffness_mode", nullptr, "-", LawValue::StiffnessMode, nullptr, Bound::None, ForModel::Linear, false, false,
+     6},
+    {"law.youngs_modulus", "youngs_modulus", "Pa", LawValue::Real, &ContactLawParams::youngs_modulus, Bound::Positive,
+     ForModel::Any, true, false, 6},
     {"law.normal_stiffness", "normal_stiffness", "N/m", LawValue::Real, &ContactLawParams::normal_stiffness,
      Bound::Positive, ForModel::Linear, true, false, 6},
-    {"law.stiffness_ratio", "stiffness_ratio", "-", LawValue::Real, &ContactLawParams::stiffness_ratio,
-     Bound::Positive, ForModel::Linear, true, false, 6},
-    {"law.friction", "friction", "-", LawValue::Real, &ContactLawParams::friction,
-     Bound::NonNegative, ForModel::Any, true, true, 6},
+    {"law.stiffness_ratio", "stiffness_ratio", "-", LawValue::Real, &ContactLawParams::stiffness_ratio, Bound::Positive,
+     ForModel::Linear, true, false, 6},
+    {"law.friction", "friction", "-", LawValue::Real, &ContactLawParams::friction, Bound::NonNegative, ForModel::Any,
+     true, true, 6},
     {"law.rolling_friction", "rolling_friction", "-", LawValue::Real, &ContactLawParams::rolling_friction,
      Bound::NonNegative, ForModel::Any, true, true, 6},
     {"law.damping_ratio_n", "damping_ratio_normal", "-", LawValue::Real, &ContactLawParams::damping_ratio_n,
@@ -106,14 +104,12 @@ inline constexpr LawParameter kLawParameters[] = {
      Bound::NonNegative, ForModel::Linear, false, false, 6},
     {"law.damping_rate_s", "damping_rate_shear", "1/s", LawValue::Real, &ContactLawParams::damping_rate_s,
      Bound::NonNegative, ForModel::Linear, false, false, 6},
-    {"law.model", nullptr, "-", LawValue::Model, nullptr,
-     Bound::None, ForModel::Any, false, false, 8},
-    {"law.poisson_ratio", "poisson_ratio", "-", LawValue::Real, &ContactLawParams::poisson_ratio,
-     Bound::Poisson, ForModel::HertzMindlin, true, false, 8},
-    {"law.rolling_model", nullptr, "-", LawValue::RollingModel, nullptr,
-     Bound::None, ForModel::Any, false, false, 8},
-    {"law.rolling_damping", "rolling_damping", "-", LawValue::Real, &ContactLawParams::rolling_damping,
-     Bound::Fraction, ForModel::Any, false, false, 8},
+    {"law.model", nullptr, "-", LawValue::Model, nullptr, Bound::None, ForModel::Any, false, false, 8},
+    {"law.poisson_ratio", "poisson_ratio", "-", LawValue::Real, &ContactLawParams::poisson_ratio, Bound::Poisson,
+     ForModel::HertzMindlin, true, false, 8},
+    {"law.rolling_model", nullptr, "-", LawValue::RollingModel, nullptr, Bound::None, ForModel::Any, false, false, 8},
+    {"law.rolling_damping", "rolling_damping", "-", LawValue::Real, &ContactLawParams::rolling_damping, Bound::Fraction,
+     ForModel::Any, false, false, 8},
     {"law.twisting_friction", "twisting_friction", "-", LawValue::Real, &ContactLawParams::twisting_friction,
      Bound::NonNegative, ForModel::Any, true, true, 9},
 };
@@ -121,21 +117,31 @@ inline constexpr LawParameter kLawParameters[] = {
 // Whether v passes the bound, and the words that say why not.
 inline bool within(Bound b, real_t v) {
   switch (b) {
-    case Bound::Positive: return v > 0;
-    case Bound::NonNegative: return v >= 0;
-    case Bound::Fraction: return v >= 0 && v < 1;
-    case Bound::Poisson: return v > -1 && v < 0.5;
-    case Bound::None: break;
+    case Bound::Positive:
+      return v > 0;
+    case Bound::NonNegative:
+      return v >= 0;
+    case Bound::Fraction:
+      return v >= 0 && v < 1;
+    case Bound::Poisson:
+      return v > -1 && v < 0.5;
+    case Bound::None:
+      break;
   }
   return true;
 }
 inline const char* bound_text(Bound b) {
   switch (b) {
-    case Bound::Positive: return "must be positive";
-    case Bound::NonNegative: return "must be >= 0";
-    case Bound::Fraction: return "must lie in [0, 1)";
-    case Bound::Poisson: return "must lie in (-1, 0.5) (the Poisson ratio of an isotropic elastic solid)";
-    case Bound::None: break;
+    case Bound::Positive:
+      return "must be positive";
+    case Bound::NonNegative:
+      return "must be >= 0";
+    case Bound::Fraction:
+      return "must lie in [0, 1)";
+    case Bound::Poisson:
+      return "must lie in (-1, 0.5) (the Poisson ratio of an isotropic elastic solid)";
+    case Bound::None:
+      break;
   }
   return "";
 }
@@ -185,7 +191,7 @@ void law_fields(Io& io, Law& l, More more) {
       continue;
     }
     std::uint8_t v = p.value == LawValue::StiffnessMode ? (l.stiffness_mode == NormalStiffnessMode::Direct ? 1 : 0)
-                     : p.value == LawValue::Model       ? std::uint8_t(l.model)
+        : p.value == LawValue::Model                    ? std::uint8_t(l.model)
                                                         : std::uint8_t(l.rolling_model);
     io.field(p.field, v);
     if constexpr (!std::is_const_v<Law>) {

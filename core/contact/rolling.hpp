@@ -88,7 +88,6 @@ template <class T>
   r.mr = mr;
 }
 
-
 // The twisting spring-slider (above): stiffness ktw = k_s Rbar^2 (> 0), cap mu_t Rbar f_n,el; the
 // slip's energy added to r.e_rolling, the moment to r.mt (the caller adds mt n to r.mr).
 template <class T>
@@ -113,10 +112,9 @@ template <class T>
 // The rolling resistance of model Roll (not kNoRolling), with the contact's k_r and, for the
 // epsd dashpot (Viscous), I_r.
 template <int Roll, bool Viscous, class T>
-[[gnu::always_inline]] inline void rolling_l(const ContactLawParams& law, const T& kr, const T& ir,
-                                             const T& rbar, const T& fn_el, const ContactKinematicsL<T>& k,
-                                             ContactHistoryL<T>& h, const T& twist, real_t dt,
-                                             ContactResultL<T>& r) {
+[[gnu::always_inline]] inline void rolling_l(const ContactLawParams& law, const T& kr, const T& ir, const T& rbar,
+                                             const T& fn_el, const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
+                                             const T& twist, real_t dt, ContactResultL<T>& r) {
   using namespace simd;
   if constexpr (Roll == kConstantTorque) {
     V3<T> wr = k.w2 - k.w1;
@@ -128,7 +126,7 @@ template <int Roll, bool Viscous, class T>
     const T sc = select(moving, cap / w, T{});
     r.mr = wr * (-sc);
     h.mr = r.mr;
-    r.rolling = moving;  // at its limit whenever the pair rolls
+    r.rolling = moving;                               // at its limit whenever the pair rolls
     r.e_rolling = select(moving, cap * w * dt, T{});  // -m_r . w_r dt
   } else {
     rolling_spring_l(law.rolling_friction, kr, rbar, fn_el, k, h, twist, dt, r);

@@ -14,8 +14,8 @@ namespace fabrica {
 struct Fcc {
   static constexpr real_t R = 0.01, kn = 1e8;
   real_t a = 2 * std::sqrt(2.0) * R - 1e-9 * std::sqrt(2.0);  // lattice constant
-  real_t damping_rate = 0;  // eta of both dashpots, 1/s (c = eta m_eff = eta m / 2)
-  real_t dt_fraction = 0.1; // time step / sqrt(m / k_n)
+  real_t damping_rate = 0;                                    // eta of both dashpots, 1/s (c = eta m_eff = eta m / 2)
+  real_t dt_fraction = 0.1;                                   // time step / sqrt(m / k_n)
   Simulation make() const {
     Particles p;
     const Vec3 basis[4] = {Vec3(0, 0, 0), Vec3(0.5, 0.5, 0), Vec3(0.5, 0, 0.5), Vec3(0, 0.5, 0.5)};
@@ -23,8 +23,7 @@ struct Fcc {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
         for (int k = 0; k < 3; ++k)
-          for (const Vec3& b : basis)
-            p.add({id++, R, 2650.0, (Vec3(i, j, k) + b + Vec3::Constant(0.25)) * a});
+          for (const Vec3& b : basis) p.add({id++, R, 2650.0, (Vec3(i, j, k) + b + Vec3::Constant(0.25)) * a});
     SimulationParams sp;
     sp.law.stiffness_mode = NormalStiffnessMode::Direct;
     sp.law.normal_stiffness = kn;

@@ -28,9 +28,8 @@ namespace fabrica {
 namespace {
 
 // [contact] stiffness line, e.g. "youngs_modulus = 1e7" or "normal_stiffness = 1e9".
-std::string scene_text(int count, const std::string& stiffness, real_t mu_cons,
-                       const std::string& extra = "", real_t d_max = 0.060, real_t fraction = 0.30,
-                       long max_steps = 600000) {
+std::string scene_text(int count, const std::string& stiffness, real_t mu_cons, const std::string& extra = "",
+                       real_t d_max = 0.060, real_t fraction = 0.30, long max_steps = 600000) {
   return fmt::format(R"(
 [particles]
 source = "generate"
@@ -61,7 +60,8 @@ axial_strain_rate = 0.5
 axial_strain = 0.01
 max_stage_steps = {}
 {}
-)", count, d_max, fraction, stiffness, mu_cons, max_steps, extra);
+)",
+                     count, d_max, fraction, stiffness, mu_cons, max_steps, extra);
 }
 
 struct Outcome {
@@ -85,12 +85,13 @@ Outcome run(const std::string& text, const std::string& label) {
   real_t worst = 0;
   for (int k = 0; k < 3; ++k)
     worst = std::max(worst, std::abs(m.stress(k, k) - tx.confining_pressure) / tx.confining_pressure);
-  std::printf("[servo] %s: consolidated in %lld steps (error %.3f %%, unbalanced %.1e, e %.3f), "
-              "equilibrated in %lld, sheared in %lld: lateral error <= %.3f %%, energy error "
-              "<= %.2e (%.1f s)\n",
-              label.c_str(), (long long)o.cons.steps, 100 * worst, m.unbalanced, m.void_ratio,
-              (long long)o.eq.steps, (long long)o.sh.steps, 100 * o.sh.max_lateral_error,
-              std::max(o.cons.max_energy_error, o.sh.max_energy_error), o.seconds);
+  std::printf(
+      "[servo] %s: consolidated in %lld steps (error %.3f %%, unbalanced %.1e, e %.3f), "
+      "equilibrated in %lld, sheared in %lld: lateral error <= %.3f %%, energy error "
+      "<= %.2e (%.1f s)\n",
+      label.c_str(), (long long)o.cons.steps, 100 * worst, m.unbalanced, m.void_ratio, (long long)o.eq.steps,
+      (long long)o.sh.steps, 100 * o.sh.max_lateral_error, std::max(o.cons.max_energy_error, o.sh.max_energy_error),
+      o.seconds);
   EXPECT_LT(worst, 0.005) << label;
   EXPECT_LT(m.unbalanced, tx.unbalanced_tolerance) << label;
   EXPECT_LT(o.sh.max_lateral_error, 0.01) << label;
@@ -122,8 +123,8 @@ TEST(Servo, CellTooSmallForTheGradationStops) {
   } catch (const BlowUpError& e) {
     const std::string m = e.what();
     std::printf("[servo] %s\n", m.c_str());
-    for (const char* part : {"cannot go on at step", "the periodic cell has shrunk to L",
-                             "2 (2 Rmax + skin) = 0.121", "larger specimen"})
+    for (const char* part :
+         {"cannot go on at step", "the periodic cell has shrunk to L", "2 (2 Rmax + skin) = 0.121", "larger specimen"})
       EXPECT_NE(m.find(part), std::string::npos) << part << " missing in: " << m;
     const Vec3& L = sim.cell().lengths();
     EXPECT_LE(L.minCoeff(), 2 * (0.06 + 0.001)) << "stopped with every axis above the limit";
@@ -131,7 +132,9 @@ TEST(Servo, CellTooSmallForTheGradationStops) {
 }
 TEST(Servo, SoftSpringsDense) { run(scene_text(100, "normal_stiffness = 1e5", 0.1, "", 0.02), "k_n 1e5, 100 dense"); }
 TEST(Servo, SoftSpringsLoose) { run(scene_text(100, "normal_stiffness = 1e5", 1.0, "", 0.02), "k_n 1e5, 100 loose"); }
-TEST(Servo, StiffSpringsDense) { run(scene_text(200, "normal_stiffness = 1e8", 0.1, "", 0.04, 0.45), "k_n 1e8, 200 dense"); }
+TEST(Servo, StiffSpringsDense) {
+  run(scene_text(200, "normal_stiffness = 1e8", 0.1, "", 0.04, 0.45), "k_n 1e8, 200 dense");
+}
 // k_n = 1e9 N/m: the time step falls as sqrt(m / k_n) while the rearrangements of a packing
 // take a time set by the masses and the pressure, not the stiffness, so the steps to rest grow
 // as sqrt(k_n): 721,098 here (600,000 were not enough). The loose 100 spheres of 10-20 mm come
@@ -186,8 +189,8 @@ TEST(Servo, ConsolidatesTheFccLattice) {
   const StageResult c = r.consolidate();
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(c.state.stress(k, k), 100e3, 0.005 * 100e3) << k;
   EXPECT_LT(c.state.unbalanced, scene.triaxial.unbalanced_tolerance);
-  std::printf("[servo] FCC lattice, k_n = 1e8 N/m: consolidated to p = %.1f Pa in %lld steps\n",
-              c.state.p, (long long)c.steps);
+  std::printf("[servo] FCC lattice, k_n = 1e8 N/m: consolidated to p = %.1f Pa in %lld steps\n", c.state.p,
+              (long long)c.steps);
 }
 
 // Strong dashpots: the lattice's viscosity C = 5 S T (T the servo interval of 2 steps; eta =
@@ -209,9 +212,10 @@ TEST(Servo, ConsolidatesAStronglyDampedFccLattice) {
   const StageResult c = r.consolidate();
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(c.state.stress(k, k), 100e3, 0.005 * 100e3) << k;
   EXPECT_LT(c.state.unbalanced, scene.triaxial.unbalanced_tolerance);
-  std::printf("[servo] FCC lattice, k_n = 1e8 N/m, eta = %.4g 1/s (C = %.2f S T): consolidated to "
-              "p = %.1f Pa in %lld steps\n",
-              f.damping_rate, f.viscosity() / (f.stiffness() * T), c.state.p, (long long)c.steps);
+  std::printf(
+      "[servo] FCC lattice, k_n = 1e8 N/m, eta = %.4g 1/s (C = %.2f S T): consolidated to "
+      "p = %.1f Pa in %lld steps\n",
+      f.damping_rate, f.viscosity() / (f.stiffness() * T), c.state.p, (long long)c.steps);
 }
 
 // The old default fixed gains (4 /s, 2000 /s^2) on the same lattice: the loop gain is about 3,
@@ -219,7 +223,8 @@ TEST(Servo, ConsolidatesAStronglyDampedFccLattice) {
 TEST(Servo, FixedGainsThatCannotConvergeStopWithWhatTheySaw) {
   const Fcc f;
   Simulation sim = f.make();
-  const Scene scene = parse_scene(std::string(kFccScene) + "servo_gain = 4.0\nservo_integral_gain = 2000.0\n", "fcc.toml");
+  const Scene scene =
+      parse_scene(std::string(kFccScene) + "servo_gain = 4.0\nservo_integral_gain = 2000.0\n", "fcc.toml");
   TriaxialRun r(scene, sim, 2 * f.R, 2650, nullptr, nullptr);
   try {
     r.consolidate();
@@ -227,8 +232,8 @@ TEST(Servo, FixedGainsThatCannotConvergeStopWithWhatTheySaw) {
   } catch (const std::exception& e) {
     const std::string m = e.what();
     std::printf("[servo] %s\n", m.c_str());
-    for (const char* part : {"fcc.toml", "consolidation stage stopped", "cannot converge",
-                             "loop gain", "p = ", "target 100000 Pa", "stiffness"})
+    for (const char* part : {"fcc.toml", "consolidation stage stopped", "cannot converge", "loop gain",
+                             "p = ", "target 100000 Pa", "stiffness"})
       EXPECT_NE(m.find(part), std::string::npos) << part << " missing in: " << m;
     EXPECT_EQ(m.find("blow-up"), std::string::npos) << m;
   }

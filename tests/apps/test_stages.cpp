@@ -36,7 +36,8 @@ end = {{ at_rest = true }}
 
 [[stage]]
 {}
-)", stage);
+)",
+                     stage);
 }
 
 struct Row {
@@ -74,7 +75,7 @@ struct LatticeRun {
   Scene scene;
   std::ostringstream series;
   StageResult first, second;
-  MacroState start;  // at the start of the second stage
+  MacroState start;         // at the start of the second stage
   Vec3 l_start, eps_start;  // its cell lengths, and its series strains (from the list's start)
   std::int64_t step_start = 0;
   std::vector<Row> rows;
@@ -116,8 +117,8 @@ end = { steps = 1000 })");
   const real_t ds1 = r.second.state.stress(0, 0) - r.start.stress(0, 0);
   const real_t ds2 = r.second.state.stress(1, 1) - r.start.stress(1, 1);
   const real_t c = r.f.stiffness();
-  std::printf("[stages] eps1 %.6e: Delta s11 %.6e Pa, c eps1 %.6e Pa (%.2e relative), Delta s22 %.3e Pa\n",
-              e[0], ds1, c * e[0], ds1 / (c * e[0]) - 1, ds2);
+  std::printf("[stages] eps1 %.6e: Delta s11 %.6e Pa, c eps1 %.6e Pa (%.2e relative), Delta s22 %.3e Pa\n", e[0], ds1,
+              c * e[0], ds1 / (c * e[0]) - 1, ds2);
   EXPECT_NEAR(ds1, c * e[0], 2e-3 * c * e[0]);
   EXPECT_NEAR(ds2, 0.0, 2e-3 * c * e[0]);
 }
@@ -147,8 +148,8 @@ end = { strain = 5e-6 })");
   ASSERT_GT(r.rows.size(), 10u);
   real_t worst = 0;
   for (const Row& row : r.rows) worst = std::max(worst, std::abs(row.p - 100e3) / 100e3);
-  std::printf("[stages] constant p: %zu rows, |p - 100 kPa| <= %.3f %%, end q/p %.4f\n", r.rows.size(),
-              100 * worst, r.second.state.q / r.second.state.p);
+  std::printf("[stages] constant p: %zu rows, |p - 100 kPa| <= %.3f %%, end q/p %.4f\n", r.rows.size(), 100 * worst,
+              r.second.state.q / r.second.state.p);
   EXPECT_LT(worst, 0.01);
   EXPECT_GT(r.second.state.q / r.second.state.p, 0.5);
 }
@@ -206,9 +207,10 @@ cycles = 2)");
   }
   const Vec3 e = r.eps();
   const double expected = 4 * 2 * A / step;
-  std::printf("[stages] cyclic strain: %lld steps (4 N A / (rate dt) = %.1f), eps1 in [%.4e, %.4e], "
-              "%d reversals in the rows, end eps1 %.3e\n",
-              (long long)r.second.steps, expected, lo, hi, reversals, e[0]);
+  std::printf(
+      "[stages] cyclic strain: %lld steps (4 N A / (rate dt) = %.1f), eps1 in [%.4e, %.4e], "
+      "%d reversals in the rows, end eps1 %.3e\n",
+      (long long)r.second.steps, expected, lo, hi, reversals, e[0]);
   EXPECT_EQ(reversals, 4);
   EXPECT_NEAR(double(r.second.steps), expected, 0.01 * expected);
   EXPECT_LE(hi, A + 2.02 * step);
@@ -235,8 +237,8 @@ cycles = 1)");
   }
   const Mat3& s = r.second.state.stress;
   const real_t qs_end = s(0, 0) - 0.5 * (s(1, 1) + s(2, 2));
-  std::printf("[stages] cyclic stress: q_s in [%.4e, %.4e] Pa (amplitude 2e4, %.1f Pa per step), end %.3e Pa\n",
-              lo, hi, dq, qs_end);
+  std::printf("[stages] cyclic stress: q_s in [%.4e, %.4e] Pa (amplitude 2e4, %.1f Pa per step), end %.3e Pa\n", lo, hi,
+              dq, qs_end);
   EXPECT_LE(hi, 20e3 + 3 * dq + 200);
   EXPECT_GE(hi, 20e3 - 11 * dq - 200);
   EXPECT_GE(lo, -20e3 - 3 * dq - 200);
@@ -278,8 +280,9 @@ end = { q_p = 0.2 })");
 
 // A contact parameter set by a stage is the simulation's from then on.
 TEST(Stages, StageSetsContactParameters) {
-  LatticeRun r("type = \"hold\"\nfriction = 0.25\nrolling_friction = 0.05\ntwisting_friction = 0.02\n"
-               "local_damping = 0.3\ndamping_ratio_normal = 0.2\ndamping_ratio_shear = 0.1\nend = { steps = 4 }");
+  LatticeRun r(
+      "type = \"hold\"\nfriction = 0.25\nrolling_friction = 0.05\ntwisting_friction = 0.02\n"
+      "local_damping = 0.3\ndamping_ratio_normal = 0.2\ndamping_ratio_shear = 0.1\nend = { steps = 4 }");
   EXPECT_EQ(r.sim.params().law.friction, 0.25);
   EXPECT_EQ(r.sim.params().law.rolling_friction, 0.05);
   EXPECT_EQ(r.sim.params().law.twisting_friction, 0.02);
@@ -321,8 +324,8 @@ TEST(Stages, StageDampingSizesTheTimeStep) {
       "[[stage]]\ntype = \"hold\"\ndamping_ratio_normal = 0.5\ndamping_ratio_shear = 0.5\nend = { steps = 1 }\n";
   const fabrica::Setup a = make_setup(triaxial_setup_scene(parse_scene(base + hold + hold, "a.toml")));
   const fabrica::Setup b = make_setup(triaxial_setup_scene(parse_scene(base + hold + damped_hold + hold, "b.toml")));
-  std::printf("[stages] critical time step %.6e s undamped, %.6e s with a stage at beta = 0.5\n",
-              a.critical_dt, b.critical_dt);
+  std::printf("[stages] critical time step %.6e s undamped, %.6e s with a stage at beta = 0.5\n", a.critical_dt,
+              b.critical_dt);
   EXPECT_NEAR(b.critical_dt / a.critical_dt, std::sqrt(1.25) - 0.5, 1e-12);
   EXPECT_NEAR(b.params.dt / a.params.dt, std::sqrt(1.25) - 0.5, 1e-12);
 }

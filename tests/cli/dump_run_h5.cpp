@@ -25,8 +25,8 @@ int main(int argc, char** argv) {
   const std::string path = argv[1];
   try {
     const fabrica::RunFileInfo ri = fabrica::read_run_info(path);
-    std::printf("info %lld %s %s %s\n", static_cast<long long>(ri.ranks), ri.version.c_str(),
-                ri.git_describe.c_str(), ri.scene_path.c_str());
+    std::printf("info %lld %s %s %s\n", static_cast<long long>(ri.ranks), ri.version.c_str(), ri.git_describe.c_str(),
+                ri.scene_path.c_str());
     for (const std::string& c : fabrica::list_series(path)) {
       const fabrica::Series s = fabrica::read_series(path, c);
       std::string cols;

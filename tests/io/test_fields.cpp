@@ -20,9 +20,7 @@ std::string hex(const std::string& b) {
 std::string error_of(const std::function<void()>& f) {
   try {
     f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
+  } catch (const InputError& e) { return e.what(); }
   return "";
 }
 }  // namespace
@@ -31,7 +29,11 @@ TEST(Fields, BytesAreLittleEndianWithoutPadding) {
   FieldWriter w;
   w.u8("a", 0x12).i32("b", -2).u64("c", 0x0102030405060708ull).f64("d", 1.0);
   // IEEE 754 binary64 1.0 is 0x3ff0000000000000; -2 in two's complement is 0xfffffffe.
-  EXPECT_EQ(hex(w.bytes()), "12" "feffffff" "0807060504030201" "000000000000f03f");
+  EXPECT_EQ(hex(w.bytes()),
+            "12"
+            "feffffff"
+            "0807060504030201"
+            "000000000000f03f");
   EXPECT_EQ(w.schema(), "a:u8;b:i32;c:u64;d:f64");
 }
 
@@ -64,13 +66,14 @@ TEST(Fields, AnotherLayoutIsRefusedNamingTheField) {
             "'law.damping:f64' there: written by another version");
   // The same name with another type.
   FieldReader t(w.schema(), w.bytes().data(), w.bytes().size(), "x");
-  EXPECT_NE(error_of([&] { t.i64("law.friction"); }).find("is 'law.friction:f64', this build reads "
-                                                           "'law.friction:i64'"), std::string::npos);
+  EXPECT_NE(error_of([&] { t.i64("law.friction"); })
+                .find("is 'law.friction:f64', this build reads "
+                      "'law.friction:i64'"),
+            std::string::npos);
   // A field this build does not read, or one the file lacks.
   FieldReader u(w.schema(), w.bytes().data(), w.bytes().size(), "x");
   u.f64("law.friction");
-  EXPECT_NE(error_of([&] { u.done(); }).find("field 2 'law.rolling_friction:f64' is not read"),
-            std::string::npos);
+  EXPECT_NE(error_of([&] { u.done(); }).find("field 2 'law.rolling_friction:f64' is not read"), std::string::npos);
   u.f64("law.rolling_friction");
   EXPECT_NE(error_of([&] { u.f64("more"); }).find("no field 'more:f64'"), std::string::npos);
 }

@@ -24,8 +24,7 @@ std::string write_tmp(const std::string& name, const std::string& text) {
   return p.string();
 }
 
-const char* kHeader =
-    "test data\n\n3 atoms\n1 atom types\n\n0 1 xlo xhi\n0 1 ylo yhi\n0 2 zlo zhi\n\nAtoms\n\n";
+const char* kHeader = "test data\n\n3 atoms\n1 atom types\n\n0 1 xlo xhi\n0 1 ylo yhi\n0 2 zlo zhi\n\nAtoms\n\n";
 
 void expect_error(const std::string& body, std::initializer_list<std::string> fragments) {
   const std::string path = write_tmp("fabrica_bad.data", std::string(kHeader) + body);
@@ -64,10 +63,11 @@ TEST(LammpsData, SharedBenchmarkFile) {
 }
 
 TEST(LammpsData, VelocitiesAreReadInAnyOrder) {
-  const std::string path = write_tmp(
-      "fabrica_vel.data", std::string(kHeader) +
-          "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n\n"
-          "Velocities\n\n3 0.75 0 0 0 0 3\n1 0.25 0 0 0 0 1\n2 0.5 0 0 0 0 2\n");
+  const std::string path =
+      write_tmp("fabrica_vel.data",
+                std::string(kHeader) +
+                    "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n\n"
+                    "Velocities\n\n3 0.75 0 0 0 0 3\n1 0.25 0 0 0 0 1\n2 0.5 0 0 0 0 2\n");
   const DataFile d = read_lammps_data(path);
   ASSERT_TRUE(d.has_velocities);
   for (std::size_t a = 0; a < 3; ++a) {
@@ -75,8 +75,8 @@ TEST(LammpsData, VelocitiesAreReadInAnyOrder) {
     EXPECT_EQ(d.particles.w[a], Vec3(0, 0, double(d.particles.id[a])));
   }
   const DataFile none = read_lammps_data(write_tmp(
-      "fabrica_novel.data", std::string(kHeader) +
-          "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n"));
+      "fabrica_novel.data",
+      std::string(kHeader) + "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n"));
   EXPECT_FALSE(none.has_velocities);
   EXPECT_EQ(none.particles.v[1], Vec3::Zero());
 }
@@ -90,12 +90,10 @@ TEST(LammpsData, MalformedFilesAreRefused) {
                {"particle 2", "y = 1.5", "outside"});
   expect_error("1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 nan 0.5 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n",
                {"particle 2", "x = nan"});
-  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n1 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n",
-               {"appears twice"});
+  expect_error("1 1 0.02 2650 0.5 0.5 0.5\n1 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n", {"appears twice"});
   expect_error("1 1 0.02 2650 0.5 0.5\n", {":12", "expected"});
   expect_error("1 1 0.02 2650 0.5 0.5 0.5\n", {"3 atoms", "has 1"});
-  const std::string atoms =
-      "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n\n";
+  const std::string atoms = "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 0.2\n3 1 0.02 2650 0.7 0.7 0.7\n\n";
   expect_error(atoms + "Velocities\n\n1 0 0 0 0 0 0\n2 0 0 0 0 0 0\n", {"Velocities section has 2"});
   expect_error(atoms + "Velocities\n\n1 0 0 0 0 0 0\n2 0 inf 0 0 0 0\n3 0 0 0 0 0 0\n",
                {":19", "particle 2", "vy = inf"});
@@ -109,11 +107,11 @@ TEST(LammpsData, MalformedFilesAreRefused) {
 
 TEST(LammpsData, ParticleOutsideTheSceneCellIsRefused) {
   const std::string data = write_tmp(
-      "fabrica_ok.data", std::string(kHeader) +
-                             "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 1.9\n3 1 0.02 2650 0.7 0.7 0.7\n");
-  const std::string scene = write_tmp(
-      "fabrica_cell.toml", "[particles]\nsource = \"file\"\nfile = \"" + data +
-                               "\"\n[cell]\nsize = [1.0, 1.0, 1.0]\n[contact]\nnormal_stiffness = 1e5\n");
+      "fabrica_ok.data",
+      std::string(kHeader) + "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 0.2 0.2 1.9\n3 1 0.02 2650 0.7 0.7 0.7\n");
+  const std::string scene = write_tmp("fabrica_cell.toml",
+                                      "[particles]\nsource = \"file\"\nfile = \"" + data +
+                                          "\"\n[cell]\nsize = [1.0, 1.0, 1.0]\n[contact]\nnormal_stiffness = 1e5\n");
   try {
     make_setup(load_scene(scene));
     FAIL() << "particle outside the cell accepted";
@@ -164,8 +162,7 @@ TEST(LammpsData, IdsAreWholeNumbersInRange) {
   expect_file_error(h + "1e30 1 0.02 2650 0.5 0.5 0.5\n" + rest, {":12", "particle id '1e30'"});
   expect_file_error(h + "0 1 0.02 2650 0.5 0.5 0.5\n" + rest, {":12", "particle id '0'"});
   expect_file_error(h + "-3 1 0.02 2650 0.5 0.5 0.5\n" + rest, {":12", "particle id '-3'"});
-  expect_file_error(h + "9007199254740993 1 0.02 2650 0.5 0.5 0.5\n" + rest,
-                    {":12", "particle id '9007199254740993'"});
+  expect_file_error(h + "9007199254740993 1 0.02 2650 0.5 0.5 0.5\n" + rest, {":12", "particle id '9007199254740993'"});
   expect_file_error(h + "-9223372036854775808 1 0.02 2650 0.5 0.5 0.5\n" + rest,
                     {":12", "particle id '-9223372036854775808'"});
   // The largest id is accepted, and read exactly.
@@ -194,16 +191,17 @@ TEST(LammpsData, DiametersInRangeAndADirectoryIsRefused) {
     read_lammps_data(dir.string());
     FAIL() << "a directory was read as a data file";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find(dir.string() + ": is a directory, not a particle data file"),
-              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(dir.string() + ": is a directory, not a particle data file"), std::string::npos)
+        << e.what();
   }
 }
 
 TEST(LammpsData, BoxFarLargerThanItsSpheresIsRefusedBeforeAllocation) {
-  const std::string data = write_tmp(
-      "fabrica_huge_box.data", header("2 atoms", "0 1e6 xlo xhi\n0 1e6 ylo yhi\n0 1e6 zlo zhi\n") +
-                                   "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 100 100 100\n");
-  const std::string scene = write_tmp("fabrica_huge_box.toml", "[particles]\nsource = \"file\"\nfile = \"" + data + "\"\n");
+  const std::string data = write_tmp("fabrica_huge_box.data",
+                                     header("2 atoms", "0 1e6 xlo xhi\n0 1e6 ylo yhi\n0 1e6 zlo zhi\n") +
+                                         "1 1 0.02 2650 0.5 0.5 0.5\n2 1 0.02 2650 100 100 100\n");
+  const std::string scene =
+      write_tmp("fabrica_huge_box.toml", "[particles]\nsource = \"file\"\nfile = \"" + data + "\"\n");
   try {
     make_setup(load_scene(scene));
     FAIL() << "a grid of 10^21 cells was accepted";

@@ -69,20 +69,21 @@ Scene scene_with(const std::string& name, const std::string& toml, real_t R, con
   fs::create_directories(dir);
   std::ostringstream d;
   d.precision(17);
-  d << "partial slip test\n\n1 atoms\n1 atom types\n\n0 " << L[0] << " xlo xhi\n0 " << L[1] << " ylo yhi\n0 "
-    << L[2] << " zlo zhi\n\nAtoms\n\n1 1 " << 2 * R << " " << kRho << " " << x[0] << " " << x[1] << " " << x[2]
+  d << "partial slip test\n\n1 atoms\n1 atom types\n\n0 " << L[0] << " xlo xhi\n0 " << L[1] << " ylo yhi\n0 " << L[2]
+    << " zlo zhi\n\nAtoms\n\n1 1 " << 2 * R << " " << kRho << " " << x[0] << " " << x[1] << " " << x[2]
     << "\n\nVelocities\n\n1 " << v[0] << " " << v[1] << " " << v[2] << " 0 0 0\n";
   std::ofstream(dir / "s.data") << d.str();
   std::ofstream(dir / "s.toml") << "[particles]\nsource = \"file\"\nfile = \"s.data\"\n[cell]\nsize = " << vec(L)
-                                << "\n" << toml << "[[wall]]\npoint = [0, 0, 0.02]\nnormal = [0, 0, 1]\n";
+                                << "\n"
+                                << toml << "[[wall]]\npoint = [0, 0, 0.02]\nnormal = [0, 0, 1]\n";
   return load_scene((dir / "s.toml").string());
 }
 
 struct EngineImpact {
-  real_t psi2 = 0;      // (v_t' - R w') / (mu v_n)
-  real_t vn_ratio = 0;  // v_n' / v_n
+  real_t psi2 = 0;            // (v_t' - R w') / (mu v_n)
+  real_t vn_ratio = 0;        // v_n' / v_n
   bool capped_always = true;  // the shear spring at the Coulomb limit at every loaded step
-  real_t books = 0;     // (kinetic energy lost - friction booked) / kinetic energy put in
+  real_t books = 0;           // (kinetic energy lost - friction booked) / kinetic energy put in
 };
 
 // Runs the scene's impact at v_n, v_t (launched 3 steps above the floor) until the contact
@@ -114,7 +115,8 @@ EngineImpact engine_impact(const std::string& name, const std::string& contact, 
   r.psi2 = (q.v[0].x() - R * q.w[0].y()) / (mu * vn);
   r.vn_ratio = q.v[0].z() / vn;
   const real_t m = q.mass[0], I = 0.4 * m * R * R;
-  const real_t ke_in = 0.5 * m * (vn * vn + vt * vt), ke_out = 0.5 * m * q.v[0].squaredNorm() + 0.5 * I * q.w[0].squaredNorm();
+  const real_t ke_in = 0.5 * m * (vn * vn + vt * vt),
+               ke_out = 0.5 * m * q.v[0].squaredNorm() + 0.5 * I * q.w[0].squaredNorm();
   r.books = (ke_in - ke_out - sim.dissipation().friction) / ke_in;
   return r;
 }
@@ -203,13 +205,16 @@ RefImpact reference_impact(const RefModel& M, real_t vn, real_t vt, real_t h) {
   // 2 stuck -> sliding, 3 sliding -> stuck.
   auto event = [&](const Y& y, int e) -> real_t {
     switch (e) {
-      case 0: return unloading ? -y[0] : -1;
-      case 1: return unloading ? -1 : -y[1];
+      case 0:
+        return unloading ? -y[0] : -1;
+      case 1:
+        return unloading ? -1 : -y[1];
       case 2:
         if (slip || !M.capped) return -1;
         if (M.hertz && M.scaled && unloading) return std::abs(y[4]) - M.mu * 2.0 / 3.0 * M.kn0 * std::max(y[0], 0.0);
         return std::abs(y[4]) - M.mu * fn(y[0]);
-      default: return slip ? -slip_rate(y) : -1;
+      default:
+        return slip ? -slip_rate(y) : -1;
     }
   };
   auto first_event = [&](const Y& y) {
@@ -322,12 +327,13 @@ TEST(PartialSlip, LinearLawTangentialRestitution) {
     const real_t ratio = std::cos(kPi * std::sqrt(3.5 / kappa)), onset = 7 - kappa;
     char k[16];
     std::snprintf(k, sizeof k, "k%d", int(kappa * 10));
-    std::printf("[linear kappa %.1f] no-slip limit Psi2/Psi1 = cos(pi w_t/w_n) = %.5f; gross sliding from Psi1 = %.3f\n",
-                kappa, ratio, onset);
+    std::printf(
+        "[linear kappa %.1f] no-slip limit Psi2/Psi1 = cos(pi w_t/w_n) = %.5f; gross sliding from Psi1 = %.3f\n", kappa,
+        ratio, onset);
     std::printf("  | Psi1 | engine | reference | closed form | engine - reference | capped throughout |\n");
     for (real_t psi1 : {0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 5.5, 6.5, 8.0}) {
-      const EngineImpact e =
-          engine_impact(std::string("linear-") + k + "-" + std::to_string(int(psi1 * 100)), c.str(), R, mu, vn, psi1 * mu * vn, dt, fn);
+      const EngineImpact e = engine_impact(std::string("linear-") + k + "-" + std::to_string(int(psi1 * 100)), c.str(),
+                                           R, mu, vn, psi1 * mu * vn, dt, fn);
       const real_t ref = ref_psi2(M, vn, psi1, T / 20000);
       // the closed form where it applies: gross sliding; kappa = 7/2 below its onset
       real_t closed = NAN;
@@ -347,22 +353,27 @@ TEST(PartialSlip, LinearLawTangentialRestitution) {
       }
     }
     // The small-angle (no-slip) limit.
-    const EngineImpact small = engine_impact(std::string("linear-small-") + k, c.str(), R, mu, vn, 0.01 * mu * vn, dt, fn);
+    const EngineImpact small =
+        engine_impact(std::string("linear-small-") + k, c.str(), R, mu, vn, 0.01 * mu * vn, dt, fn);
     const real_t ref_small = ref_psi2(M, vn, 0.01, T / 20000);
-    std::printf("  small angle Psi1 = 0.01: engine Psi2/Psi1 = %.5f, reference %.5f, cos(pi w_t/w_n) %.5f "
-                "(engine / closed form - 1 = %+.1e)\n",
-                small.psi2 / 0.01, ref_small / 0.01, ratio, small.psi2 / 0.01 / ratio - 1);
+    std::printf(
+        "  small angle Psi1 = 0.01: engine Psi2/Psi1 = %.5f, reference %.5f, cos(pi w_t/w_n) %.5f "
+        "(engine / closed form - 1 = %+.1e)\n",
+        small.psi2 / 0.01, ref_small / 0.01, ratio, small.psi2 / 0.01 / ratio - 1);
     EXPECT_NEAR(small.psi2 / 0.01, ratio, 2e-3 * std::abs(ratio));
     EXPECT_NEAR(small.psi2, ref_small, 2e-5);
     // The onset of gross sliding, bracketed 0.1 either side: below it the contact sticks
     // before it ends, above it the spring is at the cap at every step and Psi2 = Psi1 - 7.
-    const EngineImpact below = engine_impact(std::string("linear-below-") + k, c.str(), R, mu, vn, (onset - 0.1) * mu * vn, dt, fn);
-    const EngineImpact above = engine_impact(std::string("linear-above-") + k, c.str(), R, mu, vn, (onset + 0.1) * mu * vn, dt, fn);
-    std::printf("  onset: Psi1 %.2f capped throughout: %s (Psi2 %+.5f, reference %+.5f); Psi1 %.2f: %s (Psi2 %+.5f, "
-                "reference %+.5f, Psi1 - 7 = %+.5f)\n",
-                onset - 0.1, below.capped_always ? "yes" : "no", below.psi2, ref_psi2(M, vn, onset - 0.1, T / 20000),
-                onset + 0.1, above.capped_always ? "yes" : "no", above.psi2, ref_psi2(M, vn, onset + 0.1, T / 20000),
-                onset + 0.1 - 7);
+    const EngineImpact below =
+        engine_impact(std::string("linear-below-") + k, c.str(), R, mu, vn, (onset - 0.1) * mu * vn, dt, fn);
+    const EngineImpact above =
+        engine_impact(std::string("linear-above-") + k, c.str(), R, mu, vn, (onset + 0.1) * mu * vn, dt, fn);
+    std::printf(
+        "  onset: Psi1 %.2f capped throughout: %s (Psi2 %+.5f, reference %+.5f); Psi1 %.2f: %s (Psi2 %+.5f, "
+        "reference %+.5f, Psi1 - 7 = %+.5f)\n",
+        onset - 0.1, below.capped_always ? "yes" : "no", below.psi2, ref_psi2(M, vn, onset - 0.1, T / 20000),
+        onset + 0.1, above.capped_always ? "yes" : "no", above.psi2, ref_psi2(M, vn, onset + 0.1, T / 20000),
+        onset + 0.1 - 7);
     EXPECT_FALSE(below.capped_always) << kappa;
     EXPECT_TRUE(above.capped_always) << kappa;
     EXPECT_NEAR(above.psi2, onset + 0.1 - 7, 1e-3) << kappa;
@@ -408,10 +419,12 @@ TEST(PartialSlip, HertzMindlinTangentialRestitution) {
     return (r.v - R * r.w) / (0.01 * mu * vn);
   };
   const real_t limit = noslip_ratio(M);
-  std::printf("[hertz] k_n0/k_t0 = %.5f, gross sliding from Psi1 = %.4f (plain increments: %.4f); no-slip limit "
-              "Psi2/Psi1 = %.5f (plain increments: %.5f)\n",
-              M.kn0 / M.kt0, onset, 7 - M.kn0 / M.kt0, limit, noslip_ratio(plain));
-  std::printf("  | Psi1 | engine | reference | closed form | engine - reference | capped throughout | plain increments |\n");
+  std::printf(
+      "[hertz] k_n0/k_t0 = %.5f, gross sliding from Psi1 = %.4f (plain increments: %.4f); no-slip limit "
+      "Psi2/Psi1 = %.5f (plain increments: %.5f)\n",
+      M.kn0 / M.kt0, onset, 7 - M.kn0 / M.kt0, limit, noslip_ratio(plain));
+  std::printf(
+      "  | Psi1 | engine | reference | closed form | engine - reference | capped throughout | plain increments |\n");
   real_t worst_ref = 0, worst_closed = 0, worst_books = 0;
   std::vector<std::pair<real_t, real_t>> curve;
   for (real_t psi1 : {0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 5.5, 6.0, 6.5, 8.0}) {
@@ -434,31 +447,33 @@ TEST(PartialSlip, HertzMindlinTangentialRestitution) {
     curve.emplace_back(psi1, e.psi2);
   }
   const EngineImpact small = engine_impact("hertz-small", c.str(), R, mu, vn, 0.01 * mu * vn, dt, fn);
-  std::printf("  small angle Psi1 = 0.01: engine Psi2/Psi1 = %.5f, reference %.5f, no-slip limit %.5f (engine / limit "
-              "- 1 = %+.1e)\n",
-              small.psi2 / 0.01, ref_psi2(M, vn, 0.01, tc / 40000) / 0.01, limit, small.psi2 / 0.01 / limit - 1);
+  std::printf(
+      "  small angle Psi1 = 0.01: engine Psi2/Psi1 = %.5f, reference %.5f, no-slip limit %.5f (engine / limit "
+      "- 1 = %+.1e)\n",
+      small.psi2 / 0.01, ref_psi2(M, vn, 0.01, tc / 40000) / 0.01, limit, small.psi2 / 0.01 / limit - 1);
   EXPECT_NEAR(small.psi2 / 0.01, limit, 5e-3 * limit);
   const EngineImpact below = engine_impact("hertz-below", c.str(), R, mu, vn, (onset - 0.1) * mu * vn, dt, fn);
   const EngineImpact above = engine_impact("hertz-above", c.str(), R, mu, vn, (onset + 0.1) * mu * vn, dt, fn);
-  std::printf("  onset: Psi1 %.3f capped throughout: %s (Psi2 %+.5f, reference %+.5f); Psi1 %.3f: %s (Psi2 %+.5f, "
-              "reference %+.5f, Psi1 - 7 = %+.5f)\n",
-              onset - 0.1, below.capped_always ? "yes" : "no", below.psi2, ref_psi2(M, vn, onset - 0.1, tc / 40000),
-              onset + 0.1, above.capped_always ? "yes" : "no", above.psi2, ref_psi2(M, vn, onset + 0.1, tc / 40000),
-              onset + 0.1 - 7);
+  std::printf(
+      "  onset: Psi1 %.3f capped throughout: %s (Psi2 %+.5f, reference %+.5f); Psi1 %.3f: %s (Psi2 %+.5f, "
+      "reference %+.5f, Psi1 - 7 = %+.5f)\n",
+      onset - 0.1, below.capped_always ? "yes" : "no", below.psi2, ref_psi2(M, vn, onset - 0.1, tc / 40000),
+      onset + 0.1, above.capped_always ? "yes" : "no", above.psi2, ref_psi2(M, vn, onset + 0.1, tc / 40000),
+      onset + 0.1 - 7);
   EXPECT_FALSE(below.capped_always);
   EXPECT_TRUE(above.capped_always);
   EXPECT_NEAR(above.psi2, onset + 0.1 - 7, 1.5e-3);
   // The shape: the contact point's motion reversed (Psi2 < 0) in the partial-slip range
   // 2 <= Psi1 < onset, the lowest Psi2 inside it, and gross sliding setting in below the
   // rigid-body bound 2 (1 + K) = 7 (Maw, Barber & Fawcett 1976).
-  const auto lowest = std::min_element(curve.begin(), curve.end(), [](auto& a, auto& b) { return a.second < b.second; });
-  std::printf("[hertz] largest |engine - reference| %.2e, |engine - closed form| %.2e, |books| %.1e; lowest Psi2 "
-              "%+.4f at Psi1 %.2f\n",
-              worst_ref, worst_closed, worst_books, lowest->second, lowest->first);
+  const auto lowest =
+      std::min_element(curve.begin(), curve.end(), [](auto& a, auto& b) { return a.second < b.second; });
+  std::printf(
+      "[hertz] largest |engine - reference| %.2e, |engine - closed form| %.2e, |books| %.1e; lowest Psi2 "
+      "%+.4f at Psi1 %.2f\n",
+      worst_ref, worst_closed, worst_books, lowest->second, lowest->first);
   for (const auto& [psi1, psi2] : curve) {
-    if (psi1 >= 2 && psi1 < onset) {
-      EXPECT_LT(psi2, 0.0) << psi1;
-    }
+    if (psi1 >= 2 && psi1 < onset) { EXPECT_LT(psi2, 0.0) << psi1; }
   }
   EXPECT_GT(lowest->first, 2.0);
   EXPECT_LT(lowest->first, onset);
@@ -467,10 +482,11 @@ TEST(PartialSlip, HertzMindlinTangentialRestitution) {
   const real_t ref1 = ref_psi2(M, vn, 1.0, tc / 40000);
   real_t err_prev = 0;
   for (real_t steps : {41.0, 82.0, 164.0, 1000.0}) {
-    const EngineImpact e = engine_impact("hertz-dt" + std::to_string(int(steps)), c.str(), R, mu, vn, mu * vn,
-                                         tc / steps, fn);
+    const EngineImpact e =
+        engine_impact("hertz-dt" + std::to_string(int(steps)), c.str(), R, mu, vn, mu * vn, tc / steps, fn);
     const real_t err = std::abs(e.psi2 - ref1);
-    std::printf("[hertz] Psi1 = 1 at dt = t_c / %.0f: engine %+.5f, reference %+.5f, error %.2e\n", steps, e.psi2, ref1, err);
+    std::printf("[hertz] Psi1 = 1 at dt = t_c / %.0f: engine %+.5f, reference %+.5f, error %.2e\n", steps, e.psi2, ref1,
+                err);
     if (steps == 41.0) EXPECT_LT(err, 1e-2);
     if (steps == 82.0) EXPECT_LT(err, err_prev / 2);  // better than first order
     err_prev = err;

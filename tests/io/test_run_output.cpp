@@ -138,7 +138,7 @@ TEST(RunOutput, RoundTripOfEveryDataset) {
   MPI_Allreduce(&nmine, &ntotal, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
   ASSERT_EQ((long long)cs.contacts.size(), ntotal);
   ASSERT_GT(ntotal, 300);
-  EXPECT_GT(nroll, 0);   // the test covers non-trivial rolling moments and flags
+  EXPECT_GT(nroll, 0);  // the test covers non-trivial rolling moments and flags
   EXPECT_GT(nslide, 0);
   EXPECT_EQ(cs.info.contacts, ntotal);
   std::map<std::pair<GlobalId, GlobalId>, std::size_t> cat;
@@ -241,15 +241,13 @@ void expect_input_error(const std::function<void()>& f, const std::string& needl
   try {
     f();
     ADD_FAILURE() << "no error; expected " << needle;
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-  }
+  } catch (const InputError& e) { EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what(); }
 }
 
 TEST(RunOutput, ReaderRefusesBadFiles) {
   const std::string dir = fresh_dir("badfiles");
-  const std::string missing = dir + "/missing.h5", foreign = dir + "/foreign.h5",
-                    truncated = dir + "/truncated.h5", other = dir + "/other.h5";
+  const std::string missing = dir + "/missing.h5", foreign = dir + "/foreign.h5", truncated = dir + "/truncated.h5",
+                    other = dir + "/other.h5";
   // A good file to truncate, a text file and an HDF5 file that Fabrica did not write.
   { RunOutput out(MPI_COMM_WORLD, test_scene(), dir + "/good", false); }
   if (rank() == 0) {

@@ -45,7 +45,8 @@ damping_ratio_normal = 0.2
 steps = 10
 time_step = 1e-6
 gravity = [0, 0, -9.81]
-)", "ok.toml");
+)",
+                              "ok.toml");
   EXPECT_EQ(s.generate.count, 500);
   EXPECT_DOUBLE_EQ(s.generate.d_min, 0.002);
   EXPECT_EQ(s.law.stiffness_mode, NormalStiffnessMode::Direct);
@@ -125,7 +126,8 @@ TEST(Scene, TimeStepAboveTheEstimateIsRefusedUnlessForced) {
 TEST(Scene, TriaxialTableIsValidated) {
   const Scene s = parse_scene(
       "[triaxial]\nconfining_pressure = 1e5\nrolling_friction_cases = [0.0, 0.05]\n"
-      "axial_strain = 0.1\n", "ok.toml");
+      "axial_strain = 0.1\n",
+      "ok.toml");
   EXPECT_TRUE(s.triaxial.enabled);
   EXPECT_DOUBLE_EQ(s.triaxial.confining_pressure, 1e5);
   EXPECT_EQ(s.triaxial.rolling_friction_cases, (std::vector<real_t>{0.0, 0.05}));
@@ -166,7 +168,8 @@ TEST(Scene, ParallelKeys) {
   expect_error("[parallel]\ncut = \"weight\"\n", {"[parallel] cut = \"weight\"", "\"work\" or \"even\""});
   expect_error("[parallel]\ncut = 1\n", {"[parallel]", "cut"});
   expect_error("[parallel]\nrebalance_interval = 0\n", {"[parallel] rebalance_interval = 0", "positive"});
-  expect_error("[parallel]\ndecomposition = \"rcb\"\n", {"[parallel] decomposition = \"rcb\"", "\"cartesian\" or \"metis\""});
+  expect_error("[parallel]\ndecomposition = \"rcb\"\n",
+               {"[parallel] decomposition = \"rcb\"", "\"cartesian\" or \"metis\""});
   expect_error("[parallel]\nrebalance_threshold = 0.9\n", {"[parallel]", "rebalance_threshold", ">= 1"});
   expect_error("[parallel]\ncuts = \"work\"\n", {"[parallel]", "cuts", "unknown key"});
 }
@@ -210,8 +213,8 @@ TEST(Scene, CountBeyondTheMachinesMemoryIsRefusedBeforeAllocation) {
     FAIL() << "count = 1e15 accepted";
   } catch (const InputError& e) {
     const std::string m = e.what();
-    for (const char* f : {"bad.toml", "[particles] count = 1000000000000000", "needs at least", "of memory",
-                          "the machine has"})
+    for (const char* f :
+         {"bad.toml", "[particles] count = 1000000000000000", "needs at least", "of memory", "the machine has"})
       EXPECT_NE(m.find(f), std::string::npos) << "missing '" << f << "' in: " << m;
   }
 }
@@ -228,7 +231,8 @@ TEST(Scene, ServoModeAndItsKeys) {
   EXPECT_EQ(g.triaxial.servo, ServoMode::Gains);
   EXPECT_EQ(g.triaxial.servo_interval, 5);
   EXPECT_EQ(g.triaxial.servo_gain, 12.0);
-  const Scene r = parse_scene("[triaxial]\nservo = \"stiffness\"\nservo_relaxation = 0.3\nservo_interval = 4\n", "s.toml");
+  const Scene r =
+      parse_scene("[triaxial]\nservo = \"stiffness\"\nservo_relaxation = 0.3\nservo_interval = 4\n", "s.toml");
   EXPECT_EQ(r.triaxial.servo_relaxation, 0.3);
   EXPECT_EQ(r.triaxial.servo_interval, 4);
   expect_error("[triaxial]\nservo = \"pid\"\n", {"[triaxial]", "servo", "pid", "stiffness"});
@@ -284,7 +288,8 @@ type = "triaxial_extension"
 pressure = 1e5
 axial_strain_rate = 0.2
 end = { strain = -0.01, strain_axis = 1 }
-)", "s.toml");
+)",
+                              "s.toml");
   ASSERT_EQ(s.stages.size(), 5u);
   const StageSpec& a = s.stages[0];
   EXPECT_EQ(a.name, "isotropic");
@@ -315,38 +320,52 @@ end = { strain = -0.01, strain_axis = 1 }
   EXPECT_TRUE(s.stages[3].end.cycles);
   EXPECT_EQ(s.stages[4].rate[0], 0.2);  // extension lengthens axis 1
 
-  expect_error("[[stage]]\ntype = \"shear\"\nend = { steps = 1 }\n", {"stage[1].type", "\"shear\"", "unknown stage type"});
+  expect_error("[[stage]]\ntype = \"shear\"\nend = { steps = 1 }\n",
+               {"stage[1].type", "\"shear\"", "unknown stage type"});
   expect_error("[[stage]]\nend = { steps = 1 }\n", {"stage[1].type", "(missing)"});
-  expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n[[stage]]\ntype = \"mixed\"\n"
-               "control.axis_1 = { stress = 1e5, strain_rate = 0.1 }\ncontrol.axis_2 = { stress = 1e5 }\n"
-               "control.axis_3 = { stress = 1e5 }\nend = { steps = 1 }\n",
-               {"stage[2].control.axis_1", "contradictory controls"});
-  expect_error("[[stage]]\ntype = \"mixed\"\ncontrol.axis_1 = { stress = 1e5 }\ncontrol.axis_2 = { stress = 1e5 }\n"
-               "end = { steps = 1 }\n", {"stage[1].control.axis_3", "(missing)"});
+  expect_error(
+      "[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n[[stage]]\ntype = \"mixed\"\n"
+      "control.axis_1 = { stress = 1e5, strain_rate = 0.1 }\ncontrol.axis_2 = { stress = 1e5 }\n"
+      "control.axis_3 = { stress = 1e5 }\nend = { steps = 1 }\n",
+      {"stage[2].control.axis_1", "contradictory controls"});
+  expect_error(
+      "[[stage]]\ntype = \"mixed\"\ncontrol.axis_1 = { stress = 1e5 }\ncontrol.axis_2 = { stress = 1e5 }\n"
+      "end = { steps = 1 }\n",
+      {"stage[1].control.axis_3", "(missing)"});
   expect_error("[[stage]]\ntype = \"isotropic\"\npressure = 1e5\n", {"stage[1].end", "no end condition"});
-  expect_error("[[stage]]\ntype = \"isotropic\"\npressure = 0\nend = { at_rest = true }\n", {"stage[1].pressure = 0", "positive"});
+  expect_error("[[stage]]\ntype = \"isotropic\"\npressure = 0\nend = { at_rest = true }\n",
+               {"stage[1].pressure = 0", "positive"});
   expect_error("[[stage]]\ntype = \"isotropic\"\nend = { at_rest = true }\n", {"stage[1].pressure", "(missing)"});
-  expect_error("[[stage]]\ntype = \"anisotropic\"\nstress = [1e5, -1, 1e5]\nend = { at_rest = true }\n", {"stage[1].stress", "three positive"});
+  expect_error("[[stage]]\ntype = \"anisotropic\"\nstress = [1e5, -1, 1e5]\nend = { at_rest = true }\n",
+               {"stage[1].stress", "three positive"});
   expect_error("[[stage]]\ntype = \"hold\"\npressure = 1e5\nend = { steps = 1 }\n", {"stage[1].pressure", "not used"});
   expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 0 }\n", {"stage[1].end.steps = 0"});
-  expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 3000000 }\n", {"stage[1].end.steps = 3000000", "max_steps"});
+  expect_error("[[stage]]\ntype = \"hold\"\nend = { steps = 3000000 }\n",
+               {"stage[1].end.steps = 3000000", "max_steps"});
   expect_error("[[stage]]\ntype = \"hold\"\nend = { stepz = 3 }\n", {"stage[1].end.stepz", "unknown key"});
-  expect_error("[[stage]]\ntype = \"cyclic_strain\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 0.01\n", {"stage[1].cycles", "(missing)"});
-  expect_error("[[stage]]\ntype = \"cyclic_stress\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 2e5\ncycles = 1\n",
-               {"stage[1].amplitude = 200000", "below pressure"});
-  expect_error("[[stage]]\ntype = \"triaxial_compression\"\npressure = 1e5\naxial_strain_rate = 0.1\nend = { strain = -0.1 }\n",
-               {"stage[1].end.strain = -0.1", "never reached"});
-  expect_error("[[stage]]\ntype = \"triaxial_compression\"\npressure = 1e5\naxial_strain_rate = 5\nend = { strain = 0.1 }\n",
-               {"stage[1].axial_strain_rate = 5", "max_strain_rate"});
-  expect_error("[[stage]]\ntype = \"hold\"\nlocal_damping = 1.0\nend = { steps = 1 }\n", {"stage[1].local_damping = 1", "[0, 1)"});
+  expect_error("[[stage]]\ntype = \"cyclic_strain\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 0.01\n",
+               {"stage[1].cycles", "(missing)"});
+  expect_error(
+      "[[stage]]\ntype = \"cyclic_stress\"\npressure = 1e5\naxial_strain_rate = 0.1\namplitude = 2e5\ncycles = 1\n",
+      {"stage[1].amplitude = 200000", "below pressure"});
+  expect_error(
+      "[[stage]]\ntype = \"triaxial_compression\"\npressure = 1e5\naxial_strain_rate = 0.1\nend = { strain = -0.1 }\n",
+      {"stage[1].end.strain = -0.1", "never reached"});
+  expect_error(
+      "[[stage]]\ntype = \"triaxial_compression\"\npressure = 1e5\naxial_strain_rate = 5\nend = { strain = 0.1 }\n",
+      {"stage[1].axial_strain_rate = 5", "max_strain_rate"});
+  expect_error("[[stage]]\ntype = \"hold\"\nlocal_damping = 1.0\nend = { steps = 1 }\n",
+               {"stage[1].local_damping = 1", "[0, 1)"});
   expect_error("[[stage]]\ntype = \"hold\"\ndamping_ratio_normal = 1.0\nend = { steps = 1 }\n",
                {"stage[1].damping_ratio_normal = 1", "[0, 1)"});
   expect_error("[[stage]]\ntype = \"hold\"\ndamping_ratio_shear = -0.1\nend = { steps = 1 }\n",
                {"stage[1].damping_ratio_shear = -0.1", "[0, 1)"});
   expect_error("[[stage]]\ntype = \"hold\"\nname = \"a,b\"\nend = { steps = 1 }\n", {"stage[1].name", "commas"});
   expect_error("stage = 3\n", {"stage = 3", "array of tables"});
-  expect_error("[triaxial]\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[[stage]] and [triaxial] both given"});
-  expect_error("[compress]\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[[stage]] and [compress] both given"});
+  expect_error("[triaxial]\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n",
+               {"[[stage]] and [triaxial] both given"});
+  expect_error("[compress]\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n",
+               {"[[stage]] and [compress] both given"});
   expect_error("[run]\nsteps = 5\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[run] steps = 5", "[[stage]]"});
 }
 
@@ -389,8 +408,7 @@ TEST(Scene, ExampleScenesAreValid) {
 // Walls and driven particles do not follow a deforming cell: refused with [[stage]].
 TEST(Scene, StagesWithWallsOrDrivenParticlesAreRefused) {
   const std::string stage = "[[stage]]\ntype = \"isotropic\"\npressure = 1e5\nend.steps = 10\n";
-  expect_error("[particles]\ncount = 100\n" + stage +
-                   "[[wall]]\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n",
+  expect_error("[particles]\ncount = 100\n" + stage + "[[wall]]\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n",
                {"[[stage]] and [[wall]] both given"});
   expect_error("[particles]\ncount = 100\n" + stage + "[[driven]]\nids = [1]\n",
                {"[[stage]] and [[driven]] both given"});
@@ -398,8 +416,10 @@ TEST(Scene, StagesWithWallsOrDrivenParticlesAreRefused) {
 
 // [contact] model (docs/scene.md, "Contact models"): the keys of one model refused with the other.
 TEST(Scene, HertzMindlinModelAndItsKeys) {
-  const Scene s = parse_scene("[contact]\nmodel = \"hertz_mindlin\"\nyoungs_modulus = 7e10\npoisson_ratio = 0.3\n"
-                              "restitution_normal = 0.5\nfriction = 0.4\n", "h.toml");
+  const Scene s = parse_scene(
+      "[contact]\nmodel = \"hertz_mindlin\"\nyoungs_modulus = 7e10\npoisson_ratio = 0.3\n"
+      "restitution_normal = 0.5\nfriction = 0.4\n",
+      "h.toml");
   EXPECT_EQ(s.law.model, ContactModel::HertzMindlin);
   EXPECT_EQ(s.law.youngs_modulus, 7e10);
   EXPECT_EQ(s.law.poisson_ratio, 0.3);
@@ -418,14 +438,16 @@ TEST(Scene, HertzMindlinModelAndItsKeys) {
 
 // [contact] rolling_model and rolling_damping (docs/scene.md, "Rolling resistance models").
 TEST(Scene, RollingModelsAndTheirKeys) {
-  const Scene s = parse_scene("[contact]\nrolling_friction = 0.1\nrolling_model = \"epsd\"\nrolling_damping = 0.3\n", "r.toml");
+  const Scene s =
+      parse_scene("[contact]\nrolling_friction = 0.1\nrolling_model = \"epsd\"\nrolling_damping = 0.3\n", "r.toml");
   EXPECT_EQ(s.law.rolling_model, RollingModel::Epsd);
   EXPECT_EQ(s.law.rolling_damping, 0.3);
   EXPECT_TRUE(s.law.viscous());  // the rolling dashpot needs the masses
   EXPECT_EQ(parse_scene("[contact]\nrolling_model = \"constant_torque\"\n", "c.toml").law.rolling_model,
             RollingModel::ConstantTorque);
   EXPECT_EQ(parse_scene("[contact]\n", "d.toml").law.rolling_model, RollingModel::ElasticPlastic);
-  expect_error("[contact]\nrolling_model = \"epsd2\"\n", {"[contact]", "rolling_model", "\"epsd2\"", "constant_torque"});
+  expect_error("[contact]\nrolling_model = \"epsd2\"\n",
+               {"[contact]", "rolling_model", "\"epsd2\"", "constant_torque"});
   expect_error("[contact]\nrolling_damping = 0.3\n", {"[contact]", "rolling_damping", "0.3", "epsd"});
   expect_error("[contact]\nrolling_model = \"epsd\"\nrolling_damping = 1.2\n", {"rolling_damping", "1.2", "[0, 1)"});
 }
@@ -478,10 +500,12 @@ TEST(Scene, LawParametersAreDeclaredOnce) {
     const std::string bad = p.bound == Bound::Poisson ? "-2" : "-1";
     const std::string model = p.model == ForModel::HertzMindlin ? "model = \"hertz_mindlin\"\n" : "";
     const std::string epsd = p.member == &ContactLawParams::rolling_damping ? "rolling_model = \"epsd\"\n" : "";
-    expect_error("[contact]\n" + model + epsd + p.key + " = " + bad + "\n", {"[contact]", p.key, bad, bound_text(p.bound)});
+    expect_error("[contact]\n" + model + epsd + p.key + " = " + bad + "\n",
+                 {"[contact]", p.key, bad, bound_text(p.bound)});
     if (p.wall)
-      expect_error("[contact]\n" + model + "[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n" + p.key + " = " + bad + "\n",
-                   {"[wall #1]", p.key, bad, bound_text(p.bound)});
+      expect_error(
+          "[contact]\n" + model + "[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n" + p.key + " = " + bad + "\n",
+          {"[wall #1]", p.key, bad, bound_text(p.bound)});
     if (p.stage)
       expect_error("[[stage]]\ntype = \"hold\"\n" + std::string(p.key) + " = " + bad + "\nend = { steps = 1 }\n",
                    {std::string("stage[1].") + p.key, bad, bound_text(p.bound)});

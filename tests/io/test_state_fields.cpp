@@ -33,9 +33,7 @@ void put(std::string& s, const Vec3& v) {
 std::string what(const std::string& schema) {
   try {
     ParticleRecordReader r(schema, "ck.ckpt: section sim.global");
-  } catch (const InputError& e) {
-    return e.what();
-  }
+  } catch (const InputError& e) { return e.what(); }
   return "";
 }
 

@@ -36,15 +36,16 @@ struct Sphere {
 std::string data_text(const std::vector<Sphere>& s, const Vec3& L) {
   std::ostringstream o;
   o.precision(17);
-  o << "walls test\n\n" << s.size() << " atoms\n1 atom types\n\n0 " << L[0] << " xlo xhi\n0 " << L[1]
-    << " ylo yhi\n0 " << L[2] << " zlo zhi\n\nAtoms\n\n";
+  o << "walls test\n\n"
+    << s.size() << " atoms\n1 atom types\n\n0 " << L[0] << " xlo xhi\n0 " << L[1] << " ylo yhi\n0 " << L[2]
+    << " zlo zhi\n\nAtoms\n\n";
   for (std::size_t k = 0; k < s.size(); ++k)
-    o << k + 1 << " 1 " << 2 * s[k].R << " " << s[k].rho << " " << s[k].x[0] << " " << s[k].x[1] << " "
-      << s[k].x[2] << "\n";
+    o << k + 1 << " 1 " << 2 * s[k].R << " " << s[k].rho << " " << s[k].x[0] << " " << s[k].x[1] << " " << s[k].x[2]
+      << "\n";
   o << "\nVelocities\n\n";
   for (std::size_t k = 0; k < s.size(); ++k)
-    o << k + 1 << " " << s[k].v[0] << " " << s[k].v[1] << " " << s[k].v[2] << " " << s[k].w[0] << " "
-      << s[k].w[1] << " " << s[k].w[2] << "\n";
+    o << k + 1 << " " << s[k].v[0] << " " << s[k].v[1] << " " << s[k].v[2] << " " << s[k].w[0] << " " << s[k].w[1]
+      << " " << s[k].w[2] << "\n";
   return o.str();
 }
 
@@ -56,13 +57,11 @@ std::string vec(const Vec3& v) {
 }
 
 // The scene parsed as `fabrica run` parses it, with its data file beside it.
-Scene scene_with(const std::string& name, const std::string& toml, const std::vector<Sphere>& s,
-                 const Vec3& L) {
+Scene scene_with(const std::string& name, const std::string& toml, const std::vector<Sphere>& s, const Vec3& L) {
   const fs::path dir = test::temp_dir() / ("walls-" + name);
   fs::create_directories(dir);
   std::ofstream(dir / "s.data") << data_text(s, L);
-  const std::string text = "[particles]\nsource = \"file\"\nfile = \"s.data\"\n[cell]\nsize = " + vec(L) +
-                           "\n" + toml;
+  const std::string text = "[particles]\nsource = \"file\"\nfile = \"s.data\"\n[cell]\nsize = " + vec(L) + "\n" + toml;
   std::ofstream(dir / "s.toml") << text;
   return load_scene((dir / "s.toml").string());
 }
@@ -96,8 +95,8 @@ real_t measured_restitution(real_t e, const std::string& name) {
   const Vec3 L(0.1, 0.1, 0.1);
   std::ostringstream t;
   t.precision(17);
-  t << "[contact]\nnormal_stiffness = " << kn << "\nrestitution_normal = " << e
-    << "\n[run]\ntime_step = " << T / 4000 << "\nskin = 0.002\n[[wall]]\npoint = [0, 0, 0.02]\nnormal = [0, 0, 1]\n";
+  t << "[contact]\nnormal_stiffness = " << kn << "\nrestitution_normal = " << e << "\n[run]\ntime_step = " << T / 4000
+    << "\nskin = 0.002\n[[wall]]\npoint = [0, 0, 0.02]\nnormal = [0, 0, 1]\n";
   const Scene sc = scene_with(name, t.str(), {{R, rho, Vec3(0.05, 0.05, 0.02 + R + 0.001), Vec3(0, 0, -v)}}, L);
   Simulation sim = simulation_of(sc);
   bool touched = false;
@@ -139,14 +138,16 @@ struct RollResult {
 // touching with a tangential velocity would get in its first half step the whole shear dashpot
 // force c_s v_t, not limited by the Coulomb cap (docs/verification.md section 16).
 // 'contact' adds keys to [contact] (another rolling model).
-RollResult roll(real_t v0, real_t w0, real_t theta, real_t t_a, real_t t_b, const std::string& name,
-                real_t lift = 0, const std::string& contact = "") {
+RollResult roll(real_t v0, real_t w0, real_t theta, real_t t_a, real_t t_b, const std::string& name, real_t lift = 0,
+                const std::string& contact = "") {
   const real_t R = 0.01, rho = 2650, m = rho * 4.0 / 3 * kPi * R * R * R, kn = 1e5;
   const Vec3 g(kG * std::sin(theta), 0, -kG * std::cos(theta));
   const Vec3 L(1.0, 0.1, 0.1);
-  const std::string toml = "[contact]\nnormal_stiffness = 1e5\nfriction = 0.5\nrolling_friction = 0.1\n"
-                           "restitution_normal = 0.5\nrestitution_shear = 0.5\n" + contact + "[run]\ngravity = " + vec(g) +
-                           "\nskin = 0.002\noutput_every = 100\n[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n";
+  const std::string toml =
+      "[contact]\nnormal_stiffness = 1e5\nfriction = 0.5\nrolling_friction = 0.1\n"
+      "restitution_normal = 0.5\nrestitution_shear = 0.5\n" +
+      contact + "[run]\ngravity = " + vec(g) +
+      "\nskin = 0.002\noutput_every = 100\n[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n";
   const real_t z0 = R - m * (-g[2]) / kn + lift;  // at its static overlap
   const Scene sc = scene_with(name, toml, {{R, rho, Vec3(0.05, 0.05, z0), Vec3(v0, 0, 0), Vec3(0, w0, 0)}}, L);
   Simulation sim = simulation_of(sc);
@@ -176,7 +177,9 @@ RollResult roll(real_t v0, real_t w0, real_t theta, real_t t_a, real_t t_b, cons
   r.decel = (va - vb) / (t_b - t_a);
   const MacroState& mc = sim.macro();
   r.energy_error = std::abs(energy_books(mc) - mc.energy_input) / mc.energy_input;
-  std::printf("  kin %.6e el %.6e %.6e %.6e diss f %.6e r %.6e v %.6e l %.6e input %.6e grav %.6e\n", mc.kinetic, mc.e_normal, mc.e_shear, mc.e_rolling, mc.dissipated.friction, mc.dissipated.rolling, mc.dissipated.viscous, mc.dissipated.local, mc.energy_input, mc.gravity_work);
+  std::printf("  kin %.6e el %.6e %.6e %.6e diss f %.6e r %.6e v %.6e l %.6e input %.6e grav %.6e\n", mc.kinetic,
+              mc.e_normal, mc.e_shear, mc.e_rolling, mc.dissipated.friction, mc.dissipated.rolling,
+              mc.dissipated.viscous, mc.dissipated.local, mc.energy_input, mc.gravity_work);
   // Let it rest, then the stress of the one wall contact: F (x) a1 n over the cell volume.
   const real_t x_rest = sim.particles().x[0].x();
   for (int s = 0; s < 20000; ++s) {
@@ -198,9 +201,10 @@ TEST(Walls, SphereRollingOnPlaneStops) {
   const real_t R = 0.01, v0 = 0.5, mur = 0.1, a = 5 * mur * kG / 7;
   const real_t T = v0 / a, d = v0 * v0 / (2 * a);
   const RollResult r = roll(v0, v0 / R, 0.0, 0.2 * T, 0.8 * T, "rolling");
-  std::printf("[rolling] a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m (%.6f), "
-              "energy error %.2e, s_zz = %.6e Pa (%.6e)\n",
-              r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error, r.szz, r.szz_exact);
+  std::printf(
+      "[rolling] a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m (%.6f), "
+      "energy error %.2e, s_zz = %.6e Pa (%.6e)\n",
+      r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error, r.szz, r.szz_exact);
   EXPECT_NEAR(r.decel / a, 1.0, 1e-2);
   EXPECT_NEAR(r.t_stop / T, 1.0, 1e-2);
   EXPECT_NEAR(r.x_stop / d, 1.0, 1e-2);
@@ -215,8 +219,10 @@ TEST(Walls, SphereLaunchedSlidingRollsThenStops) {
   const real_t t1 = v0 / (kG * (3.5 * mus - 2.5 * mur)), v1 = v0 - mus * kG * t1;
   const real_t T = t1 + v1 / a, d = v0 * t1 - 0.5 * mus * kG * t1 * t1 + v1 * v1 / (2 * a);
   const RollResult r = roll(v0, 0.0, 0.0, t1 + 0.2 * (T - t1), t1 + 0.8 * (T - t1), "sliding", 3e-6);
-  std::printf("[sliding] t1 = %.6f s, a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m "
-              "(%.6f), energy error %.2e\n", t1, r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error);
+  std::printf(
+      "[sliding] t1 = %.6f s, a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m "
+      "(%.6f), energy error %.2e\n",
+      t1, r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error);
   EXPECT_NEAR(r.decel / a, 1.0, 1e-2);
   EXPECT_NEAR(r.t_stop / T, 1.0, 1e-2);
   EXPECT_NEAR(r.x_stop / d, 1.0, 1e-2);
@@ -238,14 +244,16 @@ TEST(Walls, RollingModelsOnPlaneAndIncline) {
       const real_t a = 5 * kG * (mur * std::cos(th) - std::sin(th)) / 7;
       const real_t T = v0 / a, d = v0 * v0 / (2 * a);
       const std::string extra = std::string("rolling_model = \"") + model + "\"\n" +
-                                (std::string(model) == "epsd" ? "rolling_damping = 0.3\n" : "");
+          (std::string(model) == "epsd" ? "rolling_damping = 0.3\n" : "");
       // Dropped from 3 um, as the launched sliding sphere: the initial forces (dt = 0) would
       // give the epsd dashpot's whole moment for the first half step, unbooked (section 16 of
       // docs/verification.md says the same of the shear dashpot).
-      const RollResult r = roll(v0, v0 / R, th, 0.2 * T, 0.8 * T, std::string(model) + (th > 0 ? "_incline" : "_plane"), 3e-6, extra);
-      std::printf("[%s, %.0f deg] a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m (%.6f), "
-                  "energy error %.2e; at rest: spin up to %.3e rad/s, drift %.3e m\n",
-                  model, th * 180 / kPi, r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error, r.rest_spin, r.rest_drift);
+      const RollResult r =
+          roll(v0, v0 / R, th, 0.2 * T, 0.8 * T, std::string(model) + (th > 0 ? "_incline" : "_plane"), 3e-6, extra);
+      std::printf(
+          "[%s, %.0f deg] a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m (%.6f), "
+          "energy error %.2e; at rest: spin up to %.3e rad/s, drift %.3e m\n",
+          model, th * 180 / kPi, r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error, r.rest_spin, r.rest_drift);
       EXPECT_NEAR(r.decel / a, 1.0, 1e-2) << model << " " << th;
       EXPECT_NEAR(r.t_stop / T, 1.0, 1e-2) << model << " " << th;
       EXPECT_NEAR(r.x_stop / d, 1.0, 1e-2) << model << " " << th;
@@ -353,11 +361,13 @@ TEST(Walls, TwistingResistanceStopsSpinningSphere) {
       const real_t T = w0 / acc, th = w0 * w0 / (2 * acc);
       const TwistResult r = spin_down(hertz, on_sphere, w0, mut);
       const real_t spin_bound = r.cap / std::sqrt(r.ktw * r.inertia);
-      const std::string label = std::string(hertz ? "hertz_mindlin" : "linear") + (on_sphere ? " on a sphere" : " on the floor");
-      std::printf("[twisting, %s] t_stop = %.6f s (exact %.6f), turned %.6f rad (%.6f), energy error %.2e; at rest: "
-                  "spin up to %.3e rad/s (bound %.3e), turn %.3e rad (bound %.3e), slip %.1e J\n",
-                  label.c_str(), r.t_stop, T, r.turned, th, r.energy_error, r.rest_spin, spin_bound, r.rest_turn,
-                  2 * r.cap / r.ktw, r.rest_slip);
+      const std::string label =
+          std::string(hertz ? "hertz_mindlin" : "linear") + (on_sphere ? " on a sphere" : " on the floor");
+      std::printf(
+          "[twisting, %s] t_stop = %.6f s (exact %.6f), turned %.6f rad (%.6f), energy error %.2e; at rest: "
+          "spin up to %.3e rad/s (bound %.3e), turn %.3e rad (bound %.3e), slip %.1e J\n",
+          label.c_str(), r.t_stop, T, r.turned, th, r.energy_error, r.rest_spin, spin_bound, r.rest_turn,
+          2 * r.cap / r.ktw, r.rest_slip);
       EXPECT_NEAR(r.t_stop / T, 1.0, 2e-3) << label;
       EXPECT_NEAR(r.turned / th, 1.0, 2e-3) << label;
       EXPECT_LT(r.energy_error, 1e-3) << label;
@@ -375,8 +385,10 @@ TEST(Walls, SphereRollingDownInclineStops) {
   const real_t a = 5 * kG * (mur * std::cos(th) - std::sin(th)) / 7;
   const real_t T = v0 / a, d = v0 * v0 / (2 * a);
   const RollResult r = roll(v0, v0 / R, th, 0.2 * T, 0.8 * T, "incline");
-  std::printf("[incline] a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m (%.6f), "
-              "energy error %.2e\n", r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error);
+  std::printf(
+      "[incline] a = %.6f m/s^2 (exact %.6f), t_stop = %.6f s (%.6f), d = %.6f m (%.6f), "
+      "energy error %.2e\n",
+      r.decel, a, r.t_stop, T, r.x_stop, d, r.energy_error);
   EXPECT_NEAR(r.decel / a, 1.0, 1e-2);
   EXPECT_NEAR(r.t_stop / T, 1.0, 1e-2);
   EXPECT_NEAR(r.x_stop / d, 1.0, 1e-2);
@@ -418,8 +430,10 @@ TEST(Walls, ObliqueImpactChungOoiTest6) {
     const real_t vn1 = q.v[0].z(), vt1 = q.v[0].x(), w1 = q.w[0].y();
     const real_t vt1_x = vt - mu * (1 + e) * vn, w1_x = 5 * mu * (1 + e) * vn / (2 * R);
     const real_t ang = std::atan2(vt1, vn1) * 180 / kPi, ang_x = std::atan2(vt1_x, e * vn) * 180 / kPi;
-    std::printf("[oblique %2.0f deg] e = %.5f (%.5f), e_t = %.5f (%.5f), w = %.3f rad/s (%.3f), rebound "
-                "%.3f deg (%.3f)\n", deg, vn1 / vn, e, vt1 / vt, vt1_x / vt, w1, w1_x, ang, ang_x);
+    std::printf(
+        "[oblique %2.0f deg] e = %.5f (%.5f), e_t = %.5f (%.5f), w = %.3f rad/s (%.3f), rebound "
+        "%.3f deg (%.3f)\n",
+        deg, vn1 / vn, e, vt1 / vt, vt1_x / vt, w1, w1_x, ang, ang_x);
     EXPECT_NEAR(vn1 / vn / e, 1.0, 5e-3) << deg;
     EXPECT_NEAR(vt1 / vt1_x, 1.0, 1e-2) << deg;
     EXPECT_NEAR(w1 / w1_x, 1.0, 1e-2) << deg;
@@ -450,8 +464,10 @@ TEST(Walls, MovingWallPushesSphere) {
   sim.step(true);
   const MacroState& mc = sim.macro();
   const real_t vz = sim.particles().v[0].z();
-  std::printf("[moving wall] v = %.6f m/s (exact %.6f), wall work %.6e J (exact %.6e), books %.6e J, "
-              "input %.6e J\n", vz, 2 * V, mc.wall_work, 2 * m * V * V, energy_books(mc), mc.energy_input);
+  std::printf(
+      "[moving wall] v = %.6f m/s (exact %.6f), wall work %.6e J (exact %.6e), books %.6e J, "
+      "input %.6e J\n",
+      vz, 2 * V, mc.wall_work, 2 * m * V * V, energy_books(mc), mc.energy_input);
   ASSERT_TRUE(touched);
   EXPECT_NEAR(vz / (2 * V), 1.0, 5e-3);
   EXPECT_NEAR(mc.wall_work / (2 * m * V * V), 1.0, 5e-3);
@@ -465,7 +481,7 @@ TEST(ServoWalls, SpeedLaw) {
   Wall w;
   w.servo_pressure = 1000;  // Pa
   w.servo_relaxation = 0.5;
-  w.servo_max_speed = 0.1;  // m/s
+  w.servo_max_speed = 0.1;           // m/s
   const real_t A = 0.01, dt = 1e-4;  // target push 10 N
   // u = relaxation (P A - F) / (K dt): 0.5 x 5 N / (1e6 N/m x 1e-4 s) = 0.025 m/s into the spheres.
   EXPECT_DOUBLE_EQ(servo_speed(w, 5.0, 1e6, A, dt), 0.025);
@@ -509,10 +525,11 @@ TEST(ServoWalls, SpherePressedOnFloorByServoLid) {
   const MacroState& mc = sim.macro();
   const real_t lid = sim.params().walls[1].point.z();
   const real_t exact = 2 * R - F / kn - (F + m * kG) / kn;
-  std::printf("[servo lid] lid force %.9e N (target %.9e), floor %.9e N (exact %.9e), lid at %.9e m "
-              "(exact %.9e), kinetic %.3e J, books / input %.8f\n",
-              mc.wall_force[1].z(), F, -mc.wall_force[0].z(), F + m * kG, lid, exact, mc.kinetic,
-              energy_books(mc) / mc.energy_input);
+  std::printf(
+      "[servo lid] lid force %.9e N (target %.9e), floor %.9e N (exact %.9e), lid at %.9e m "
+      "(exact %.9e), kinetic %.3e J, books / input %.8f\n",
+      mc.wall_force[1].z(), F, -mc.wall_force[0].z(), F + m * kG, lid, exact, mc.kinetic,
+      energy_books(mc) / mc.energy_input);
   EXPECT_NEAR(mc.wall_force[1].z() / F, 1.0, 1e-6);
   EXPECT_NEAR(-mc.wall_force[0].z() / (F + m * kG), 1.0, 1e-6);
   EXPECT_NEAR(lid, exact, 1e-3 * F / kn);
@@ -558,17 +575,20 @@ TEST(Driven, SphereOnFixedSphereRebounds) {
   t << "[contact]\nnormal_stiffness = " << kn << "\n[run]\ntime_step = " << T / 1000
     << "\nskin = 0.002\n[[driven]]\nids = [2]\n";
   const Vec3 fixed(0.05, 0.05, 0.03);
-  const Scene sc = scene_with("fixed", t.str(), {{R, rho, fixed + Vec3(0, 0, 2 * R + 0.001), Vec3(0, 0, -v)},
-                                                  {R, rho, fixed}}, Vec3(0.1, 0.1, 0.1));
+  const Scene sc =
+      scene_with("fixed", t.str(), {{R, rho, fixed + Vec3(0, 0, 2 * R + 0.001), Vec3(0, 0, -v)}, {R, rho, fixed}},
+                 Vec3(0.1, 0.1, 0.1));
   Simulation sim = simulation_of(sc);
   const Pass r = run_through_contact(sim);
   sim.step(true);
   const Particles& q = sim.particles();
   const std::size_t a = q.id[0] == 1 ? 0 : 1, b = 1 - a;
   const MacroState& mc = sim.macro();
-  std::printf("[fixed] v_out / v_in - 1 = %.2e, contact time %.6e s (exact %.6e), fixed sphere moved "
-              "%.1e m, drive work %.3e J, books / input - 1 = %.2e\n", q.v[a].z() / v - 1, r.contact_time, T,
-              (q.x[b] - fixed).norm(), mc.drive_work, energy_books(mc) / mc.energy_input - 1);
+  std::printf(
+      "[fixed] v_out / v_in - 1 = %.2e, contact time %.6e s (exact %.6e), fixed sphere moved "
+      "%.1e m, drive work %.3e J, books / input - 1 = %.2e\n",
+      q.v[a].z() / v - 1, r.contact_time, T, (q.x[b] - fixed).norm(), mc.drive_work,
+      energy_books(mc) / mc.energy_input - 1);
   EXPECT_NEAR(q.v[a].z() / v, 1.0, 1e-6);
   EXPECT_NEAR(r.contact_time / T, 1.0, 5e-3);
   EXPECT_EQ(q.x[b], fixed);
@@ -586,8 +606,8 @@ TEST(Driven, DrivenSpherePushesFreeSphere) {
   t.precision(17);
   t << "[contact]\nnormal_stiffness = " << kn << "\n[run]\ntime_step = " << T / 1000
     << "\nskin = 0.002\n[[driven]]\nid_range = [1, 1]\nvelocity = [" << V << ", 0, 0]\n";
-  const Scene sc = scene_with("driven", t.str(), {{R, rho, Vec3(0.03, 0.05, 0.05)},
-                                                   {R, rho, Vec3(0.03 + 2 * R + 0.001, 0.05, 0.05)}},
+  const Scene sc = scene_with("driven", t.str(),
+                              {{R, rho, Vec3(0.03, 0.05, 0.05)}, {R, rho, Vec3(0.03 + 2 * R + 0.001, 0.05, 0.05)}},
                               Vec3(0.2, 0.1, 0.1));
   Simulation sim = simulation_of(sc);
   run_through_contact(sim);
@@ -595,9 +615,10 @@ TEST(Driven, DrivenSpherePushesFreeSphere) {
   const Particles& q = sim.particles();
   const std::size_t a = q.id[0] == 1 ? 0 : 1, b = 1 - a;
   const MacroState& mc = sim.macro();
-  std::printf("[driven] free sphere %.6f m/s (exact %.6f), driven %.6f m/s, drive work %.6e J (exact "
-              "%.6e), books / input - 1 = %.2e\n", q.v[b].x(), 2 * V, q.v[a].x(), mc.drive_work,
-              2 * m * V * V, energy_books(mc) / mc.energy_input - 1);
+  std::printf(
+      "[driven] free sphere %.6f m/s (exact %.6f), driven %.6f m/s, drive work %.6e J (exact "
+      "%.6e), books / input - 1 = %.2e\n",
+      q.v[b].x(), 2 * V, q.v[a].x(), mc.drive_work, 2 * m * V * V, energy_books(mc) / mc.energy_input - 1);
   EXPECT_NEAR(q.v[b].x() / (2 * V), 1.0, 5e-3);
   EXPECT_EQ(q.v[a], Vec3(V, 0, 0));
   EXPECT_NEAR(mc.drive_work / (2 * m * V * V), 1.0, 5e-3);
@@ -611,19 +632,22 @@ void expect_refused(const std::string& toml, const std::string& what) {
   try {
     parse_scene(text, "bad.toml");
     ADD_FAILURE() << "accepted: " << toml;
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
-  }
+  } catch (const InputError& e) { EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what(); }
 }
 
 TEST(Walls, BadInputIsRefused) {
-  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 0]\n", "bad.toml: [wall #1] normal = [0, 0, 0]: must be a non-zero vector");
-  expect_refused("[[wall]]\npoint = [0, 0, nan]\nnormal = [0, 0, 1]\n", "bad.toml: [wall #1] point = [0, 0, nan]: must hold finite numbers");
-  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\nfricton = 0.3\n", "[wall #1] fricton = 0.3: unknown key");
-  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 1, 1]\n", "[wall #1] normal = [0, 1, 1]: must be parallel to a cell axis");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 0]\n",
+                 "bad.toml: [wall #1] normal = [0, 0, 0]: must be a non-zero vector");
+  expect_refused("[[wall]]\npoint = [0, 0, nan]\nnormal = [0, 0, 1]\n",
+                 "bad.toml: [wall #1] point = [0, 0, nan]: must hold finite numbers");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\nfricton = 0.3\n",
+                 "[wall #1] fricton = 0.3: unknown key");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 1, 1]\n",
+                 "[wall #1] normal = [0, 1, 1]: must be parallel to a cell axis");
   expect_refused("[[wall]]\nnormal = [0, 0, 1]\n", "[wall #1] point = (missing)");
   expect_refused("[triaxial]\n[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n", "[[wall]] with [triaxial]");
-  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = -5\n", "[wall #1] pressure = -5: must be positive");
+  expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = -5\n",
+                 "[wall #1] pressure = -5: must be positive");
   expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = 5\nvelocity = [0.1, 0, 0.2]\n",
                  "[wall #1] velocity = [0.1, 0, 0.2]: has a part along the normal");
   expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\npressure = 5\nservo_relaxation = 1\n",
@@ -639,11 +663,14 @@ TEST(Walls, BadInputIsRefused) {
   expect_refused("[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\nrestitution_normal = -0.5\n",
                  "[wall #1] restitution_normal = -0.5: must lie in (0, 1]");
   expect_refused("[[driven]]\nvelocity = [0, 0, 1]\n", "[driven #1] ids = (missing): give the particles as ids");
-  expect_refused("[[driven]]\nids = [1]\nid_range = [2, 3]\n", "[driven #1] id_range = [2, 3]: give the particles as ids");
+  expect_refused("[[driven]]\nids = [1]\nid_range = [2, 3]\n",
+                 "[driven #1] id_range = [2, 3]: give the particles as ids");
   expect_refused("[[driven]]\nid_range = [5, 3]\n", "[driven #1] id_range = [5, 3]: first must not exceed last");
   expect_refused("[[driven]]\nids = [1, -2]\n", "[driven #1] ids = [1, -2]: must hold particle ids");
-  expect_refused("[[driven]]\nids = [1, 4]\n[[driven]]\nid_range = [3, 9]\n", "[driven #2] id_range = [3, 9]: names particle 4 of [driven #1] too");
-  expect_refused("[[driven]]\nid_range = [0, 4]\n[[driven]]\nid_range = [3, 9]\n", "names particle 3 of [driven #1] too");
+  expect_refused("[[driven]]\nids = [1, 4]\n[[driven]]\nid_range = [3, 9]\n",
+                 "[driven #2] id_range = [3, 9]: names particle 4 of [driven #1] too");
+  expect_refused("[[driven]]\nid_range = [0, 4]\n[[driven]]\nid_range = [3, 9]\n",
+                 "names particle 3 of [driven #1] too");
   expect_refused("[run]\nlocal_damping = 0.5\n[[driven]]\nids = [1]\nvelocity = [0, 0, 1]\n",
                  "[driven #1] velocity = [0, 0, 1]: a moving driven particle is not damped");
   expect_refused("[triaxial]\n[[driven]]\nids = [1]\n", "[[driven]] with [triaxial]");
@@ -657,7 +684,8 @@ TEST(Driven, UnknownIdIsRefused) {
     ADD_FAILURE() << "accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("[driven #1] ids: names 2 particle(s), of which 1 are in the specimen"),
-              std::string::npos) << e.what();
+              std::string::npos)
+        << e.what();
   }
 }
 
@@ -668,7 +696,9 @@ TEST(Walls, SphereBeyondWallIsRefused) {
     make_setup(sc);
     ADD_FAILURE() << "accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("[wall #1] point = [0, 0, 0.05], normal = [0, 0, 1]: particle 1 of"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("[wall #1] point = [0, 0, 0.05], normal = [0, 0, 1]: particle 1 of"),
+              std::string::npos)
+        << e.what();
     EXPECT_NE(std::string(e.what()).find("starts beyond the wall"), std::string::npos) << e.what();
   }
 }

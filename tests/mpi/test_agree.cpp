@@ -37,7 +37,8 @@ TEST(Agree, InputErrorOfTheLastRankReachesEveryRank) {
   const int last = size_of(MPI_COMM_WORLD) - 1;
   try {
     agree(MPI_COMM_WORLD, [&] {
-      if (rank_of(MPI_COMM_WORLD) == last) throw InputError("file.toml: [x] y = 1: bad on rank " + std::to_string(last));
+      if (rank_of(MPI_COMM_WORLD) == last)
+        throw InputError("file.toml: [x] y = 1: bad on rank " + std::to_string(last));
     });
     FAIL() << "no error on rank " << rank_of(MPI_COMM_WORLD);
   } catch (const InputError& e) {
@@ -54,9 +55,7 @@ TEST(Agree, LowestFailingRankWinsAndOtherErrorsBecomeCollective) {
       if (rank > 0) throw std::runtime_error("out.csv: cannot write on rank " + std::to_string(rank));
     });
     FAIL() << "no error on rank " << rank;
-  } catch (const InputError&) {
-    FAIL() << "a runtime_error became an InputError";
-  } catch (const CollectiveError& e) {
+  } catch (const InputError&) { FAIL() << "a runtime_error became an InputError"; } catch (const CollectiveError& e) {
     EXPECT_EQ(std::string(e.what()), "out.csv: cannot write on rank 1");
   }
 }
@@ -67,7 +66,7 @@ TEST(SumAll, SameBitsOnEveryRank) {
   std::vector<double> v(64);
   for (std::size_t k = 0; k < v.size(); ++k)
     v[k] = (k % 2 ? -1.0 : 1.0) * std::ldexp(1.0 + 0.1 * double(rank), int(k % 7) * 20 - 60) +
-           0.3 * double(rank + 1) / double(k + 1);
+        0.3 * double(rank + 1) / double(k + 1);
   MpiDomain d(MPI_COMM_WORLD);
   d.sum_all(std::span<double>(v));
   std::vector<double> all(v.size() * std::size_t(size));

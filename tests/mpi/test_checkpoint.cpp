@@ -55,9 +55,7 @@ std::string dense_text() {
   return s.str();
 }
 
-Setup dense_setup() {
-  return make_setup(load_scene(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml"));
-}
+Setup dense_setup() { return make_setup(load_scene(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml")); }
 
 // The cell deforms (shear-like: axis 1 shortens, 2 and 3 lengthen) so that the saved strain
 // rates and the rebuild criterion's reference lengths matter.
@@ -109,8 +107,7 @@ void expect_same_trajectory(const Simulation& par, const Simulation& ref) {
 // Under the working directory (ctest's is this build's tests/mpi), not the shared /tmp, where
 // another build's run of the same test on the same machine would write the same file.
 std::string checkpoint_path(const std::string& tag) {
-  return (std::filesystem::current_path() /
-          ("fabrica-test-" + tag + "-np" + std::to_string(comm_size()) + ".ckpt"))
+  return (std::filesystem::current_path() / ("fabrica-test-" + tag + "-np" + std::to_string(comm_size()) + ".ckpt"))
       .string();
 }
 
@@ -317,18 +314,19 @@ TEST(Checkpoint, ContactRangesFollowTheWholeOrder) {
   run_to_rebuild(sim, 20);
   using Pair = std::pair<fabrica::GlobalId, fabrica::GlobalId>;
   std::vector<Pair> whole, ranged, again;
-  sim.for_each_contact([&](fabrica::GlobalId a, fabrica::GlobalId b, const fabrica::ContactHistory&) {
-    whole.emplace_back(a, b);
-  });
+  sim.for_each_contact(
+      [&](fabrica::GlobalId a, fabrica::GlobalId b, const fabrica::ContactHistory&) { whole.emplace_back(a, b); });
   ASSERT_GT(whole.size(), 1000u);
   Simulation::ContactCursor at;
   const std::uint64_t n = 7;
   for (std::uint64_t first = 0; first < whole.size(); first += n)
-    sim.for_each_contact_in(first, n, at, [&](fabrica::GlobalId a, fabrica::GlobalId b,
-                                              const fabrica::ContactHistory&) { ranged.emplace_back(a, b); });
+    sim.for_each_contact_in(
+        first, n, at,
+        [&](fabrica::GlobalId a, fabrica::GlobalId b, const fabrica::ContactHistory&) { ranged.emplace_back(a, b); });
   EXPECT_TRUE(ranged == whole) << ranged.size() << " contacts by ranges, " << whole.size() << " in all";
-  sim.for_each_contact_in(3, 5, at, [&](fabrica::GlobalId a, fabrica::GlobalId b,
-                                        const fabrica::ContactHistory&) { again.emplace_back(a, b); });
+  sim.for_each_contact_in(3, 5, at, [&](fabrica::GlobalId a, fabrica::GlobalId b, const fabrica::ContactHistory&) {
+    again.emplace_back(a, b);
+  });
   EXPECT_TRUE(again == std::vector<Pair>(whole.begin() + 3, whole.begin() + 8));
 }
 

@@ -104,7 +104,7 @@ TEST_P(DenseRun, SameTrajectoryOnEveryRankCount) {
   const Diff d = compare(par, serial);
   EXPECT_EQ(d.compared, std::int64_t(n));  // every particle owned exactly once
   const double L = s.cell.lengths().maxCoeff();
-  EXPECT_LT(d.x / L, 1e-10);                // the requirement
+  EXPECT_LT(d.x / L, 1e-10);  // the requirement
   EXPECT_EQ(d.x, 0.0) << "positions differ from the serial run by " << d.x << " m";
   EXPECT_EQ(d.v, 0.0);
   EXPECT_EQ(d.w, 0.0);
@@ -119,9 +119,8 @@ TEST_P(DenseRun, SameTrajectoryOnEveryRankCount) {
   EXPECT_GT(serial.rebuild_count(), 5);  // the run did rebuild (and migrate) several times
   if (comm_rank() == 0 && comm_size() > 1) {
     const DomainStats& st = domain.stats();
-    std::printf("ranks %d %s: migrated %lld particles, %lld B/step forward, imbalance %.3f\n",
-                comm_size(), GetParam() == DecompositionKind::Metis ? "metis" : "cartesian",
-                (long long)st.particles_migrated,
+    std::printf("ranks %d %s: migrated %lld particles, %lld B/step forward, imbalance %.3f\n", comm_size(),
+                GetParam() == DecompositionKind::Metis ? "metis" : "cartesian", (long long)st.particles_migrated,
                 (long long)(st.bytes_forward / std::max<std::int64_t>(1, st.forward_updates)),
                 domain.load_imbalance(par.particles()));
   } else if (comm_size() > 1) {
@@ -231,8 +230,8 @@ TEST(Decomposition, EveryPairFoundExactlyOnce) {
   int total = 0;
   for (int r = 0; r < size; ++r) displs[r] = total, total += counts[r];
   std::vector<long long> all(total);
-  MPI_Allgatherv(mine.data(), count, MPI_LONG_LONG, all.data(), counts.data(), displs.data(),
-                 MPI_LONG_LONG, MPI_COMM_WORLD);
+  MPI_Allgatherv(mine.data(), count, MPI_LONG_LONG, all.data(), counts.data(), displs.data(), MPI_LONG_LONG,
+                 MPI_COMM_WORLD);
   std::vector<std::pair<GlobalId, GlobalId>> got;
   for (int k = 0; k < total; k += 2) got.emplace_back(all[k], all[k + 1]);
   std::sort(got.begin(), got.end());
@@ -290,7 +289,8 @@ TEST(Decomposition, ContactHistoryTravelsWithMigratingParticles) {
   MPI_Allreduce(MPI_IN_PLACE, &owners, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   EXPECT_EQ(owners, 1);  // the contact exists once (with its lower-id body owned)
   double buf[7] = {0, 0, 0, 0, 0, 0, 0};
-  if (here) std::copy(fs_p.data(), fs_p.data() + 3, buf), std::copy(mr_p.data(), mr_p.data() + 3, buf + 3), buf[6] = mt_p;
+  if (here)
+    std::copy(fs_p.data(), fs_p.data() + 3, buf), std::copy(mr_p.data(), mr_p.data() + 3, buf + 3), buf[6] = mt_p;
   MPI_Allreduce(MPI_IN_PLACE, buf, 7, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
   // Both springs are well away from zero (a tenth of the normal force and more), not rounding.
   const real_t fn = par.law.normal_stiffness * 0.002;
@@ -344,8 +344,8 @@ TEST(Decomposition, MetisRebalancesWhenTheLoadDrifts) {
   EXPECT_LT(domain.load_imbalance(sim.particles()), 1.25);
   EXPECT_EQ(compare(sim, serial).x, 0.0);
   if (comm_rank() == 0)
-    std::printf("ranks %d: %lld rebalances, last %.3f -> %.3f (start %.3f)\n", comm_size(),
-                (long long)st.rebalances, st.imbalance_before, st.imbalance_after, start);
+    std::printf("ranks %d: %lld rebalances, last %.3f -> %.3f (start %.3f)\n", comm_size(), (long long)st.rebalances,
+                st.imbalance_before, st.imbalance_after, start);
 }
 
 namespace {
@@ -491,15 +491,15 @@ TEST(Decomposition, CartesianRunsFollowTheWork) {
     }
   }
   if (comm_rank() == 0)
-    std::printf("ranks %d: largest max/mean of list pairs per rank after step 100: even runs "
-                "%.4f, runs by work %.4f\n", comm_size(), imbalance[0], imbalance[1]);
+    std::printf(
+        "ranks %d: largest max/mean of list pairs per rank after step 100: even runs "
+        "%.4f, runs by work %.4f\n",
+        comm_size(), imbalance[0], imbalance[1]);
   EXPECT_LT(imbalance[1], imbalance[0]);
   // On 2 ranks one axis is cut and the runs balance it to a bin plane (measured 1.009, even
   // runs 1.038). With more ranks the runs of a tensor-product grid balance each axis' slabs,
   // not every box (measured: 3 ranks 1.091 -> 1.038, 4: 1.071 -> 1.053, 8: 1.293 -> 1.189).
-  if (comm_size() == 2) {
-    EXPECT_LT(imbalance[1], 1.03);
-  }
+  if (comm_size() == 2) { EXPECT_LT(imbalance[1], 1.03); }
 }
 
 // A Cartesian decomposition holds its map per bin plane, not per bin: every bin's owner and

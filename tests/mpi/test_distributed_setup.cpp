@@ -41,21 +41,19 @@ struct RemoveCaseDirs : ::testing::Environment {
       for (const char* what : {"t-", "regions-"}) std::filesystem::remove_all(case_dir(what), ec);
   }
 };
-[[maybe_unused]] ::testing::Environment* const kRemoveCaseDirs = ::testing::AddGlobalTestEnvironment(new RemoveCaseDirs);
+[[maybe_unused]] ::testing::Environment* const kRemoveCaseDirs =
+    ::testing::AddGlobalTestEnvironment(new RemoveCaseDirs);
 
 // The error every rank meets (InputError), or "".
 std::string error_of(const std::function<void()>& f) {
   try {
     f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
+  } catch (const InputError& e) { return e.what(); }
   return "";
 }
 
 // A scene reading 'data' (written by rank 0 into a directory of this test and rank count).
-std::string write_case(const std::string& name, const std::string& data,
-                       const std::string& scene_extra = "") {
+std::string write_case(const std::string& name, const std::string& data, const std::string& scene_extra = "") {
   const auto dir = case_dir("t-");
   if (comm_rank() == 0) {
     std::filesystem::create_directories(dir);
@@ -82,8 +80,7 @@ std::string lattice_data(int n, bool velocities, const std::string& extra_atoms 
   for (int q = 0; q < N; ++q) {
     const int k = (q * 7919) % N;  // a permutation (7919 is prime and N is not its multiple)
     const int i = k % n, j = (k / n) % n, l = k / (n * n);
-    s << k + 1 << " 1 0.002 2500 " << 3e-3 * (i + 0.5) << " " << 3e-3 * (j + 0.5) << " "
-      << 3e-3 * (l + 0.5) << "\n";
+    s << k + 1 << " 1 0.002 2500 " << 3e-3 * (i + 0.5) << " " << 3e-3 * (j + 0.5) << " " << 3e-3 * (l + 0.5) << "\n";
   }
   s << extra_atoms;
   if (velocities) {
@@ -107,9 +104,7 @@ TEST(DistributedSetup, SameParticlesCellAndStepAsTheSerialSetup) {
   EXPECT_EQ(s.holding, P > 1 ? Holding::Share : Holding::Whole);
   EXPECT_EQ(sum_all((long long)s.particles.n_owned()), (long long)N);
   // Each rank its subdomain's share: slabs of a Cartesian cut, within 1.5 x the mean.
-  if (P > 1) {
-    EXPECT_LE(s.particles.n_owned(), 1.5 * double(N) / double(P));
-  }
+  if (P > 1) { EXPECT_LE(s.particles.n_owned(), 1.5 * double(N) / double(P)); }
   EXPECT_EQ(s.cell.lengths(), ref.cell.lengths());
   EXPECT_EQ(s.critical_dt, ref.critical_dt);
   EXPECT_EQ(s.params.dt, ref.params.dt);
@@ -119,7 +114,7 @@ TEST(DistributedSetup, SameParticlesCellAndStepAsTheSerialSetup) {
   for (std::size_t a = 0; a < s.particles.n_owned(); ++a) {
     const std::size_t b = at.at(s.particles.id[a]);
     bad += s.particles.x[a] != ref.particles.x[b] || s.particles.radius[a] != ref.particles.radius[b] ||
-           s.particles.mass[a] != ref.particles.mass[b] || s.particles.v[a] != ref.particles.v[b];
+        s.particles.mass[a] != ref.particles.mass[b] || s.particles.v[a] != ref.particles.v[b];
   }
   EXPECT_EQ(sum_all(bad), 0);
 }
@@ -191,7 +186,8 @@ TEST(DistributedSetup, BadDataFilesGiveTheSerialMessages) {
 // A [cell] size smaller than the file's box: the spheres beyond it are refused with the serial
 // message (io/setup.hpp check_inside_cell), whichever rank read them.
 TEST(DistributedSetup, ParticleOutsideTheSceneCellGivesTheSerialMessage) {
-  const Scene sc = load_scene(write_case("small_cell", lattice_data(6, false), "[cell]\nsize = [0.015, 0.018, 0.018]\n"));
+  const Scene sc =
+      load_scene(write_case("small_cell", lattice_data(6, false), "[cell]\nsize = [0.015, 0.018, 0.018]\n"));
   const std::string serial = error_of([&] { make_setup(sc); });
   const std::string parallel = error_of([&] { make_run_setup(sc, MPI_COMM_WORLD, cartesian()); });
   EXPECT_NE(serial.find("lies outside the cell (coordinate 1 = 0.0165)"), std::string::npos) << serial;
@@ -205,7 +201,8 @@ TEST(DistributedSetup, SphereAgainstAWallGivesTheSerialMessage) {
   struct Case {
     const char *name, *z, *message;
   };
-  for (const Case& c : {Case{"wall_beyond", "0.004", "starts beyond the wall"}, Case{"wall_overlap", "0.001", "overlaps the wall"}}) {
+  for (const Case& c :
+       {Case{"wall_beyond", "0.004", "starts beyond the wall"}, Case{"wall_overlap", "0.001", "overlaps the wall"}}) {
     SCOPED_TRACE(c.name);
     const std::string wall = std::string("[[wall]]\npoint = [0, 0, ") + c.z + "]\nnormal = [0, 0, 1]\n";
     const Scene sc = load_scene(write_case(c.name, lattice_data(6, false), wall));
@@ -233,9 +230,7 @@ TEST(DistributedSetup, GeneratedByRegionsIsTheSameOnAnyRankCount) {
   const fabrica::Setup s = make_run_setup(sc, MPI_COMM_WORLD, cartesian());
   ASSERT_EQ(ref.particles.n_owned(), 100000u);
   EXPECT_EQ(sum_all((long long)s.particles.n_owned()), 100000);
-  if (comm_size() > 1) {
-    EXPECT_LE(s.particles.n_owned(), 1.5 * 100000.0 / comm_size());
-  }
+  if (comm_size() > 1) { EXPECT_LE(s.particles.n_owned(), 1.5 * 100000.0 / comm_size()); }
   EXPECT_EQ(s.cell.lengths(), ref.cell.lengths());
   EXPECT_EQ(s.params.dt, ref.params.dt);
   std::unordered_map<GlobalId, std::size_t> at;

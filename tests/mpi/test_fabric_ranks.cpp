@@ -53,10 +53,11 @@ std::vector<double> flatten(const FabricResult& r) {
   for (double x : r.q_p_star) v.push_back(x);
   for (double x : r.q_p_star_tensor) v.push_back(x);
   for (const NetworkFabric& n : r.net) {
-    v.insert(v.end(), {double(n.count), n.mean_fn, n.a_c, n.a_b, n.a_n, n.a_t, n.zeta, n.gamma,
-                       n.xi, double(n.nonpositive_weights), n.min_weight});
-    for (const Mat3* m : {&n.phi, &n.branch, &n.normal_force, &n.tangential_force, &n.ac, &n.ab,
-                          &n.an, &n.at, &n.stress})
+    v.insert(v.end(),
+             {double(n.count), n.mean_fn, n.a_c, n.a_b, n.a_n, n.a_t, n.zeta, n.gamma, n.xi,
+              double(n.nonpositive_weights), n.min_weight});
+    for (const Mat3* m :
+         {&n.phi, &n.branch, &n.normal_force, &n.tangential_force, &n.ac, &n.ab, &n.an, &n.at, &n.stress})
       put(*m);
     put(n.phi_principal);
     put(n.phi_major);
@@ -96,7 +97,8 @@ TEST(FabricRanks, SameResultBitForBitOnAnyRankCount) {
   EXPECT_GT(ser.net[kSf].count, 1000);
   EXPECT_GT(ser.net[kSR].count, 1000);
   if (rank == 0)
-    std::printf("[fabric ranks] %d rank(s): %zu numbers, %zu differ from the serial analysis "
-                "(bitwise); q/p = %.6f, (q/p)* all %.6f\n", size, a.size(), differ, ser.q_p,
-                ser.q_p_star[kPartAll]);
+    std::printf(
+        "[fabric ranks] %d rank(s): %zu numbers, %zu differ from the serial analysis "
+        "(bitwise); q/p = %.6f, (q/p)* all %.6f\n",
+        size, a.size(), differ, ser.q_p, ser.q_p_star[kPartAll]);
 }

@@ -109,8 +109,9 @@ TEST(Partners, SameTrajectoryAndNeighbourOnlyExchangesUnderLargeDeformation) {
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   if (rank == 0)
-    std::printf("[partners] %d ranks: %d partners at the start, %d at the end; %lld migrations, "
-                "%lld of them all-to-all; %lld particles migrated by rank 0\n",
-                P_, partners_at_start, int(domain.partners().size()), (long long)st.migrations,
-                (long long)st.migrations_all_to_all, (long long)st.particles_migrated);
+    std::printf(
+        "[partners] %d ranks: %d partners at the start, %d at the end; %lld migrations, "
+        "%lld of them all-to-all; %lld particles migrated by rank 0\n",
+        P_, partners_at_start, int(domain.partners().size()), (long long)st.migrations,
+        (long long)st.migrations_all_to_all, (long long)st.particles_migrated);
 }

@@ -16,8 +16,8 @@ using namespace fabrica;
 TEST(Properties, FieldByFieldMessagesRoundTrip) {
   Particles src;
   for (int a = 0; a < 7; ++a)
-    src.add({100 + a, 0.01 * (a + 1), 2650.0, Vec3(a, 0.5 * a, -a), Vec3(1e-3 * a, 2.0, a * a),
-             Vec3(-a, 3.0 * a, 0.25)});
+    src.add(
+        {100 + a, 0.01 * (a + 1), 2650.0, Vec3(a, 0.5 * a, -a), Vec3(1e-3 * a, 2.0, a * a), Vec3(-a, 3.0 * a, 0.25)});
   const std::vector<Index> idx = {5, 1, 6, 1, 0};  // any owned indices, repeats allowed
   std::vector<char> fields, particles;
   pack_fields(src, idx, Message::Refresh, fields);

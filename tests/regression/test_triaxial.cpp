@@ -101,16 +101,13 @@ double max_all(double v) {
   return v;
 }
 using clock_type = std::chrono::steady_clock;
-double since(clock_type::time_point t0) {
-  return std::chrono::duration<double>(clock_type::now() - t0).count();
-}
+double since(clock_type::time_point t0) { return std::chrono::duration<double>(clock_type::now() - t0).count(); }
 
 // The fields of a StageResult the tests read, sent from the rank that ran the stage.
 void bcast(StageResult& r, int from) {
-  std::vector<double> v = {double(r.steps), r.state.unbalanced, r.state.void_ratio,
-                           double(r.state.contacts), r.state.coordination, r.state.mean_overlap,
-                           r.state.p, r.state.q, r.peak_q_p, r.peak_eps1, r.max_lateral_error,
-                           r.max_energy_error};
+  std::vector<double> v = {double(r.steps),      r.state.unbalanced,   r.state.void_ratio,  double(r.state.contacts),
+                           r.state.coordination, r.state.mean_overlap, r.state.p,           r.state.q,
+                           r.peak_q_p,           r.peak_eps1,          r.max_lateral_error, r.max_energy_error};
   for (int k = 0; k < 9; ++k) v.push_back(r.state.stress.data()[k]);
   for (int k = 0; k < 3; ++k) v.push_back(r.strain[k]);
   MPI_Bcast(v.data(), int(v.size()), MPI_DOUBLE, from, MPI_COMM_WORLD);
@@ -172,7 +169,7 @@ struct Branch {
   std::unique_ptr<Simulation> sim;
   std::unique_ptr<TriaxialRun> run;
   StageResult eq, sh;
-  std::string series;  // with the header
+  std::string series;       // with the header
   std::string fabric, sff;  // fabric.csv and sff.csv of the shear stage (docs/fabric.md)
   double seconds = 0, fabric_seconds = 0;
 };
@@ -252,8 +249,7 @@ struct Study {
         std::ostringstream rows;
         b->domain = s.domain ? s.domain->clone() : nullptr;
         b->sim = std::make_unique<Simulation>(*s.sim, b->domain.get());
-        b->run = std::make_unique<TriaxialRun>(scene, *b->sim, d_mean, density, &rows, nullptr,
-                                               s.prep.get());
+        b->run = std::make_unique<TriaxialRun>(scene, *b->sim, d_mean, density, &rows, nullptr, s.prep.get());
         std::ostringstream fabric, sff;
         const FabricStreams fs{&fabric, &sff, nullptr};
         write_fabric_headers(fs, int(scene.fabric.rose_bins));
@@ -278,10 +274,11 @@ struct Study {
       MPI_Bcast(&b->seconds, 1, MPI_DOUBLE, b->owner, MPI_COMM_WORLD);
       MPI_Bcast(&b->fabric_seconds, 1, MPI_DOUBLE, b->owner, MPI_COMM_WORLD);
       if (root())
-        std::printf("[study] %s mu_r = %.2f (rank %d): consolidation %lld steps (%.1f s), "
-                    "equilibration %lld steps, shear %lld steps (%.1f s for both)\n",
-                    s.name, b->mu_r, parallel_run ? -1 : b->owner, (long long)s.cons.steps,
-                    s.seconds, (long long)b->eq.steps, (long long)b->sh.steps, b->seconds);
+        std::printf(
+            "[study] %s mu_r = %.2f (rank %d): consolidation %lld steps (%.1f s), "
+            "equilibration %lld steps, shear %lld steps (%.1f s for both)\n",
+            s.name, b->mu_r, parallel_run ? -1 : b->owner, (long long)s.cons.steps, s.seconds, (long long)b->eq.steps,
+            (long long)b->sh.steps, b->seconds);
     }
   }
 };
@@ -306,10 +303,11 @@ TEST(Triaxial, ConsolidationReachesConfiningPressureAtRest) {
     // Required: the unbalanced-force ratio below the stage's tolerance (1e-4).
     EXPECT_LT(m.unbalanced, tx.unbalanced_tolerance) << s->name;
     if (root())
-      std::printf("[1] %s consolidation: sigma = %.2f %.2f %.2f kPa, unbalanced %.2e, e = %.4f, "
-                  "Z = %.3f, mean overlap %.3f %% of d_mean\n",
-                  s->name, m.stress(0, 0) / 1e3, m.stress(1, 1) / 1e3, m.stress(2, 2) / 1e3,
-                  m.unbalanced, m.void_ratio, m.coordination, 100 * m.mean_overlap / st.d_mean);
+      std::printf(
+          "[1] %s consolidation: sigma = %.2f %.2f %.2f kPa, unbalanced %.2e, e = %.4f, "
+          "Z = %.3f, mean overlap %.3f %% of d_mean\n",
+          s->name, m.stress(0, 0) / 1e3, m.stress(1, 1) / 1e3, m.stress(2, 2) / 1e3, m.unbalanced, m.void_ratio,
+          m.coordination, 100 * m.mean_overlap / st.d_mean);
   }
 }
 
@@ -327,12 +325,11 @@ TEST(Triaxial, LateralStressesHeldDuringShear) {
       ASSERT_GT(s22.size(), 50u);
       double worst = 0;
       for (std::size_t k = 0; k < s22.size(); ++k)
-        worst = std::max({worst, std::abs(s22[k] - target) / target,
-                          std::abs(s33[k] - target) / target});
+        worst = std::max({worst, std::abs(s22[k] - target) / target, std::abs(s33[k] - target) / target});
       EXPECT_LT(worst, 0.02) << s->name << " mu_r = " << b->mu_r;
       if (root())
-        std::printf("[2] %s mu_r = %.2f: max lateral stress error %.3f %% over %zu rows\n",
-                    s->name, b->mu_r, 100 * b->sh.max_lateral_error, s22.size());
+        std::printf("[2] %s mu_r = %.2f: max lateral stress error %.3f %% over %zu rows\n", s->name, b->mu_r,
+                    100 * b->sh.max_lateral_error, s22.size());
     }
 }
 
@@ -417,9 +414,10 @@ TEST(Triaxial, ServoStressIsLoveWeberStress) {
   EXPECT_EQ(mismatch, 0) << "contact count differs from MacroState.contacts";
   EXPECT_LT(worst, 1e-10);
   if (root())
-    std::printf("[2] serial: Love-Weber stress recomputed by brute force over %.0f touching pairs "
-                "(%zu runs): max difference %.2e p\n", pairs_total, st.serial.branches.size(),
-                worst);
+    std::printf(
+        "[2] serial: Love-Weber stress recomputed by brute force over %.0f touching pairs "
+        "(%zu runs): max difference %.2e p\n",
+        pairs_total, st.serial.branches.size(), worst);
 
   const Simulation& sim = *st.parallel.branches[0]->sim;
   double contacts = 0;
@@ -431,8 +429,10 @@ TEST(Triaxial, ServoStressIsLoveWeberStress) {
   EXPECT_EQ(std::int64_t(contacts), m.contacts);
   EXPECT_LT(err, 1e-10);
   if (root())
-    std::printf("[2] parallel (%d ranks): Love-Weber stress from the contact lists: max "
-                "difference %.2e p\n", comm_size(), err);
+    std::printf(
+        "[2] parallel (%d ranks): Love-Weber stress from the contact lists: max "
+        "difference %.2e p\n",
+        comm_size(), err);
 }
 
 // 3. The energy balance closes: |E0 + W - (kinetic + elastic) - dissipated| < 1 % of the boundary
@@ -456,11 +456,12 @@ TEST(Triaxial, EnergyBalanceHolds) {
       EXPECT_LT(b->eq.max_energy_error, 0.01) << s->name << " mu_r = " << b->mu_r;
       EXPECT_LT(b->sh.max_energy_error, 0.01) << s->name << " mu_r = " << b->mu_r;
       if (root())
-        std::printf("[3] %s mu_r = %.2f: energy error: consolidation %.3f %% (rows), %.1f %% "
-                    "(every measuring step); equilibration %.3f %%, shear %.3f %%; boundary work "
-                    "%.1f J after consolidation\n", s->name, b->mu_r, 100 * worst_row,
-                    100 * s->cons.max_energy_error, 100 * b->eq.max_energy_error,
-                    100 * b->sh.max_energy_error, work.back());
+        std::printf(
+            "[3] %s mu_r = %.2f: energy error: consolidation %.3f %% (rows), %.1f %% "
+            "(every measuring step); equilibration %.3f %%, shear %.3f %%; boundary work "
+            "%.1f J after consolidation\n",
+            s->name, b->mu_r, 100 * worst_row, 100 * s->cons.max_energy_error, 100 * b->eq.max_energy_error,
+            100 * b->sh.max_energy_error, work.back());
     }
   }
 }
@@ -489,10 +490,11 @@ TEST(Triaxial, RollingResistanceRaisesPeak) {
   const Curve c0 = curve(*st.serial.branches[0]), c2 = curve(*st.serial.branches[1]);
   if (root())
     for (const auto& [mu, c] : {std::pair{0.0, c0}, std::pair{0.2, c2}})
-      std::printf("[4] mu_r = %.1f: e after re-equilibration %.4f, peak q/p %.4f at eps1 = %.4f, "
-                  "eps_v: max %.4f, end %.4f (dilation after the densest state %.4f), max "
-                  "inertial number %.2e\n", mu, c.e0, c.peak, c.eps1_peak, c.epsv_max, c.epsv_end,
-                  c.epsv_max - c.epsv_end, c.inertial);
+      std::printf(
+          "[4] mu_r = %.1f: e after re-equilibration %.4f, peak q/p %.4f at eps1 = %.4f, "
+          "eps_v: max %.4f, end %.4f (dilation after the densest state %.4f), max "
+          "inertial number %.2e\n",
+          mu, c.e0, c.peak, c.eps1_peak, c.epsv_max, c.epsv_end, c.epsv_max - c.epsv_end, c.inertial);
   // Required: peak q/p(mu_r = 0.2) > peak q/p(mu_r = 0).
   EXPECT_GT(c2.peak, c0.peak);
   // Quasi-static shear (spec 4.4): inertial number below 1e-3 at every output instant.
@@ -565,13 +567,13 @@ TEST(Triaxial, SameCurveOnOneAndManyRanks) {
   EXPECT_NEAR(st.parallel.cons.state.void_ratio, st.serial.cons.state.void_ratio,
               1e-12 * st.serial.cons.state.void_ratio);
   if (root())
-    std::printf("[5] %d rank(s) vs serial, mu_r = 0: consolidation %lld vs %lld steps, e %.6f vs "
-                "%.6f; q/p differs by at most %.2e of the peak up to the peak (eps1 = %.3f, %zu "
-                "rows), %.2e over the whole shear; peak q/p %.4f vs %.4f\n",
-                comm_size(), (long long)st.parallel.cons.steps, (long long)st.serial.cons.steps,
-                st.parallel.cons.state.void_ratio, st.serial.cons.state.void_ratio, worst,
-                e_s[peak], peak + 1, worst_all, st.parallel.branches[0]->sh.peak_q_p,
-                st.serial.branches[0]->sh.peak_q_p);
+    std::printf(
+        "[5] %d rank(s) vs serial, mu_r = 0: consolidation %lld vs %lld steps, e %.6f vs "
+        "%.6f; q/p differs by at most %.2e of the peak up to the peak (eps1 = %.3f, %zu "
+        "rows), %.2e over the whole shear; peak q/p %.4f vs %.4f\n",
+        comm_size(), (long long)st.parallel.cons.steps, (long long)st.serial.cons.steps,
+        st.parallel.cons.state.void_ratio, st.serial.cons.state.void_ratio, worst, e_s[peak], peak + 1, worst_all,
+        st.parallel.branches[0]->sh.peak_q_p, st.serial.branches[0]->sh.peak_q_p);
 }
 
 // 6. A higher consolidation friction gives a looser specimen: the void ratio after consolidation
@@ -603,8 +605,7 @@ TEST(Triaxial, HigherConsolidationFrictionGivesLooserSpecimen) {
       std::printf("  mu_s %.1f: e = %.4f (%.0f steps)", mus[k], e[k], steps[k]);
     std::printf("\n");
   }
-  for (std::size_t k = 1; k < e.size(); ++k)
-    EXPECT_GT(e[k], e[k - 1]) << "mu_s " << mus[k - 1] << " -> " << mus[k];
+  for (std::size_t k = 1; k < e.size(); ++k) EXPECT_GT(e[k], e[k - 1]) << "mu_s " << mus[k - 1] << " -> " << mus[k];
 }
 
 // 7. The stress-force-fabric relation (docs/fabric.md, docs/verification.md "Fabric analysis"):
@@ -673,24 +674,24 @@ TEST(Triaxial, StressForceFabricPrediction) {
         pooled[prefix + name].second += int(q.size());
         if (!conditioned) ill_any.insert(name);
         if (root())
-          std::printf("[7] mu_r = %.1f, %-6s SFF partition %-11s: |(q/p)* - q/p| / (q/p) mean "
-                      "%5.2f %%, max %6.2f %%, %3.0f %% of %zu rows within 5 %%%s\n", b->mu_r,
-                      scalar ? "scalar" : "tensor", name.c_str(), 100 * mean, 100 * worst,
-                      100 * within / double(q.size()), q.size(),
-                      !conditioned ? " (a network with min_weight <= 0)" : "");
+          std::printf(
+              "[7] mu_r = %.1f, %-6s SFF partition %-11s: |(q/p)* - q/p| / (q/p) mean "
+              "%5.2f %%, max %6.2f %%, %3.0f %% of %zu rows within 5 %%%s\n",
+              b->mu_r, scalar ? "scalar" : "tensor", name.c_str(), 100 * mean, 100 * worst,
+              100 * within / double(q.size()), q.size(), !conditioned ? " (a network with min_weight <= 0)" : "");
       }
     }
     if (root())
-      std::printf("[7] mu_r = %.1f: fabric analysis %.3f s of the case's %.1f s (%.2f %%)\n",
-                  b->mu_r, b->fabric_seconds, b->seconds, 100 * b->fabric_seconds / b->seconds);
+      std::printf("[7] mu_r = %.1f: fabric analysis %.3f s of the case's %.1f s (%.2f %%)\n", b->mu_r,
+                  b->fabric_seconds, b->seconds, 100 * b->fabric_seconds / b->seconds);
   }
   // The spec's relation for the whole network (scalar form, partition 'all') and its tensor
   // form, pooled over both cases, must hold within 5 %; the sub-network partitions are reported.
   for (const std::string key : {"q_p_star_all", "q_p_tensor_all"}) {
     const double mean = pooled[key].first / double(pooled[key].second);
     if (root())
-      std::printf("[7] both cases, %s: mean deviation %.2f %% over %d rows (asserted < 5 %%)\n",
-                  key.c_str(), 100 * mean, pooled[key].second);
+      std::printf("[7] both cases, %s: mean deviation %.2f %% over %d rows (asserted < 5 %%)\n", key.c_str(),
+                  100 * mean, pooled[key].second);
     EXPECT_LT(mean, 0.05) << key << ", pooled over both cases";
   }
   for (const auto& [key, v] : pooled)

@@ -10,9 +10,7 @@ namespace fabrica::test {
 
 inline constexpr real_t kRho = 2650.0;  // kg/m^3
 
-inline real_t sphere_mass(real_t R, real_t rho = kRho) {
-  return rho * 4.0 / 3.0 * std::numbers::pi * R * R * R;
-}
+inline real_t sphere_mass(real_t R, real_t rho = kRho) { return rho * 4.0 / 3.0 * std::numbers::pi * R * R * R; }
 
 // Particles from a list of initial states (ids in list order).
 inline Particles make_particles(const std::vector<SphereInit>& s) {
@@ -23,8 +21,7 @@ inline Particles make_particles(const std::vector<SphereInit>& s) {
 
 // A simulation in a cubic periodic cell of side L (default 1 m, "isolated" spheres).
 inline Simulation make_sim(Particles p, const ContactLawParams& law, real_t dt, real_t skin,
-                           std::vector<Wall> walls = {}, Vec3 gravity = Vec3::Zero(),
-                           real_t L = 1.0) {
+                           std::vector<Wall> walls = {}, Vec3 gravity = Vec3::Zero(), real_t L = 1.0) {
   SimulationParams sp;
   sp.law = law;
   sp.dt = dt;
@@ -35,8 +32,7 @@ inline Simulation make_sim(Particles p, const ContactLawParams& law, real_t dt, 
 }
 
 // Law with the normal stiffness given directly.
-inline ContactLawParams direct_law(real_t kn, real_t mu_s, real_t mu_r = 0.0,
-                                   real_t kappa = 1.0) {
+inline ContactLawParams direct_law(real_t kn, real_t mu_s, real_t mu_r = 0.0, real_t kappa = 1.0) {
   ContactLawParams law;
   law.stiffness_mode = NormalStiffnessMode::Direct;
   law.normal_stiffness = kn;

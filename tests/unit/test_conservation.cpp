@@ -21,14 +21,12 @@
 namespace fabrica {
 namespace {
 
-Vec3 random_vec(Random& rng) {
-  return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0;
-}
+Vec3 random_vec(Random& rng) { return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0; }
 
 // Random packing of n fractal diameters in [dmin, dmax] at solid fraction phi0, shrunk by s per
 // axis (overlaps), with random velocities (|v_k| < vmax) and spins (|w_k| < vmax / dmin).
-Particles packing(std::size_t n, real_t dmin, real_t dmax, real_t phi0, real_t s, real_t vmax,
-                  Random& rng, PeriodicCell& cell) {
+Particles packing(std::size_t n, real_t dmin, real_t dmax, real_t phi0, real_t s, real_t vmax, Random& rng,
+                  PeriodicCell& cell) {
   std::vector<real_t> d = fractal_diameters(n, 1.9, dmin, dmax, rng);
   d[0] = dmax;
   real_t vs = 0;
@@ -90,12 +88,12 @@ void momentum_case(const Vec3& strain, const char* label) {
     max_sliding = std::max(max_sliding, sim.macro().sliding);
   }
   const MacroState m = sim.macro();
-  for (int k = 0; k < 3; ++k)
-    EXPECT_NEAR(std::log(sim.cell().lengths()[k] / L0[k]), strain[k], 1e-12);
-  std::printf("[momentum] %s: max |P - P0| / sum m|v| = %.2e (up to %lld contacts, %lld sliding; "
-              "dissipated friction %.2e J rolling %.2e J viscous %.2e J, rebuilds %lld)\n",
-              label, err, (long long)max_contacts, (long long)max_sliding, m.dissipated.friction,
-              m.dissipated.rolling, m.dissipated.viscous, (long long)sim.rebuild_count());
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(std::log(sim.cell().lengths()[k] / L0[k]), strain[k], 1e-12);
+  std::printf(
+      "[momentum] %s: max |P - P0| / sum m|v| = %.2e (up to %lld contacts, %lld sliding; "
+      "dissipated friction %.2e J rolling %.2e J viscous %.2e J, rebuilds %lld)\n",
+      label, err, (long long)max_contacts, (long long)max_sliding, m.dissipated.friction, m.dissipated.rolling,
+      m.dissipated.viscous, (long long)sim.rebuild_count());
   EXPECT_LT(err, 1e-12);
   // The scene exercised what it claims to.
   EXPECT_GT(max_contacts, 300);
@@ -108,9 +106,7 @@ void momentum_case(const Vec3& strain, const char* label) {
 
 TEST(Conservation, LinearMomentumPeriodicPacking) { momentum_case(Vec3::Zero(), "static cell"); }
 
-TEST(Conservation, LinearMomentumDeformingCell) {
-  momentum_case(Vec3(-0.1, 0.05, 0.03), "deforming cell");
-}
+TEST(Conservation, LinearMomentumDeformingCell) { momentum_case(Vec3(-0.1, 0.05, 0.03), "deforming cell"); }
 
 // Angular momentum of a free cluster of 18 spheres (overlaps up to ~2 % of R) in a 1 m cell,
 // about the cell centre c: contact forces are equal and opposite and the torques satisfy
@@ -158,11 +154,11 @@ TEST(Conservation, AngularMomentumFreeCluster) {
     errP = std::max(errP, (momentum(sim.particles()) - P0).norm() / momentum_scale(sim.particles()));
   }
   const Dissipation& d = sim.dissipation();
-  std::printf("[angular momentum] max |L - L0| / scale = %.2e, |P - P0| rel %.2e (up to %lld "
-              "contacts, cluster radius %.3f m; dissipated friction %.2e rolling %.2e viscous "
-              "%.2e J)\n",
-              dL / scale_max, errP, (long long)max_contacts, rmax_run, d.friction, d.rolling,
-              d.viscous);
+  std::printf(
+      "[angular momentum] max |L - L0| / scale = %.2e, |P - P0| rel %.2e (up to %lld "
+      "contacts, cluster radius %.3f m; dissipated friction %.2e rolling %.2e viscous "
+      "%.2e J)\n",
+      dL / scale_max, errP, (long long)max_contacts, rmax_run, d.friction, d.rolling, d.viscous);
   ASSERT_LT(rmax_run, 0.4);  // never near the periodic boundary
   EXPECT_LT(dL / scale_max, 1e-12);
   EXPECT_LT(errP, 1e-12);
@@ -213,12 +209,12 @@ TEST(Conservation, EnergyFrictionlessPacking) {
   }
   const MacroState m = sim.macro();
   const real_t secular = (e_last / n_last - e_first / n_first) / E0;
-  std::printf("[energy] N = %zu, %d steps: max |E - E0| / E0 = %.2e, secular drift %.2e (E0 = "
-              "%.3e J, elastic share %.0f %% at start, %.0f %% at end; contacts %lld..%lld, %lld "
-              "rebuilds)\n",
-              sim.particles().n_owned(), steps, drift, secular, E0, 100 * m0.e_normal / E0,
-              100 * m.e_normal / (m.kinetic + m.e_normal), (long long)cmin, (long long)cmax,
-              (long long)sim.rebuild_count());
+  std::printf(
+      "[energy] N = %zu, %d steps: max |E - E0| / E0 = %.2e, secular drift %.2e (E0 = "
+      "%.3e J, elastic share %.0f %% at start, %.0f %% at end; contacts %lld..%lld, %lld "
+      "rebuilds)\n",
+      sim.particles().n_owned(), steps, drift, secular, E0, 100 * m0.e_normal / E0,
+      100 * m.e_normal / (m.kinetic + m.e_normal), (long long)cmin, (long long)cmax, (long long)sim.rebuild_count());
   EXPECT_LT(drift, 1e-4);
   EXPECT_LT(std::abs(secular), 5e-5);
   EXPECT_GT(m.e_normal, 0.05 * E0);  // springs really exchange energy with motion
@@ -266,9 +262,10 @@ TEST(Conservation, EnergyElasticHertzLattice) {
     err = std::max(err, std::abs(m.kinetic + m.e_normal - E0) / E0);
     cmin = std::min(cmin, m.contacts), cmax = std::max(cmax, m.contacts);
   }
-  std::printf("[hertz energy] 108 spheres, 20000 steps at 0.01 t_Rayleigh: max |E - E0| / E0 = %.2e "
-              "(E0 = %.3e J, kinetic share %.2f %% at start; contacts %lld..%lld)\n",
-              err, E0, 100 * m0.kinetic / E0, (long long)cmin, (long long)cmax);
+  std::printf(
+      "[hertz energy] 108 spheres, 20000 steps at 0.01 t_Rayleigh: max |E - E0| / E0 = %.2e "
+      "(E0 = %.3e J, kinetic share %.2f %% at start; contacts %lld..%lld)\n",
+      err, E0, 100 * m0.kinetic / E0, (long long)cmin, (long long)cmax);
   EXPECT_EQ(cmin, 6 * 108);  // every lattice contact stays closed
   EXPECT_EQ(cmax, 6 * 108);
   EXPECT_GT(m0.kinetic, 1e-3 * E0);
@@ -281,9 +278,9 @@ TEST(Conservation, EnergyElasticHertzLattice) {
 // v(0) dt there, which doubled the first shear increment and broke energy conservation).
 TEST(Conservation, ConstructionDoesNotAdvanceContactHistory) {
   const real_t R = 0.01;
-  Particles p = test::make_particles(
-      {{0, R, test::kRho, Vec3(0.5, 0.5, 0.5), Vec3(0.3, 0, 0), Vec3(0, 0, 5)},
-       {1, R, test::kRho, Vec3(0.5, 0.5, 0.5 + 2 * R - 1e-4), Vec3(-0.2, 0.1, 0), Vec3(1, 0, 0)}});
+  Particles p =
+      test::make_particles({{0, R, test::kRho, Vec3(0.5, 0.5, 0.5), Vec3(0.3, 0, 0), Vec3(0, 0, 5)},
+                            {1, R, test::kRho, Vec3(0.5, 0.5, 0.5 + 2 * R - 1e-4), Vec3(-0.2, 0.1, 0), Vec3(1, 0, 0)}});
   ContactLawParams law = full_law();
   Simulation sim = test::make_sim(std::move(p), law, 1e-7, 0.1 * R,
                                   {Wall{Vec3(0, 0, 0.5 - R + 1e-4), Vec3::UnitZ(), Vec3::Zero(), false, {}}});
@@ -312,8 +309,7 @@ namespace {
 // dashpot and local-damping work use the half-step velocity (first order), so:
 //   friction + rolling: max |E + D - E0| / E0 < 5e-4 at 0.05, and halving dt divides it by > 2;
 //   all mechanisms:     < 4e-3 at 0.05, and halving dt divides it by > 1.67.
-real_t energy_balance_case(const ContactLawParams& law, real_t alpha, real_t frac,
-                           const char* label) {
+real_t energy_balance_case(const ContactLawParams& law, real_t alpha, real_t frac, const char* label) {
   Random rng(99);
   PeriodicCell cell;
   Particles p = packing(150, 0.01, 0.03, 0.4, 0.92, 0.5, rng, cell);
@@ -323,12 +319,9 @@ real_t energy_balance_case(const ContactLawParams& law, real_t alpha, real_t fra
   sp.skin = 0.001;
   sp.dt = frac * critical_time_step(p, law, false);
   Simulation sim(std::move(p), cell, sp);
-  auto total = [](const MacroState& m) {
-    return m.kinetic + m.e_normal + m.e_shear + m.e_rolling;
-  };
+  auto total = [](const MacroState& m) { return m.kinetic + m.e_normal + m.e_shear + m.e_rolling; };
   auto dissipated = [](const MacroState& m) {
-    return m.dissipated.friction + m.dissipated.rolling + m.dissipated.viscous +
-           m.dissipated.local;
+    return m.dissipated.friction + m.dissipated.rolling + m.dissipated.viscous + m.dissipated.local;
   };
   const real_t E0 = total(sim.macro()) + dissipated(sim.macro());
   const int steps = int(std::lround(20000 * 0.05 / frac)), every = steps / 100;
@@ -339,10 +332,11 @@ real_t energy_balance_case(const ContactLawParams& law, real_t alpha, real_t fra
     if (sample) err = std::max(err, std::abs(total(sim.macro()) + dissipated(sim.macro()) - E0) / E0);
   }
   const MacroState m = sim.macro();
-  std::printf("[energy balance] %s, dt = %.3f dt_crit: max |E + D - E0| / E0 = %.2e; D / E0 = "
-              "%.2f (friction %.2f, rolling %.2f, viscous %.2f, local %.2f)\n",
-              label, frac, err, dissipated(m) / E0, m.dissipated.friction / E0,
-              m.dissipated.rolling / E0, m.dissipated.viscous / E0, m.dissipated.local / E0);
+  std::printf(
+      "[energy balance] %s, dt = %.3f dt_crit: max |E + D - E0| / E0 = %.2e; D / E0 = "
+      "%.2f (friction %.2f, rolling %.2f, viscous %.2f, local %.2f)\n",
+      label, frac, err, dissipated(m) / E0, m.dissipated.friction / E0, m.dissipated.rolling / E0,
+      m.dissipated.viscous / E0, m.dissipated.local / E0);
   EXPECT_GT(dissipated(m), 0.5 * E0);  // most of the energy went through the books
   return err;
 }
@@ -448,8 +442,8 @@ TEST(Conservation, EnergyBalanceLocalDamping) {
 TEST(Conservation, FreeFallSeenBetweenStepsIsTheEndOfStepState) {
   const Vec3 v0(0.3, -0.2, 0.1), x0(0.5, 0.5, 0.9), g(0.0, 0.0, -9.81);
   const real_t dt = 1e-4;
-  Simulation sim = test::make_sim(test::make_particles({{7, 0.01, test::kRho, x0, v0}}),
-                                  test::direct_law(1e6, 0.5), dt, 0.001, {}, g);
+  Simulation sim = test::make_sim(test::make_particles({{7, 0.01, test::kRho, x0, v0}}), test::direct_law(1e6, 0.5), dt,
+                                  0.001, {}, g);
   const int n = 137;
   for (int s = 0; s < n; ++s) sim.step(false);
   const real_t t = n * dt;

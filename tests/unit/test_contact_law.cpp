@@ -25,8 +25,8 @@ ContactLawParams base_law() {
   return p;
 }
 
-ContactKinematics kin(const Vec3& n, real_t un, const Vec3& vrel = Vec3::Zero(),
-                      const Vec3& w1 = Vec3::Zero(), const Vec3& w2 = Vec3::Zero()) {
+ContactKinematics kin(const Vec3& n, real_t un, const Vec3& vrel = Vec3::Zero(), const Vec3& w1 = Vec3::Zero(),
+                      const Vec3& w2 = Vec3::Zero()) {
   return {n.normalized(), un, vrel, w1, w2};
 }
 
@@ -219,10 +219,11 @@ TEST(ContactLaw, SlipDissipationEqualsCapTimesSlip) {
       ef += r.e_friction, er += r.e_rolling;
     }
     const real_t D = vt.norm() * N * dt, TH = wb.norm() * N * dt;
-    std::printf("[contact law] from unloaded springs: friction energy error %.2e of cap |du|, "
-                "rolling %.2e of rcap |dtheta|\n",
-                (ef - cap * (D - cap / c.ks)) / (cap * vt.norm() * dt),
-                (er - rcap * (TH - rcap / c.kr)) / (rcap * wb.norm() * dt));
+    std::printf(
+        "[contact law] from unloaded springs: friction energy error %.2e of cap |du|, "
+        "rolling %.2e of rcap |dtheta|\n",
+        (ef - cap * (D - cap / c.ks)) / (cap * vt.norm() * dt),
+        (er - rcap * (TH - rcap / c.kr)) / (rcap * wb.norm() * dt));
     EXPECT_NEAR(ef, cap * (D - cap / c.ks), cap * vt.norm() * dt);
     EXPECT_NEAR(er, rcap * (TH - rcap / c.kr), rcap * wb.norm() * dt);
     EXPECT_GT(ef, 0.9 * cap * D);

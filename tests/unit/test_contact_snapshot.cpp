@@ -53,10 +53,11 @@ void check(real_t mu_r, real_t mu_s = 0.3) {
   }
   const Mat3 sigma = fb / sim.cell().volume();
   const real_t err = (sigma - m.stress).cwiseAbs().maxCoeff() / m.stress.cwiseAbs().maxCoeff();
-  std::printf("[snapshot] mu_r = %.2f: %zu records (%lld measured), %lld sliding (%lld), %lld "
-              "rolling (%lld), p = %.3e Pa, max |sigma_rec - sigma| / max |sigma| = %.2e\n",
-              mu_r, recs.size(), (long long)m.contacts, (long long)sliding,
-              (long long)m.sliding, (long long)rolling, (long long)m.rolling, m.p, err);
+  std::printf(
+      "[snapshot] mu_r = %.2f: %zu records (%lld measured), %lld sliding (%lld), %lld "
+      "rolling (%lld), p = %.3e Pa, max |sigma_rec - sigma| / max |sigma| = %.2e\n",
+      mu_r, recs.size(), (long long)m.contacts, (long long)sliding, (long long)m.sliding, (long long)rolling,
+      (long long)m.rolling, m.p, err);
   EXPECT_EQ(std::int64_t(recs.size()), m.contacts);
   EXPECT_EQ(sliding, m.sliding);
   EXPECT_EQ(rolling, m.rolling);
@@ -100,8 +101,7 @@ OneContact one_contact(real_t mu_s, real_t mu_r, const Vec3& v2, bool step) {
   if (step) sim.step(true);
   const auto recs = contact_records(sim.particles(), sim.cell(), sim.params().law, sim.pairs());
   EXPECT_EQ(recs.size(), 1u);
-  return {sim.macro().contacts, sim.macro().sliding, sim.macro().rolling,
-          recs.empty() ? ContactRecord{} : recs[0]};
+  return {sim.macro().contacts, sim.macro().sliding, sim.macro().rolling, recs.empty() ? ContactRecord{} : recs[0]};
 }
 
 TEST(ContactClassification, ByHandAtZeroAndNonzeroFriction) {

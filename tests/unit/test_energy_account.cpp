@@ -59,8 +59,7 @@ Account account_error(int interval, bool every_step_measured) {
     if (s % interval == 0) {
       const real_t t = real_t(s) / steps;
       Vec3 r;
-      for (int k = 0; k < 3; ++k)
-        r[k] = -base * (t < 0.7 ? 1.0 + 0.5 * std::sin(9 * t + 2 * k) : -1.5 - 0.5 * k);
+      for (int k = 0; k < 3; ++k) r[k] = -base * (t < 0.7 ? 1.0 + 0.5 * std::sin(9 * t + 2 * k) : -1.5 - 0.5 * k);
       sim.cell().set_strain_rate(r);
     }
     const bool measure = every_step_measured || (s + 1) % interval == 0;
@@ -73,10 +72,11 @@ Account account_error(int interval, bool every_step_measured) {
     EXPECT_NEAR(sim.macro().energy_input, sim.macro().e_normal + sim.macro().kinetic, 1e-6 * E);
   }
   const MacroState& m = sim.macro();
-  std::printf("[energy account] interval %d%s: W = %.9e J, E - E0 = %.9e J (max E %.3e J), "
-              "error %.2e of max E, kinetic %.1e J\n", interval,
-              every_step_measured ? " (every step measured)" : "", sim.boundary_work(),
-              lat.elastic(sim.cell().lengths()) - E0, emax, worst / emax, m.kinetic);
+  std::printf(
+      "[energy account] interval %d%s: W = %.9e J, E - E0 = %.9e J (max E %.3e J), "
+      "error %.2e of max E, kinetic %.1e J\n",
+      interval, every_step_measured ? " (every step measured)" : "", sim.boundary_work(),
+      lat.elastic(sim.cell().lengths()) - E0, emax, worst / emax, m.kinetic);
   EXPECT_LT(m.kinetic, 1e-12 * emax);
   return {worst / emax, sim.boundary_work()};
 }

@@ -68,8 +68,10 @@ TEST(ExactSums, OrderAndSplitIndependentAndAccurate) {
   s.normalize();
   EXPECT_NEAR(s.value(0), -100.0, 1e-12);
   EXPECT_EQ(s.value(1), 3000.0);
-  std::printf("[exact] %zu terms: exact %.17g, compensated %.17g, difference %.2e of the "
-              "largest term\n", x.size(), ref, sum + comp, std::abs(ref - sum - comp) / big);
+  std::printf(
+      "[exact] %zu terms: exact %.17g, compensated %.17g, difference %.2e of the "
+      "largest term\n",
+      x.size(), ref, sum + comp, std::abs(ref - sum - comp) / big);
 }
 
 // ---------------------------------------------------------------- prescribed anisotropy
@@ -88,9 +90,8 @@ struct Sample {
 // Normals from E(n) = (1 + a:nn) / (4 pi) by rejection (uniform proposals, acceptance
 // (1 + a:nn) / (1 + lambda_max(a))); f_n = f0 (1 + a^n:nn), |b| = b0 (1 + a^b:nn),
 // f_t = f0 (a^t n - (n.a^t.n) n). Flags: sliding with probability 0.3, rolling 0.4.
-std::vector<ContactRecord> sample_contacts(std::size_t n, std::uint64_t seed, const Mat3& a,
-                                           const Mat3& an, const Mat3& ab, const Mat3& at,
-                                           double f0, double b0) {
+std::vector<ContactRecord> sample_contacts(std::size_t n, std::uint64_t seed, const Mat3& a, const Mat3& an,
+                                           const Mat3& ab, const Mat3& at, double f0, double b0) {
   const double lmax = Eigen::SelfAdjointEigenSolver<Mat3>(a).eigenvalues().maxCoeff();
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> g;
@@ -168,8 +169,7 @@ TEST(Fabric, RecoversPrescribedAnisotropy) {
       sc_min = std::min(sc_min, t.sem);
     }
   auto w = [&](const Vec3& n) { return 1 + n.dot(all.ac * n); };
-  auto check_ratio = [&](const char* name, const Mat3& got, const Mat3& want, auto u, auto v,
-                         double& worst_err) {
+  auto check_ratio = [&](const char* name, const Mat3& got, const Mat3& want, auto u, auto v, double& worst_err) {
     const Stat sv = stat(N, [&](std::size_t c) { return v(s.rec[c]) / w(s.rec[c].normal); });
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
@@ -189,22 +189,24 @@ TEST(Fabric, RecoversPrescribedAnisotropy) {
       worst[0] = std::max(worst[0], std::abs(all.ac(i, j) - s.a(i, j)) / sc_tol[i][j]);
     }
   auto devnn = [](const Vec3& n, int i, int j) { return 7.5 * (n[i] * n[j] - (i == j) / 3.0); };
-  check_ratio("a^n", all.an, s.an,
-              [&](const ContactRecord& c, int i, int j) { return c.fn * devnn(c.normal, i, j); },
-              [](const ContactRecord& c) { return c.fn; }, worst[1]);
-  check_ratio("a^b", all.ab, s.ab,
-              [&](const ContactRecord& c, int i, int j) { return c.branch.norm() * devnn(c.normal, i, j); },
-              [](const ContactRecord& c) { return c.branch.norm(); }, worst[2]);
-  check_ratio("a^t", all.at, s.at,
-              [&](const ContactRecord& c, int i, int j) {
-                return 2.5 * (c.ft[i] * c.normal[j] + c.ft[j] * c.normal[i]);
-              },
-              [](const ContactRecord& c) { return c.fn; }, worst[3]);
+  check_ratio(
+      "a^n", all.an, s.an, [&](const ContactRecord& c, int i, int j) { return c.fn * devnn(c.normal, i, j); },
+      [](const ContactRecord& c) { return c.fn; }, worst[1]);
+  check_ratio(
+      "a^b", all.ab, s.ab,
+      [&](const ContactRecord& c, int i, int j) { return c.branch.norm() * devnn(c.normal, i, j); },
+      [](const ContactRecord& c) { return c.branch.norm(); }, worst[2]);
+  check_ratio(
+      "a^t", all.at, s.at,
+      [&](const ContactRecord& c, int i, int j) { return 2.5 * (c.ft[i] * c.normal[j] + c.ft[j] * c.normal[i]); },
+      [](const ContactRecord& c) { return c.fn; }, worst[3]);
   EXPECT_EQ(all.nonpositive_weights, 0);
-  std::printf("[fabric] prescribed anisotropy, N = %zu: max |error| / tolerance: a^c %.2f, "
-              "a^n %.2f, a^b %.2f, a^t %.2f (a^c tolerance 5 s_c = %.4f .. %.4f); max |a^c - a| "
-              "= %.4f, max |a^n - a^n_true| = %.4f\n",
-              N, worst[0], worst[1], worst[2], worst[3], 5 * sc_min, 5 * sc_max, (all.ac - s.a).cwiseAbs().maxCoeff(), (all.an - s.an).cwiseAbs().maxCoeff());
+  std::printf(
+      "[fabric] prescribed anisotropy, N = %zu: max |error| / tolerance: a^c %.2f, "
+      "a^n %.2f, a^b %.2f, a^t %.2f (a^c tolerance 5 s_c = %.4f .. %.4f); max |a^c - a| "
+      "= %.4f, max |a^n - a^n_true| = %.4f\n",
+      N, worst[0], worst[1], worst[2], worst[3], 5 * sc_min, 5 * sc_max, (all.ac - s.a).cwiseAbs().maxCoeff(),
+      (all.an - s.an).cwiseAbs().maxCoeff());
 }
 
 // ---------------------------------------------------------------- the SFF relation's truncation
@@ -228,8 +230,8 @@ TEST(Fabric, StressForceFabricTruncationMatchesClosedForm) {
   constexpr int kBatches = 10;
   constexpr std::size_t kPerBatch = 50000;
   const Mat3 D = Vec3(2.0 / 3, -1.0 / 3, -1.0 / 3).asDiagonal();
-  const std::vector<ContactRecord> rec = sample_contacts(kBatches * kPerBatch, 7, a * D, b * D,
-                                                         Mat3::Zero(), t * D, 10.0, 0.02);
+  const std::vector<ContactRecord> rec =
+      sample_contacts(kBatches * kPerBatch, 7, a * D, b * D, Mat3::Zero(), t * D, 10.0, 0.02);
   SerialDomain serial;
   auto analyse = [&](std::span<const ContactRecord> r) {
     const FabricResult f = analyse_fabric(r, 1.0, FabricOptions{}, serial);
@@ -243,18 +245,19 @@ TEST(Fabric, StressForceFabricTruncationMatchesClosedForm) {
   }
   double sem[3];
   for (int i = 0; i < 3; ++i)
-    sem[i] = std::sqrt(std::max(0.0, m2[i] - mean[i] * mean[i]) * kBatches / (kBatches - 1)) /
-             std::sqrt(double(kBatches));
+    sem[i] =
+        std::sqrt(std::max(0.0, m2[i] - mean[i] * mean[i]) * kBatches / (kBatches - 1)) / std::sqrt(double(kBatches));
   const double want[3] = {exact, first, exact - first};
   const char* name[3] = {"measured q/p", "(q/p)*", "q/p - (q/p)*"};
   for (int i = 0; i < 3; ++i)
     EXPECT_NEAR(whole[i], want[i], 5 * sem[i]) << name[i] << " (standard error " << sem[i] << ")";
   EXPECT_GT(whole[2], 10 * sem[2]) << "the gap is not resolved by this sample";
-  std::printf("[fabric] SFF truncation, a = %.1f, b = %.1f, t = %.1f, N = %zu: q/p %.5f (closed "
-              "form %.5f), (q/p)* %.5f (first order %.5f), gap %.5f (closed form %.5f, %.1f %% of "
-              "q/p); standard errors %.1e, %.1e, %.1e\n",
-              a, b, t, rec.size(), whole[0], exact, whole[1], first, whole[2], exact - first,
-              100 * (exact - first) / exact, sem[0], sem[1], sem[2]);
+  std::printf(
+      "[fabric] SFF truncation, a = %.1f, b = %.1f, t = %.1f, N = %zu: q/p %.5f (closed "
+      "form %.5f), (q/p)* %.5f (first order %.5f), gap %.5f (closed form %.5f, %.1f %% of "
+      "q/p); standard errors %.1e, %.1e, %.1e\n",
+      a, b, t, rec.size(), whole[0], exact, whole[1], first, whole[2], exact - first, 100 * (exact - first) / exact,
+      sem[0], sem[1], sem[2]);
 }
 
 // ---------------------------------------------------------------- simple cubic lattice
@@ -290,8 +293,8 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
       rec.push_back(c);
     }
   // The axes of each network (bit a set: axis a + 1).
-  const int axes[kNetworks] = {/*all*/ 7, /*ns*/ 5, /*s*/ 2, /*r*/ 4, /*nr*/ 3, /*sf*/ 1,
-                               /*wf*/ 6, /*ns-nr*/ 1, /*ns-r*/ 4, /*s-nr*/ 2, /*s-r*/ 0,
+  const int axes[kNetworks] = {/*all*/ 7,   /*ns*/ 5,    /*s*/ 2,    /*r*/ 4,    /*nr*/ 3,  /*sf*/ 1,
+                               /*wf*/ 6,    /*ns-nr*/ 1, /*ns-r*/ 4, /*s-nr*/ 2, /*s-r*/ 0,
                                /*ns-sf*/ 1, /*ns-wf*/ 4, /*s-sf*/ 0, /*s-wf*/ 2};
   SerialDomain serial;
   FabricOptions opt;
@@ -321,8 +324,7 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
       continue;
     }
     const double wa = 1 + 7.5 * (1.0 / m - 1.0 / 3);
-    Mat3 phi = Mat3::Zero(), b = Mat3::Zero(), fn = Mat3::Zero(), ft = Mat3::Zero(),
-         sig = Mat3::Zero();
+    Mat3 phi = Mat3::Zero(), b = Mat3::Zero(), fn = Mat3::Zero(), ft = Mat3::Zero(), sig = Mat3::Zero();
     double fsum = 0;
     for (int a = 0; a < 3; ++a) {
       if (!(axes[k] >> a & 1)) continue;
@@ -338,10 +340,9 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
     const Mat3 ab = 7.5 / b.trace() * devi(b), an = 7.5 / fn.trace() * devi(fn);
     const Mat3 at = 5.0 / fn.trace() * devi(0.5 * (ft + ft.transpose()));
     want_ac[k] = ac, want_ab[k] = ab, want_an[k] = an, want_at[k] = at;
-    worst = std::max({worst, close(nf.phi, phi, "phi", k), close(nf.ac, ac, "a^c", k),
-                      close(nf.branch, b, "b", k), close(nf.normal_force, fn, "f^n", k),
-                      close(nf.stress, sig, "stress", k), close(nf.an, an, "a^n", k),
-                      close(nf.ab, ab, "a^b", k)});
+    worst = std::max({worst, close(nf.phi, phi, "phi", k), close(nf.ac, ac, "a^c", k), close(nf.branch, b, "b", k),
+                      close(nf.normal_force, fn, "f^n", k), close(nf.stress, sig, "stress", k),
+                      close(nf.an, an, "a^n", k), close(nf.ab, ab, "a^b", k)});
     if (axes[k] & 2) {
       worst = std::max({worst, close(nf.tangential_force, ft, "f^t", k), close(nf.at, at, "a^t", k)});
     } else {
@@ -378,7 +379,8 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
     for (int k : partition_networks(p)) norm += zg[k];
     for (int k : partition_networks(p)) EXPECT_NEAR(r.net[k].xi, zg[k] / norm, 1e-12) << kNetworkNames[k];
   }
-  EXPECT_NEAR(r.q_p_star[kPartAll], 0.4 * (r.net[kAll].a_c + r.net[kAll].a_b + r.net[kAll].a_n + 1.5 * r.net[kAll].a_t), 1e-15);
+  EXPECT_NEAR(r.q_p_star[kPartAll], 0.4 * (r.net[kAll].a_c + r.net[kAll].a_b + r.net[kAll].a_n + 1.5 * r.net[kAll].a_t),
+              1e-15);
   // The tensor form from the closed-form tensors of each partition's networks.
   for (int p = 0; p < kPartitions; ++p) {
     Mat3 D = Mat3::Zero();
@@ -388,11 +390,12 @@ TEST(Fabric, SimpleCubicLatticeClosedForm) {
       if (zg[k] == 0) continue;
       D += 0.4 * (zg[k] / norm) * (want_ac[k] + want_ab[k] + want_an[k] + 1.5 * want_at[k]);
     }
-    EXPECT_NEAR(r.q_p_star_tensor[p], std::sqrt(1.5 * D.cwiseProduct(D).sum()), 1e-12)
-        << kPartitionNames[p];
+    EXPECT_NEAR(r.q_p_star_tensor[p], std::sqrt(1.5 * D.cwiseProduct(D).sum()), 1e-12) << kPartitionNames[p];
   }
-  std::printf("[fabric] simple cubic lattice: largest relative error of any tensor of any network "
-              "%.2e\n", worst);
+  std::printf(
+      "[fabric] simple cubic lattice: largest relative error of any tensor of any network "
+      "%.2e\n",
+      worst);
 }
 
 // ---------------------------------------------------------------- partitions add up

@@ -55,9 +55,12 @@ void law_lanes_case(const char* label) {
       n.normalize();
       const real_t un = 1e-5 * (1.0 + u(g));
       const real_t scale = std::pow(10.0, 2 * u(g));  // from deep stick to sliding
-      k1[l] = {simd::from_vec(n), un, simd::from_vec(0.1 * scale * Vec3(u(g), u(g), u(g))),
+      k1[l] = {simd::from_vec(n),
+               un,
+               simd::from_vec(0.1 * scale * Vec3(u(g), u(g), u(g))),
                simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g))),
-               simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g))), un};
+               simd::from_vec(30.0 * scale * Vec3(u(g), u(g), u(g))),
+               un};
       const bool zero = (g() & 3) == 0;
       const real_t fcap = p.friction * c.kn * un;
       const Vec3 fs = zero ? Vec3::Zero() : Vec3(fcap * 1.2 * Vec3(u(g), u(g), u(g)));
@@ -74,9 +77,10 @@ void law_lanes_case(const char* label) {
                                 pack([&](int l) { return c1[l].kr; }), pack([&](int l) { return c1[l].cn; }),
                                 pack([&](int l) { return c1[l].cs; }), pack([&](int l) { return c1[l].rbar; }),
                                 pack([&](int l) { return c1[l].ir; })};
-    const ContactKinematicsL<d4> k4{pack3([&](int l) { return k1[l].n; }), pack([&](int l) { return k1[l].un; }),
-                                    pack3([&](int l) { return k1[l].vrel; }), pack3([&](int l) { return k1[l].w1; }),
-                                    pack3([&](int l) { return k1[l].w2; }), pack([&](int l) { return k1[l].un_prev; })};
+    const ContactKinematicsL<d4> k4{
+        pack3([&](int l) { return k1[l].n; }),    pack([&](int l) { return k1[l].un; }),
+        pack3([&](int l) { return k1[l].vrel; }), pack3([&](int l) { return k1[l].w1; }),
+        pack3([&](int l) { return k1[l].w2; }),   pack([&](int l) { return k1[l].un_prev; })};
     ContactHistoryL<d4> h4{pack3([&](int l) { return h1[l].fs; }), pack3([&](int l) { return h1[l].mr; })};
     const ContactResultL<d4> r4 = contact_law_l<Rolling, Viscous>(p, c4, k4, h4, dt);
     for (int l = 0; l < 4; ++l) {
@@ -100,8 +104,10 @@ void law_lanes_case(const char* label) {
       cut += Viscous && r1.fn == 0;
     }
   }
-  std::printf("[law lanes] %s: 16000 contacts, %d capped, %d free, %d rolling capped, %d with "
-              "the dashpot cut-off\n", label, capped, free_, rcapped, cut);
+  std::printf(
+      "[law lanes] %s: 16000 contacts, %d capped, %d free, %d rolling capped, %d with "
+      "the dashpot cut-off\n",
+      label, capped, free_, rcapped, cut);
   // Every branch was taken on some lanes and not on others.
   EXPECT_GT(capped, 1000);
   EXPECT_GT(free_, 1000);
@@ -116,9 +122,7 @@ TEST(ForcesSimd, LawLanesBitwise) {
   law_lanes_case<true, true>("rolling and dashpots");
 }
 
-Vec3 random_vec(Random& rng) {
-  return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0;
-}
+Vec3 random_vec(Random& rng) { return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0; }
 
 // As tests/unit/test_conservation.cpp: n fractal diameters at solid fraction phi0, shrunk by s
 // per axis (overlaps), random velocities and spins.
@@ -200,11 +204,11 @@ void run_case(const ContactLawParams& law, const char* label, int fetch1 = -1, i
   EXPECT_EQ(m1.dissipated.rolling, m4.dissipated.rolling) << label;
   EXPECT_EQ(m1.dissipated.viscous, m4.dissipated.viscous) << label;
   EXPECT_EQ(s1.rebuild_count(), s4.rebuild_count()) << label;
-  std::printf("[lanes 1 vs 4] %s: up to %lld contacts, up to %lld sliding, at least %lld rolling; "
-              "%lld rebuilds; dissipated friction %.3e rolling %.3e viscous %.3e J: bitwise equal\n",
-              label, (long long)max_contacts, (long long)max_sliding, (long long)min_rolling,
-              (long long)s1.rebuild_count(), m1.dissipated.friction, m1.dissipated.rolling,
-              m1.dissipated.viscous);
+  std::printf(
+      "[lanes 1 vs 4] %s: up to %lld contacts, up to %lld sliding, at least %lld rolling; "
+      "%lld rebuilds; dissipated friction %.3e rolling %.3e viscous %.3e J: bitwise equal\n",
+      label, (long long)max_contacts, (long long)max_sliding, (long long)min_rolling, (long long)s1.rebuild_count(),
+      m1.dissipated.friction, m1.dissipated.rolling, m1.dissipated.viscous);
   // The scene exercised what it claims to.
   EXPECT_GT(max_contacts, 400) << label;
   EXPECT_GT(max_sliding, 10) << label;
@@ -287,8 +291,10 @@ TEST(ForcesSimd, RunBitwiseEveryModel) {
         law.damping_rate_n = law.damping_rate_s = 0;
         law.damping_ratio_n = law.damping_ratio_s = 0.1;
       }
-      run_case(law, (std::string(hertz ? "Hertz-Mindlin" : "linear") + ", twisting" +
-                     (rolling ? " and rolling" : ", no rolling")).c_str());
+      run_case(
+          law,
+          (std::string(hertz ? "Hertz-Mindlin" : "linear") + ", twisting" + (rolling ? " and rolling" : ", no rolling"))
+              .c_str());
     }
 }
 
@@ -344,8 +350,7 @@ TEST(ForcesSimd, SpringSlotsFollowTheTouchingPairs) {
         ASSERT_TRUE(s >= 0 && std::size_t(s) < n) << "step " << k;
         ++use[std::size_t(s)];
       }
-      for (std::size_t s = 0; s < n; ++s)
-        ASSERT_EQ(use[s], 1) << "lanes " << lanes << " step " << k << " slot " << s;
+      for (std::size_t s = 0; s < n; ++s) ASSERT_EQ(use[s], 1) << "lanes " << lanes << " step " << k << " slot " << s;
       if (sim.rebuild_count() != rebuilds) {
         rebuilds = sim.rebuild_count();
         // The rebuild handed out the slots afresh: the only free ones are those of the
@@ -359,10 +364,10 @@ TEST(ForcesSimd, SpringSlotsFollowTheTouchingPairs) {
       free_before = pl.free_slots.size();
       if (n > most_pool) most_pool = n, pairs_then = pl.size();
     }
-    std::printf("[spring slots] lanes %d: %lld rebuilds, free slots taken again in %lld steps, the "
-                "pools at most %zu slots for %zu list pairs, at most %zu free slots right after a rebuild\n",
-                lanes, (long long)sim.rebuild_count(), (long long)reused, most_pool, pairs_then,
-                after_rebuild);
+    std::printf(
+        "[spring slots] lanes %d: %lld rebuilds, free slots taken again in %lld steps, the "
+        "pools at most %zu slots for %zu list pairs, at most %zu free slots right after a rebuild\n",
+        lanes, (long long)sim.rebuild_count(), (long long)reused, most_pool, pairs_then, after_rebuild);
     EXPECT_GT(sim.rebuild_count(), 1);
     EXPECT_GT(reused, 10) << "lanes " << lanes;  // the test saw slots given back and taken again
     EXPECT_GT(opened_and_closed, 10) << "lanes " << lanes;

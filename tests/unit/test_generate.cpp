@@ -29,8 +29,8 @@ TEST(Generate, FractalGradationMassCurve) {
   EXPECT_GE(*std::min_element(d.begin(), d.end()), dmin);
   EXPECT_LE(*std::max_element(d.begin(), d.end()), dmax);
   const real_t mean = std::accumulate(d.begin(), d.end(), 0.0) / n;
-  const real_t mean_exact = D / (D - 1) * (std::pow(dmin, 1 - D) - std::pow(dmax, 1 - D)) /
-                            (std::pow(dmin, -D) - std::pow(dmax, -D));
+  const real_t mean_exact =
+      D / (D - 1) * (std::pow(dmin, 1 - D) - std::pow(dmax, 1 - D)) / (std::pow(dmin, -D) - std::pow(dmax, -D));
   std::sort(d.begin(), d.end());
   real_t mtot = 0;
   for (real_t x : d) mtot += x * x * x;
@@ -42,9 +42,10 @@ TEST(Generate, FractalGradationMassCurve) {
     m += x * x * x;
     ks = std::max(ks, std::abs(m / mtot - F(x)));
   }
-  std::printf("[generate] mean diameter %.4f mm (exact %.4f mm, rel err %.2e); max mass-curve "
-              "deviation %.4f\n",
-              1e3 * mean, 1e3 * mean_exact, mean / mean_exact - 1, ks);
+  std::printf(
+      "[generate] mean diameter %.4f mm (exact %.4f mm, rel err %.2e); max mass-curve "
+      "deviation %.4f\n",
+      1e3 * mean, 1e3 * mean_exact, mean / mean_exact - 1, ks);
   EXPECT_NEAR(mean / mean_exact, 1.0, 5e-3);
   EXPECT_NEAR(1e3 * mean_exact, 17.48, 0.01);
   EXPECT_LT(ks, 0.01);

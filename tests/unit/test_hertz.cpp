@@ -99,10 +99,11 @@ void check_elastic_impact(real_t R1, real_t R2, const char* label) {
   const real_t tc = 2.868 * std::pow(mstar * mstar / (rstar * Estar * Estar * v), 0.2);
   const real_t umax = std::pow(15 * mstar * v * v / (16 * Estar * std::sqrt(rstar)), 0.4);
   const Impact r = normal_impact(law, R1, R2, v, tc / 2000);
-  std::printf("[hertz impact] %s: t_c %.6e s (closed form %.6e, rel err %.2e), u_max %.6e m (%.6e, "
-              "%.2e), v_out/v_in - 1 = %.2e\n",
-              label, r.contact_time, tc, r.contact_time / tc - 1, r.max_overlap, umax,
-              r.max_overlap / umax - 1, r.v_out / r.v_in - 1);
+  std::printf(
+      "[hertz impact] %s: t_c %.6e s (closed form %.6e, rel err %.2e), u_max %.6e m (%.6e, "
+      "%.2e), v_out/v_in - 1 = %.2e\n",
+      label, r.contact_time, tc, r.contact_time / tc - 1, r.max_overlap, umax, r.max_overlap / umax - 1,
+      r.v_out / r.v_in - 1);
   EXPECT_NEAR(r.v_in, v, 1e-12);
   EXPECT_NEAR(r.contact_time / tc, 1.0, 1e-3);
   EXPECT_NEAR(r.max_overlap / umax, 1.0, 1e-3);
@@ -131,14 +132,15 @@ TEST(Hertz, DampedRestitutionMatchesInput) {
       // LIGGGHTS' mapping beta = -ln e / sqrt(ln^2 e + pi^2) gives, with the clamp:
       const real_t l = std::log(e);
       const real_t e_liggghts = hertz_clamped_restitution(-l / std::sqrt(l * l + std::numbers::pi * std::numbers::pi));
-      std::printf("[hertz restitution] e = %.2f (%s): beta %.6f, measured %.6f (rel err %.2e); "
-                  "LIGGGHTS' beta %.6f would give %.4f\n",
-                  e, R2 > 0 ? "sphere-sphere" : "sphere-wall", beta, got, got / e - 1,
-                  -l / std::sqrt(l * l + std::numbers::pi * std::numbers::pi), e_liggghts);
+      std::printf(
+          "[hertz restitution] e = %.2f (%s): beta %.6f, measured %.6f (rel err %.2e); "
+          "LIGGGHTS' beta %.6f would give %.4f\n",
+          e, R2 > 0 ? "sphere-sphere" : "sphere-wall", beta, got, got / e - 1,
+          -l / std::sqrt(l * l + std::numbers::pi * std::numbers::pi), e_liggghts);
       EXPECT_NEAR(got / e, 1.0, 5e-3) << "e = " << e;
       // The books: the kinetic energy lost is the dashpots' work booked (0.5 %).
-      std::printf("[hertz restitution]   KE lost %.6e J, booked %.6e J, rel err %.2e\n", r.ke_lost,
-                  r.e_viscous, r.e_viscous / r.ke_lost - 1);
+      std::printf("[hertz restitution]   KE lost %.6e J, booked %.6e J, rel err %.2e\n", r.ke_lost, r.e_viscous,
+                  r.e_viscous / r.ke_lost - 1);
       EXPECT_NEAR(r.e_viscous / r.ke_lost, 1.0, 5e-3) << "e = " << e;
     }
   }
@@ -178,9 +180,10 @@ TEST(Hertz, ObliqueWallGrossSliding) {
   const real_t dvt = q.v[0].x() - vt, wy = q.w[0].y();
   const real_t dvt_exact = -mu * 2 * vn, wy_exact = 5 * mu * 2 * vn / (2 * R);
   const real_t lost = ke_in - kinetic_energy(q);
-  std::printf("[hertz oblique] vn'/vn - 1 = %.2e, dvt rel err %.2e, w rel err %.2e, friction "
-              "booked / KE lost - 1 = %.2e\n",
-              q.v[0].z() / vn - 1, dvt / dvt_exact - 1, wy / wy_exact - 1, sim.dissipation().friction / lost - 1);
+  std::printf(
+      "[hertz oblique] vn'/vn - 1 = %.2e, dvt rel err %.2e, w rel err %.2e, friction "
+      "booked / KE lost - 1 = %.2e\n",
+      q.v[0].z() / vn - 1, dvt / dvt_exact - 1, wy / wy_exact - 1, sim.dissipation().friction / lost - 1);
   EXPECT_TRUE(touched);
   EXPECT_TRUE(slid_always);
   EXPECT_NEAR(q.v[0].z() / vn, 1.0, 1e-6);
@@ -213,7 +216,8 @@ TEST(Hertz, ContactLawClosedForms) {
   EXPECT_FALSE(r.sliding);
   EXPECT_EQ(r.e_friction, 0.0);
   const real_t f = to_vec(r.fs).norm();
-  EXPECT_NEAR(HertzMindlin::energy_normal(c, un) / (8.0 / 15.0 * Estar * std::sqrt(rstar) * std::pow(un, 2.5)), 1.0, 1e-14);
+  EXPECT_NEAR(HertzMindlin::energy_normal(c, un) / (8.0 / 15.0 * Estar * std::sqrt(rstar) * std::pow(un, 2.5)), 1.0,
+              1e-14);
   EXPECT_NEAR(HertzMindlin::energy_shear(c, un, to_vec(h.fs)) / (0.5 * f * f / kt), 1.0, 1e-14);
   // Loading to 4 u_n at rest (v_n = -3 u_n / dt): the force kept, k_t doubled.
   k.un = 4 * un;
@@ -245,8 +249,8 @@ TEST(Hertz, ContactLawClosedForms) {
 // Test 5. The Rayleigh time step: pi R sqrt(rho / G) / (0.1631 nu + 0.8766), of the smallest sphere.
 TEST(Hertz, RayleighTimeStep) {
   const ContactLawParams law = hertz_law(70e9, 0.3, 0.5);
-  Particles p = make_particles({{0, 0.002, kRho, Vec3(0.2, 0.2, 0.2), Vec3::Zero()},
-                                {1, 0.001, kRho, Vec3(0.6, 0.6, 0.6), Vec3::Zero()}});
+  Particles p = make_particles(
+      {{0, 0.002, kRho, Vec3(0.2, 0.2, 0.2), Vec3::Zero()}, {1, 0.001, kRho, Vec3(0.6, 0.6, 0.6), Vec3::Zero()}});
   const real_t G = 70e9 / 2.6;
   const real_t tr = std::numbers::pi * 0.001 * std::sqrt(kRho / G) / (0.1631 * 0.3 + 0.8766);
   EXPECT_NEAR(critical_time_step(p, law, false) / tr, 1.0, 1e-12);

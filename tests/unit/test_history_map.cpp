@@ -11,9 +11,7 @@
 namespace fabrica {
 namespace {
 
-ContactHistory history_of(int k) {
-  return {Vec3(k, -k, 0.5 * k), Vec3(1e-3 * k, 2e-3 * k, -3e-3 * k), -4e-3 * k};
-}
+ContactHistory history_of(int k) { return {Vec3(k, -k, 0.5 * k), Vec3(1e-3 * k, 2e-3 * k, -3e-3 * k), -4e-3 * k}; }
 
 TEST(HistoryMap, InsertFindAndOverwrite) {
   HistoryMap h;

@@ -22,21 +22,21 @@ using test::sphere_mass;
 constexpr real_t kPi = std::numbers::pi;
 
 struct ImpactResult {
-  real_t contact_time;  // s, from the interpolated zero crossings of the gap
-  real_t v_in, v_out;   // relative normal speed before and after (m/s)
-  real_t ke_in, ke_out; // kinetic energy before and after (J)
-  real_t e_viscous;     // energy booked as dissipated by the dashpots (J)
+  real_t contact_time;   // s, from the interpolated zero crossings of the gap
+  real_t v_in, v_out;    // relative normal speed before and after (m/s)
+  real_t ke_in, ke_out;  // kinetic energy before and after (J)
+  real_t e_viscous;      // energy booked as dissipated by the dashpots (J)
 };
 
 // Two equal spheres approaching along the unit direction e with relative speed 2 u, plus a
 // common drift velocity (Galilean invariance). The gap is interpolated linearly between steps
 // to locate the first touch and the separation.
-ImpactResult two_sphere_impact(const ContactLawParams& law, real_t R, real_t u, real_t dt,
-                               const Vec3& e, const Vec3& drift) {
+ImpactResult two_sphere_impact(const ContactLawParams& law, real_t R, real_t u, real_t dt, const Vec3& e,
+                               const Vec3& drift) {
   const Vec3 c(0.5, 0.5, 0.5);
   const real_t gap0 = 20 * u * dt;  // about 10 steps before contact
-  Particles p = make_particles({{0, R, kRho, c - (R + 0.5 * gap0) * e, drift + u * e},
-                                {1, R, kRho, c + (R + 0.5 * gap0) * e, drift - u * e}});
+  Particles p = make_particles(
+      {{0, R, kRho, c - (R + 0.5 * gap0) * e, drift + u * e}, {1, R, kRho, c + (R + 0.5 * gap0) * e, drift - u * e}});
   Simulation sim = make_sim(std::move(p), law, dt, 0.2 * R);
   auto gap_and_vn = [&](real_t& gap, real_t& vn) {
     const Particles& q = sim.particles();
@@ -61,8 +61,7 @@ ImpactResult two_sphere_impact(const ContactLawParams& law, real_t R, real_t u, 
   EXPECT_GT(t_end, 0.0) << "no separation";
   for (int s = 0; s < 5; ++s) sim.step();
   gap_and_vn(gap, vn);
-  return {t_end - t_start, v_in, vn, ke_in, kinetic_energy(sim.particles()),
-          sim.dissipation().viscous};
+  return {t_end - t_start, v_in, vn, ke_in, kinetic_energy(sim.particles()), sim.dissipation().viscous};
 }
 
 // Test 1. Elastic normal impact, k_n from the deformability form k_n = pi r^2 E / (R1 + R2).
@@ -78,8 +77,8 @@ TEST(Impact, ElasticNormalTwoEqualSpheres) {
   const Vec3 e = Vec3(1, 2, 3).normalized();
   const ImpactResult r = two_sphere_impact(law, R, 0.1, T / 1000, e, Vec3(0.03, -0.02, 0.05));
   const real_t err_t = r.contact_time / T - 1, err_v = r.v_out / r.v_in - 1;
-  std::printf("[impact] T = %.6e s, measured %.6e s, rel err %.2e; v_out/v_in - 1 = %.2e\n", T,
-              r.contact_time, err_t, err_v);
+  std::printf("[impact] T = %.6e s, measured %.6e s, rel err %.2e; v_out/v_in - 1 = %.2e\n", T, r.contact_time, err_t,
+              err_v);
   EXPECT_NEAR(r.v_in, 0.2, 1e-12);
   EXPECT_LT(std::abs(err_t), 5e-3);
   EXPECT_LT(std::abs(err_v), 1e-6);
@@ -103,8 +102,8 @@ TEST(Impact, ViscousRestitution) {
     law.damping_ratio_n = beta;
     const ImpactResult r = two_sphere_impact(law, R, 0.1, T / 2000, Vec3::UnitX(), Vec3::Zero());
     const real_t e_exact = restitution_clamped(beta), e = r.v_out / r.v_in;
-    std::printf("[restitution] beta = %.2f: e exact %.6f, measured %.6f, rel err %.2e\n", beta,
-                e_exact, e, e / e_exact - 1);
+    std::printf("[restitution] beta = %.2f: e exact %.6f, measured %.6f, rel err %.2e\n", beta, e_exact, e,
+                e / e_exact - 1);
     EXPECT_NEAR(e / e_exact, 1.0, 5e-3) << "beta = " << beta;
     // Energy book-keeping: the kinetic energy lost equals the energy booked as viscous
     // dissipation (dashpot work plus the spring energy dropped by the no-tension clamp), 0.5 %.
@@ -138,8 +137,7 @@ TEST(Impact, ObliqueWallGrossSliding) {
       touched = true;
       // Shear spring at the Coulomb cap whenever the contact carries load.
       const real_t un = R - (sim.particles().x[0].z() - wall_pt.z());
-      if (un > 0 && std::abs(wl.fs[0].norm() - mu * kn * un) > 1e-9 * mu * kn * un)
-        slid_always = false;
+      if (un > 0 && std::abs(wl.fs[0].norm() - mu * kn * un) > 1e-9 * mu * kn * un) slid_always = false;
     }
     if (touched && !touching) break;
   }
@@ -147,10 +145,11 @@ TEST(Impact, ObliqueWallGrossSliding) {
   const Particles& q = sim.particles();
   const real_t vn_out = q.v[0].z(), dvt = q.v[0].x() - vt, wy = q.w[0].y();
   const real_t dvt_exact = -mu * 2 * vn, wy_exact = 5 * mu * 2 * vn / (2 * R);
-  std::printf("[oblique] vn'/vn - 1 = %.2e, dvt rel err %.2e, w rel err %.2e, |v_y|,|w_x|,|w_z| = "
-              "%.1e %.1e %.1e\n",
-              vn_out / vn - 1, dvt / dvt_exact - 1, wy / wy_exact - 1, std::abs(q.v[0].y()),
-              std::abs(q.w[0].x()), std::abs(q.w[0].z()));
+  std::printf(
+      "[oblique] vn'/vn - 1 = %.2e, dvt rel err %.2e, w rel err %.2e, |v_y|,|w_x|,|w_z| = "
+      "%.1e %.1e %.1e\n",
+      vn_out / vn - 1, dvt / dvt_exact - 1, wy / wy_exact - 1, std::abs(q.v[0].y()), std::abs(q.w[0].x()),
+      std::abs(q.w[0].z()));
   EXPECT_TRUE(touched);
   EXPECT_TRUE(slid_always);
   EXPECT_NEAR(vn_out / vn, 1.0, 1e-6);
@@ -159,8 +158,8 @@ TEST(Impact, ObliqueWallGrossSliding) {
   EXPECT_LT(std::abs(q.v[0].y()) + R * (std::abs(q.w[0].x()) + std::abs(q.w[0].z())), 1e-12);
   // The kinetic energy lost is the energy booked as Coulomb slip dissipation (1 %).
   const real_t lost = ke_in - kinetic_energy(q);
-  std::printf("[oblique] KE lost %.6e J, friction booked %.6e J, rel err %.2e\n", lost,
-              sim.dissipation().friction, sim.dissipation().friction / lost - 1);
+  std::printf("[oblique] KE lost %.6e J, friction booked %.6e J, rel err %.2e\n", lost, sim.dissipation().friction,
+              sim.dissipation().friction / lost - 1);
   EXPECT_NEAR(sim.dissipation().friction / lost, 1.0, 1e-2);
 }
 

@@ -90,8 +90,7 @@ Particles random_pairs(const PeriodicCell& cell, Random& rng, GlobalId n, real_t
   return p;
 }
 
-void compare_with_brute_force(const Particles& p, const PeriodicCell& cell, real_t skin,
-                              const char* label) {
+void compare_with_brute_force(const Particles& p, const PeriodicCell& cell, real_t skin, const char* label) {
   NeighborSearch ns;
   PairList pl;
   ns.build(p, cell, skin, pl);
@@ -107,9 +106,8 @@ void compare_with_brute_force(const Particles& p, const PeriodicCell& cell, real
     places.emplace_back(morton_key(p.x[pl.i[q]], cell.lengths()), p.id[pl.i[q]],
                         morton_key(p.x[pl.j[q]], cell.lengths()), p.id[pl.j[q]]);
   EXPECT_TRUE(std::is_sorted(places.begin(), places.end())) << label;
-  std::printf("[neighbor] %s: N = %zu, cell %.3f x %.3f x %.3f m, %zu pairs (brute force %zu)\n",
-              label, p.size(), cell.lengths()[0], cell.lengths()[1], cell.lengths()[2],
-              got.size(), ref.size());
+  std::printf("[neighbor] %s: N = %zu, cell %.3f x %.3f x %.3f m, %zu pairs (brute force %zu)\n", label, p.size(),
+              cell.lengths()[0], cell.lengths()[1], cell.lengths()[2], got.size(), ref.size());
   EXPECT_GT(ref.size(), p.size() / 4);  // a meaningful number of pairs
 }
 
@@ -134,8 +132,7 @@ TEST(Neighbor, BuildMatchesBruteForcePolydisperse) {
   // Shrunk to phi = 0.3 / 0.75^3 = 0.71 (overlapping spheres).
   const PeriodicCell cell(0.75 * Vec3(L, 1.1 * L, 0.9 * L));
   const Particles p = compressed_packing(d, cell.lengths(), 0.75, rng);
-  for (real_t skin : {0.0, 0.002, 0.02})
-    compare_with_brute_force(p, cell, skin, "phi = 0.71");
+  for (real_t skin : {0.0, 0.002, 0.02}) compare_with_brute_force(p, cell, skin, "phi = 0.71");
 }
 
 // Cells barely larger than 2 (2 Rmax + skin): the grid of the (largest, largest) class pair has
@@ -145,8 +142,8 @@ TEST(Neighbor, BuildMatchesBruteForceSmallCell) {
   Random rng(7);
   const real_t skin = 0.003, Rmax = 0.03;
   const real_t Lmin = 2 * (2 * Rmax + skin) * 1.01;
-  for (const Vec3& Lv : {Vec3(Lmin, Lmin, Lmin), Vec3(Lmin, 1.6 * Lmin, 2.5 * Lmin),
-                         Vec3(3.1 * Lmin, Lmin, 1.3 * Lmin)}) {
+  for (const Vec3& Lv :
+       {Vec3(Lmin, Lmin, Lmin), Vec3(Lmin, 1.6 * Lmin, 2.5 * Lmin), Vec3(3.1 * Lmin, Lmin, 1.3 * Lmin)}) {
     const PeriodicCell cell(Lv);
     EXPECT_LT(int(std::floor(Lv.minCoeff() / (2 * Rmax + skin))), 3);
     // About phi = 0.3 before shrinking by 0.8 per axis (phi = 0.59).
@@ -348,16 +345,17 @@ TEST(Neighbor, VerletListKeepsEveryTouchingPairUnderDeformation) {
     touching_checked += touching.size();
   }
   const real_t strain = sim.cell().lengths()[0] / cell.lengths()[0] - 1;
-  std::printf("[neighbor] Verlet run: %d steps, strain_1 = %.3f, %lld rebuilds, %zu touching "
-              "pairs checked, %zu missing; smallest gap of an unlisted pair %.3f skin\n",
-              steps, strain, (long long)(sim.rebuild_count() - rebuilds0), touching_checked,
-              missing, min_gap_unlisted / sp.skin);
+  std::printf(
+      "[neighbor] Verlet run: %d steps, strain_1 = %.3f, %lld rebuilds, %zu touching "
+      "pairs checked, %zu missing; smallest gap of an unlisted pair %.3f skin\n",
+      steps, strain, (long long)(sim.rebuild_count() - rebuilds0), touching_checked, missing,
+      min_gap_unlisted / sp.skin);
   EXPECT_EQ(missing, 0u);
   EXPECT_GT(min_gap_unlisted, 0.0);
   EXPECT_GT(touching_checked, std::size_t(steps) * 20);
-  EXPECT_GT(sim.rebuild_count() - rebuilds0, 5);           // the criterion was exercised
-  EXPECT_LT(sim.rebuild_count() - rebuilds0, steps / 3);   // and is not trivially "always"
-  EXPECT_NEAR(strain, std::exp(-0.1) - 1, 1e-9);           // exact exponential cell update
+  EXPECT_GT(sim.rebuild_count() - rebuilds0, 5);          // the criterion was exercised
+  EXPECT_LT(sim.rebuild_count() - rebuilds0, steps / 3);  // and is not trivially "always"
+  EXPECT_NEAR(strain, std::exp(-0.1) - 1, 1e-9);          // exact exponential cell update
 }
 
 // A rebuild (re-sorting particles in space, new list) carries every touching contact's shear
@@ -381,7 +379,8 @@ TEST(Neighbor, RebuildCarriesContactHistory) {
     const Particles& q = sim.particles();
     for (std::size_t k = 0; k < sim.pairs().size(); ++k)
       if (sim.pairs().touching[k])
-        h[{q.id[sim.pairs().i[k]], q.id[sim.pairs().j[k]]}] = {sim.pairs().shear_spring(k), sim.pairs().rolling_spring(k)};
+        h[{q.id[sim.pairs().i[k]], q.id[sim.pairs().j[k]]}] = {sim.pairs().shear_spring(k),
+                                                               sim.pairs().rolling_spring(k)};
     return h;
   };
   const auto h0 = history();
@@ -395,8 +394,10 @@ TEST(Neighbor, RebuildCarriesContactHistory) {
     auto it = h1.find(k);
     same = same && it != h1.end() && it->second.first == v.first && it->second.second == v.second;
   }
-  std::printf("[neighbor] rebuild: %zu touching contacts (%zu with loaded shear and rolling "
-              "springs) carried, identical: %s\n", h0.size(), loaded, same ? "yes" : "no");
+  std::printf(
+      "[neighbor] rebuild: %zu touching contacts (%zu with loaded shear and rolling "
+      "springs) carried, identical: %s\n",
+      h0.size(), loaded, same ? "yes" : "no");
   EXPECT_TRUE(same);
   EXPECT_GT(loaded, 50u);
 }
@@ -417,8 +418,8 @@ namespace {
 TEST(Neighbor, ShrinkingCellStopsBeforeAPairTouchesThroughTwoImages) {
   const real_t R = 0.01, skin = 0.001, need = 2 * (2 * R + skin);
   const Vec3 L0(0.05, 0.1, 0.1);
-  Particles p = test::make_particles({{1, R, test::kRho, Vec3(0.0125, 0.05, 0.05)},
-                                      {2, R, test::kRho, Vec3(0.033, 0.05, 0.05)}});
+  Particles p =
+      test::make_particles({{1, R, test::kRho, Vec3(0.0125, 0.05, 0.05)}, {2, R, test::kRho, Vec3(0.033, 0.05, 0.05)}});
   SimulationParams sp;
   sp.law = test::direct_law(1e5, 0.5);
   sp.skin = skin;
@@ -447,18 +448,18 @@ TEST(Neighbor, ShrinkingCellStopsBeforeAPairTouchesThroughTwoImages) {
       if (!listed) first_miss = steps;
     }
   }
-  std::printf("[neighbor] shrinking cell: guard at step %lld with L1 = %.6f m (limit %.6f m, "
-              "last rebuild before it at L1 = %.6f m); first unlisted touching image at step "
-              "%lld; %lld touching images checked before the guard\n",
-              (long long)guard_step, L_at_guard, need, L_at_last_rebuild, (long long)first_miss,
-              (long long)touching_seen);
+  std::printf(
+      "[neighbor] shrinking cell: guard at step %lld with L1 = %.6f m (limit %.6f m, "
+      "last rebuild before it at L1 = %.6f m); first unlisted touching image at step "
+      "%lld; %lld touching images checked before the guard\n",
+      (long long)guard_step, L_at_guard, need, L_at_last_rebuild, (long long)first_miss, (long long)touching_seen);
   ASSERT_GT(guard_step, 0) << "the guard never fired";
   EXPECT_LE(L_at_guard, need);
   EXPECT_GT(L_at_last_rebuild, need);  // the rebuild before was still above the limit
   EXPECT_GT(touching_seen, 10);        // the pair touched (through one image) before it
   EXPECT_GT(first_miss, guard_step);   // no miss before the guard; and one does come after it
-  for (const char* part : {"cannot go on at step", "L1 = ", "2 (2 Rmax + skin) = 0.042 m",
-                           "two periodic images", "larger specimen"})
+  for (const char* part :
+       {"cannot go on at step", "L1 = ", "2 (2 Rmax + skin) = 0.042 m", "two periodic images", "larger specimen"})
     EXPECT_NE(message.find(part), std::string::npos) << part << " missing in: " << message;
 }
 

@@ -33,8 +33,7 @@ Vec3 cell_for(real_t volume, real_t fraction) {
   return aspect * std::cbrt(volume / fraction / aspect.prod());
 }
 
-Particles make(const RegionSpec& s, real_t fraction, RegionGrid* out_grid = nullptr,
-               PeriodicCell* out_cell = nullptr) {
+Particles make(const RegionSpec& s, real_t fraction, RegionGrid* out_grid = nullptr, PeriodicCell* out_cell = nullptr) {
   const Vec3 expected = cell_for(expected_solid_volume(s), fraction);
   RegionGrid cut(s, expected, expected);
   real_t v = 0;
@@ -103,24 +102,24 @@ TEST(RegionPacking, RegionsDoNotDependOnHowTheyAreDealtOut) {
   std::map<int, Particles> known;
   long long same = 0, total = 0;
   for (int c = 0; c < size_classes(s); ++c)
-  for (int colour = 0; colour < 8; ++colour)
-    for (int part = 0; part < 3; ++part)
-      for (int g = part; g < grid.regions(); g += 3) {
-        if (grid.colour(g) != colour) continue;
-        Particles near;
-        std::vector<int> around = grid.neighbours(g);
-        around.push_back(g);
-        for (int h : around)
-          for (std::size_t a = 0; a < known[h].n_owned(); ++a)
-            near.add({known[h].id[a], known[h].radius[a], s.density, known[h].x[a]});
-        const Particles p = place_region(s, grid, cell, g, near, c);
-        for (std::size_t a = 0; a < p.n_owned(); ++a) {
-          known[g].add({p.id[a], p.radius[a], s.density, p.x[a]});
-          const auto& r = ref.at(p.id[a]);
-          same += r.first == p.x[a] && r.second == p.radius[a];
-          ++total;
+    for (int colour = 0; colour < 8; ++colour)
+      for (int part = 0; part < 3; ++part)
+        for (int g = part; g < grid.regions(); g += 3) {
+          if (grid.colour(g) != colour) continue;
+          Particles near;
+          std::vector<int> around = grid.neighbours(g);
+          around.push_back(g);
+          for (int h : around)
+            for (std::size_t a = 0; a < known[h].n_owned(); ++a)
+              near.add({known[h].id[a], known[h].radius[a], s.density, known[h].x[a]});
+          const Particles p = place_region(s, grid, cell, g, near, c);
+          for (std::size_t a = 0; a < p.n_owned(); ++a) {
+            known[g].add({p.id[a], p.radius[a], s.density, p.x[a]});
+            const auto& r = ref.at(p.id[a]);
+            same += r.first == p.x[a] && r.second == p.radius[a];
+            ++total;
+          }
         }
-      }
   EXPECT_EQ(total, 3000);
   EXPECT_EQ(same, total);
 }
@@ -147,7 +146,10 @@ TEST(RegionPacking, NoRoomIsReportedAfterEveryRound) {
   std::iota(all.begin(), all.end(), 0);
   int rounds = 0;
   EXPECT_THROW(region_packing(s, grid, cell, all,
-                              [&](const Particles&, const std::vector<int>&) { ++rounds; return Particles(); }),
+                              [&](const Particles&, const std::vector<int>&) {
+                                ++rounds;
+                                return Particles();
+                              }),
                std::runtime_error);
   EXPECT_EQ(rounds, 8 * size_classes(s));
 }

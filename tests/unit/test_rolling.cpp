@@ -26,12 +26,12 @@ const Vec3 kWallPoint(0.5, 0.5, 0.3);
 
 // One sphere resting on the wall z = 0.3 (normal +z) at its equilibrium overlap m g_z / k_n,
 // with velocity v and spin w. dt = 0.2 of the critical step.
-Simulation sphere_on_wall(const ContactLawParams& law, real_t R, const Vec3& v, const Vec3& w,
-                          const Vec3& gravity, real_t& kn_out) {
+Simulation sphere_on_wall(const ContactLawParams& law, real_t R, const Vec3& v, const Vec3& w, const Vec3& gravity,
+                          real_t& kn_out) {
   const real_t m = sphere_mass(R);
   const real_t kn = law.stiffness_mode == NormalStiffnessMode::Direct
-                        ? law.normal_stiffness
-                        : std::numbers::pi * R * law.youngs_modulus;  // wall: r = L = R
+      ? law.normal_stiffness
+      : std::numbers::pi * R * law.youngs_modulus;  // wall: r = L = R
   kn_out = kn;
   const real_t un = m * -gravity.z() / kn;
   Particles p = make_particles({{0, R, kRho, Vec3(0.2, 0.5, kWallPoint.z() + R - un), v, w}});
@@ -43,9 +43,7 @@ Simulation sphere_on_wall(const ContactLawParams& law, real_t R, const Vec3& v, 
 real_t slope(const std::vector<real_t>& t, const std::vector<real_t>& y) {
   const real_t n = real_t(t.size());
   real_t st = 0, sy = 0, stt = 0, sty = 0;
-  for (std::size_t k = 0; k < t.size(); ++k) {
-    st += t[k], sy += y[k], stt += t[k] * t[k], sty += t[k] * y[k];
-  }
+  for (std::size_t k = 0; k < t.size(); ++k) { st += t[k], sy += y[k], stt += t[k] * t[k], sty += t[k] * y[k]; }
   return (n * sty - st * sy) / (n * stt - st * st);
 }
 
@@ -57,8 +55,7 @@ real_t slope(const std::vector<real_t>& t, const std::vector<real_t>& y) {
 void rolling_resistance_case(const ContactLawParams& law) {
   const real_t R = 0.01, m = sphere_mass(R), v0 = 0.1, mu_r = law.rolling_friction;
   real_t kn;
-  Simulation sim = sphere_on_wall(law, R, Vec3(v0, 0, 0), Vec3(0, v0 / R, 0),
-                                  Vec3(0, 0, -kG), kn);
+  Simulation sim = sphere_on_wall(law, R, Vec3(v0, 0, 0), Vec3(0, v0 / R, 0), Vec3(0, 0, -kG), kn);
   const real_t a_exact = 5 * mu_r * kG / 7, s_exact = 7 * v0 * v0 / (10 * mu_r * kG);
   const real_t t_stop = v0 / a_exact, dt = sim.params().dt;
   const real_t x0 = sim.particles().x[0].x();
@@ -96,11 +93,12 @@ void rolling_resistance_case(const ContactLawParams& law) {
     if (k < n_avg) x_first += x / n_avg;
     if (k >= n_hold - n_avg) x_last += x / n_avg;
   }
-  std::printf("[rolling] kn %.3e: a rel err %.2e, s rel err %.2e; after stop (%d steps): max "
-              "|x - x_stop| = %.2f theta_c R, drift of the mean %.2e theta_c R, max |v| = %.2f "
-              "sqrt(2E/m)\n",
-              kn, a / a_exact - 1, s / s_exact - 1, n_hold, creep / (theta_c * R),
-              (x_last - x_first) / (theta_c * R), vmax / std::sqrt(2 * E / m));
+  std::printf(
+      "[rolling] kn %.3e: a rel err %.2e, s rel err %.2e; after stop (%d steps): max "
+      "|x - x_stop| = %.2f theta_c R, drift of the mean %.2e theta_c R, max |v| = %.2f "
+      "sqrt(2E/m)\n",
+      kn, a / a_exact - 1, s / s_exact - 1, n_hold, creep / (theta_c * R), (x_last - x_first) / (theta_c * R),
+      vmax / std::sqrt(2 * E / m));
   EXPECT_NEAR(a / a_exact, 1.0, 2e-2);
   EXPECT_NEAR(s / s_exact, 1.0, 2e-2);
   EXPECT_LT(creep, 5 * theta_c * R);
@@ -108,9 +106,7 @@ void rolling_resistance_case(const ContactLawParams& law) {
   EXPECT_LT(vmax, 1.05 * std::sqrt(2 * E / m));
 }
 
-TEST(Rolling, ResistanceDirectStiffness) {
-  rolling_resistance_case(test::direct_law(1e5, 0.5, 0.1));
-}
+TEST(Rolling, ResistanceDirectStiffness) { rolling_resistance_case(test::direct_law(1e5, 0.5, 0.1)); }
 
 TEST(Rolling, ResistanceDeformabilityStiffness) {
   ContactLawParams law;
@@ -127,8 +123,7 @@ TEST(Rolling, ResistanceDeformabilityStiffness) {
 TEST(Rolling, SlidingToRollingTransition) {
   const real_t R = 0.01, v0 = 0.5, mu = 0.2;
   real_t kn;
-  Simulation sim = sphere_on_wall(test::direct_law(1e5, mu), R, Vec3(v0, 0, 0), Vec3::Zero(),
-                                  Vec3(0, 0, -kG), kn);
+  Simulation sim = sphere_on_wall(test::direct_law(1e5, mu), R, Vec3(v0, 0, 0), Vec3::Zero(), Vec3(0, 0, -kG), kn);
   const real_t t_exact = 2 * v0 / (7 * mu * kG), v_exact = 5 * v0 / 7;
   const real_t dt = sim.params().dt;
   auto slip = [&] {
@@ -152,8 +147,8 @@ TEST(Rolling, SlidingToRollingTransition) {
   real_t v_mean = 0;
   const int n = int(0.1 / dt);
   for (int k = 0; k < n; ++k) sim.step(), v_mean += sim.particles().v[0].x() / n;
-  std::printf("[slide->roll] t rel err %.2e, v rel err %.2e, later mean v rel err %.2e\n",
-              t_roll / t_exact - 1, v_roll / v_exact - 1, v_mean / v_exact - 1);
+  std::printf("[slide->roll] t rel err %.2e, v rel err %.2e, later mean v rel err %.2e\n", t_roll / t_exact - 1,
+              v_roll / v_exact - 1, v_mean / v_exact - 1);
   EXPECT_NEAR(t_roll / t_exact, 1.0, 1e-2);
   EXPECT_NEAR(v_roll / v_exact, 1.0, 1e-2);
   EXPECT_NEAR(v_mean / v_exact, 1.0, 1e-2);
@@ -167,8 +162,7 @@ real_t incline_acceleration(real_t theta, real_t mu_r, real_t duration) {
   const real_t R = 0.01;
   const Vec3 g(kG * std::sin(theta), 0, -kG * std::cos(theta));
   real_t kn;
-  Simulation sim = sphere_on_wall(test::direct_law(1e5, 0.6, mu_r), R, Vec3::Zero(),
-                                  Vec3::Zero(), g, kn);
+  Simulation sim = sphere_on_wall(test::direct_law(1e5, 0.6, mu_r), R, Vec3::Zero(), Vec3::Zero(), g, kn);
   std::vector<real_t> ts, vs;
   while (sim.time() < duration) {
     sim.step();
@@ -202,8 +196,7 @@ TEST(Rolling, InclineAtRestBelowRollingLimit) {
   const real_t R = 0.01, m = sphere_mass(R), mu_r = 0.2, theta = std::atan(0.4 * mu_r);
   const Vec3 g(kG * std::sin(theta), 0, -kG * std::cos(theta));
   real_t kn;
-  Simulation sim = sphere_on_wall(test::direct_law(1e5, 0.6, mu_r), R, Vec3::Zero(),
-                                  Vec3::Zero(), g, kn);
+  Simulation sim = sphere_on_wall(test::direct_law(1e5, 0.6, mu_r), R, Vec3::Zero(), Vec3::Zero(), g, kn);
   const real_t x0 = sim.particles().x[0].x();
   const real_t x_s = 2 * m * g.x() / kn;
   real_t dmax = 0;
@@ -211,8 +204,7 @@ TEST(Rolling, InclineAtRestBelowRollingLimit) {
     sim.step();
     dmax = std::max(dmax, std::abs(sim.particles().x[0].x() - x0));
   }
-  std::printf("[incline] tan th = 0.4 mu_r: max displacement %.3e m, bound 2 x_s = %.3e m\n",
-              dmax, 2 * x_s);
+  std::printf("[incline] tan th = 0.4 mu_r: max displacement %.3e m, bound 2 x_s = %.3e m\n", dmax, 2 * x_s);
   EXPECT_LT(dmax, 1.05 * 2 * x_s);
   EXPECT_GT(dmax, 0.5 * x_s);  // the springs did take the load
   EXPECT_EQ(sim.dissipation().rolling, 0.0);

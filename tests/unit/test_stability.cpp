@@ -30,9 +30,7 @@ namespace {
 
 constexpr int kCheck = 10;  // steps between two checks
 
-Vec3 random_vec(Random& rng) {
-  return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0;
-}
+Vec3 random_vec(Random& rng) { return Vec3(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 2.0; }
 
 // 150 spheres of a fractal gradation on [d_max / ratio, d_max], placed without overlap at solid
 // fraction 0.42, then pushed together by shrinking the positions by 0.85 per axis (solid
@@ -107,10 +105,10 @@ Packing compressed_wide(std::vector<real_t> d, Random& rng) {
 
 struct Outcome {
   bool completed = false;
-  std::string message;        // the guard's message if stopped
-  real_t energy_error = 0;    // max |stored + dissipated - input| / input over the checks
-  real_t ke_ratio = 0;        // kinetic energy at the end / at the start
-  real_t books_ratio = 0;     // max (stored + dissipated) / input over the checks
+  std::string message;      // the guard's message if stopped
+  real_t energy_error = 0;  // max |stored + dissipated - input| / input over the checks
+  real_t ke_ratio = 0;      // kinetic energy at the end / at the start
+  real_t books_ratio = 0;   // max (stored + dissipated) / input over the checks
   std::int64_t steps = 0;
 };
 
@@ -137,8 +135,7 @@ Outcome run_checked(Simulation& sim, std::int64_t steps, real_t kinetic_runaway 
     o.steps = s;
     if (!o.message.empty()) return o;
     EXPECT_TRUE(std::isfinite(m.p) && std::isfinite(m.kinetic) && std::isfinite(m.e_normal));
-    o.energy_error =
-        std::max(o.energy_error, std::abs(stored(m) + spent(m) - m.energy_input) / m.energy_input);
+    o.energy_error = std::max(o.energy_error, std::abs(stored(m) + spent(m) - m.energy_input) / m.energy_input);
     o.books_ratio = std::max(o.books_ratio, energy_books(m) / m.energy_input);
   }
   o.completed = true;
@@ -151,9 +148,12 @@ Outcome run_checked(Simulation& sim, std::int64_t steps, real_t kinetic_runaway 
 enum class Expect { Completes, EnergyGuard, SpeedGuard };
 const char* guard_text(Expect e) {
   switch (e) {
-    case Expect::EnergyGuard: return "or the stored + dissipated energy, exceeds 1.5 times";
-    case Expect::SpeedGuard: return "more than half the smallest radius";
-    default: return "";
+    case Expect::EnergyGuard:
+      return "or the stored + dissipated energy, exceeds 1.5 times";
+    case Expect::SpeedGuard:
+      return "more than half the smallest radius";
+    default:
+      return "";
   }
 }
 
@@ -163,7 +163,7 @@ struct Case {
   real_t kappa;           // k_n / k_s
   real_t diameter_ratio;  // d_max / d_min
   real_t mu_r;
-  real_t tolerance;       // energy error of a completed run
+  real_t tolerance;  // energy error of a completed run
   Expect expect;
 };
 
@@ -190,24 +190,21 @@ TEST_P(Stability, CompletesAccuratelyOrIsStoppedByItsGuard) {
   sp.dt = c.fraction * crit;
   Simulation sim(std::move(k.p), k.cell, sp);
   const real_t z0 = sim.macro().coordination;
-  const std::int64_t steps = c.expect == Expect::Completes
-                                 ? std::max<std::int64_t>(3000, std::llround(600.0 / c.fraction))
-                                 : 6000;
+  const std::int64_t steps =
+      c.expect == Expect::Completes ? std::max<std::int64_t>(3000, std::llround(600.0 / c.fraction)) : 6000;
   const Outcome o = run_checked(sim, steps);
-  std::printf("[stability] %s: fraction %.2f of %.3e s, Z0 %.2f, %s after %lld steps, energy "
-              "error %.2e, KE end/start %.3f, books/input %.3f, Z %.2f %s\n",
-              c.name, c.fraction, crit, z0, o.completed ? "completed" : "stopped",
-              (long long)o.steps, o.energy_error, o.ke_ratio, o.books_ratio,
-              sim.macro().coordination, o.message.c_str());
+  std::printf(
+      "[stability] %s: fraction %.2f of %.3e s, Z0 %.2f, %s after %lld steps, energy "
+      "error %.2e, KE end/start %.3f, books/input %.3f, Z %.2f %s\n",
+      c.name, c.fraction, crit, z0, o.completed ? "completed" : "stopped", (long long)o.steps, o.energy_error,
+      o.ke_ratio, o.books_ratio, sim.macro().coordination, o.message.c_str());
   EXPECT_GE(z0, 4.0) << "not a dense packing";
   if (c.expect == Expect::Completes) {
     ASSERT_TRUE(o.completed) << o.message;
     EXPECT_LT(o.energy_error, c.tolerance);
   } else {
-    ASSERT_FALSE(o.completed) << "not stopped in " << steps << " steps, energy error "
-                              << o.energy_error;
-    EXPECT_EQ(o.message.rfind("numerical blow-up at step " + std::to_string(o.steps) + ": ", 0), 0u)
-        << o.message;
+    ASSERT_FALSE(o.completed) << "not stopped in " << steps << " steps, energy error " << o.energy_error;
+    EXPECT_EQ(o.message.rfind("numerical blow-up at step " + std::to_string(o.steps) + ": ", 0), 0u) << o.message;
     EXPECT_NE(o.message.find(guard_text(c.expect)), std::string::npos) << o.message;
   }
 }
@@ -218,27 +215,25 @@ TEST_P(Stability, CompletesAccuratelyOrIsStoppedByItsGuard) {
 // 2 x the estimate are stopped: by the energy guard where the instability grows slowly, by the
 // speed guard with kappa = 100 (at the first step: soft shear springs, fast spins) and with
 // the 1:10 gradation (its smallest spheres).
-INSTANTIATE_TEST_SUITE_P(
-    TimeStep, Stability,
-    ::testing::Values(Case{"fraction_0_1", 0.1, 1, 3, 0.1, 2e-3, Expect::Completes},
-                      Case{"fraction_0_25", 0.25, 1, 3, 0.1, 1e-2, Expect::Completes},
-                      Case{"fraction_0_5", 0.5, 1, 3, 0.1, 3e-2, Expect::Completes},
-                      Case{"fraction_0_75", 0.75, 1, 3, 0.1, 5e-2, Expect::Completes},
-                      Case{"fraction_1_0", 1.0, 1, 3, 0.1, 0.1, Expect::Completes},
-                      Case{"fraction_1_5", 1.5, 1, 3, 0.1, 0.15, Expect::Completes},
-                      Case{"fraction_2_0", 2.0, 1, 3, 0.1, 0, Expect::EnergyGuard}),
-    [](const auto& info) { return std::string(info.param.name); });
+INSTANTIATE_TEST_SUITE_P(TimeStep, Stability,
+                         ::testing::Values(Case{"fraction_0_1", 0.1, 1, 3, 0.1, 2e-3, Expect::Completes},
+                                           Case{"fraction_0_25", 0.25, 1, 3, 0.1, 1e-2, Expect::Completes},
+                                           Case{"fraction_0_5", 0.5, 1, 3, 0.1, 3e-2, Expect::Completes},
+                                           Case{"fraction_0_75", 0.75, 1, 3, 0.1, 5e-2, Expect::Completes},
+                                           Case{"fraction_1_0", 1.0, 1, 3, 0.1, 0.1, Expect::Completes},
+                                           Case{"fraction_1_5", 1.5, 1, 3, 0.1, 0.15, Expect::Completes},
+                                           Case{"fraction_2_0", 2.0, 1, 3, 0.1, 0, Expect::EnergyGuard}),
+                         [](const auto& info) { return std::string(info.param.name); });
 
-INSTANTIATE_TEST_SUITE_P(
-    Extremes, Stability,
-    ::testing::Values(Case{"kappa_1", 0.25, 1, 3, 0, 1e-2, Expect::Completes},
-                      Case{"kappa_100", 0.25, 100, 3, 0, 5e-2, Expect::Completes},
-                      Case{"kappa_100_forced_2", 2.0, 100, 3, 0, 0, Expect::SpeedGuard},
-                      Case{"diameter_ratio_10", 0.25, 1, 10, 0.1, 1e-2, Expect::Completes},
-                      Case{"diameter_ratio_10_forced_3", 3.0, 1, 10, 0.1, 0, Expect::SpeedGuard},
-                      Case{"mu_r_1", 0.25, 1, 3, 1.0, 1e-2, Expect::Completes},
-                      Case{"mu_r_1_forced_2", 2.0, 1, 3, 1.0, 0, Expect::EnergyGuard}),
-    [](const auto& info) { return std::string(info.param.name); });
+INSTANTIATE_TEST_SUITE_P(Extremes, Stability,
+                         ::testing::Values(Case{"kappa_1", 0.25, 1, 3, 0, 1e-2, Expect::Completes},
+                                           Case{"kappa_100", 0.25, 100, 3, 0, 5e-2, Expect::Completes},
+                                           Case{"kappa_100_forced_2", 2.0, 100, 3, 0, 0, Expect::SpeedGuard},
+                                           Case{"diameter_ratio_10", 0.25, 1, 10, 0.1, 1e-2, Expect::Completes},
+                                           Case{"diameter_ratio_10_forced_3", 3.0, 1, 10, 0.1, 0, Expect::SpeedGuard},
+                                           Case{"mu_r_1", 0.25, 1, 3, 1.0, 1e-2, Expect::Completes},
+                                           Case{"mu_r_1_forced_2", 2.0, 1, 3, 1.0, 0, Expect::EnergyGuard}),
+                         [](const auto& info) { return std::string(info.param.name); });
 
 // Very fast loading: the dense packing, at rest, compressed isotropically at strain rates up to
 // a large inertial number I = |edot| d_mean sqrt(rho / p). Stable runs must close the energy
@@ -271,11 +266,11 @@ TEST_P(FastLoading, CompletesWithTheEnergyAccountClosed) {
   const Outcome o = run_checked(sim, steps);
   const MacroState& m = sim.macro();
   const real_t inertial = rate * d_mean * std::sqrt(test::kRho / std::max(m.p, 1.0));
-  std::printf("[fast loading] rate %g 1/s: %s after %lld steps, strain %.4f, p %.3e Pa, I %.2e, "
-              "boundary work %.3e J, energy error %.2e %s\n",
-              rate, o.completed ? "completed" : "stopped", (long long)o.steps,
-              rate * sp.dt * double(o.steps), m.p, inertial, sim.boundary_work(), o.energy_error,
-              o.message.c_str());
+  std::printf(
+      "[fast loading] rate %g 1/s: %s after %lld steps, strain %.4f, p %.3e Pa, I %.2e, "
+      "boundary work %.3e J, energy error %.2e %s\n",
+      rate, o.completed ? "completed" : "stopped", (long long)o.steps, rate * sp.dt * double(o.steps), m.p, inertial,
+      sim.boundary_work(), o.energy_error, o.message.c_str());
   // Measured: all four complete (docs/verification.md section 15), so each must.
   ASSERT_TRUE(o.completed) << o.message;
   EXPECT_NEAR(rate * sp.dt * double(o.steps), 0.05, 0.5 * rate * sp.dt);  // the whole strain
@@ -284,9 +279,7 @@ TEST_P(FastLoading, CompletesWithTheEnergyAccountClosed) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Rates, FastLoading, ::testing::Values(1.0, 10.0, 100.0, 1000.0),
-                         [](const auto& info) {
-                           return "rate_" + std::to_string(int(info.param));
-                         });
+                         [](const auto& info) { return "rate_" + std::to_string(int(info.param)); });
 
 // The kinetic-energy guard names the fastest particle, its velocity and spin: compared with the
 // particle of largest |v| found here independently.
@@ -316,8 +309,7 @@ TEST(Guards, KineticRunawayNamesFastestParticle) {
   EXPECT_EQ(m.fastest, p.id[fast]);
   EXPECT_EQ(m.fastest_v, p.v[fast]);
   EXPECT_EQ(m.fastest_w, p.w[fast]);
-  EXPECT_NE(msg.find("fastest particle " + std::to_string(p.id[fast]) + ": velocity"),
-            std::string::npos);
+  EXPECT_NE(msg.find("fastest particle " + std::to_string(p.id[fast]) + ": velocity"), std::string::npos);
   EXPECT_TRUE(m.kinetic > 2.0 * m.energy_input || energy_books(m) > 2.0 * m.energy_input);
 }
 
@@ -334,7 +326,7 @@ TEST(Guards, DiagnoseEnergyBounds) {
   EXPECT_EQ(diagnose(m, 3, 1.0, 1.0), "");  // books = input exactly: sane
   m.kinetic = 1.5;                          // KE below 2 x input, books 2.0: not above 2
   EXPECT_EQ(diagnose(m, 3, 1.0, 2.0), "");
-  m.dissipated.friction = 0.01;             // books 2.01 > 2
+  m.dissipated.friction = 0.01;  // books 2.01 > 2
   const std::string a = diagnose(m, 3, 1.0, 2.0);
   EXPECT_NE(a.find("numerical blow-up at step 3"), std::string::npos) << a;
   EXPECT_NE(a.find("fastest particle 7: velocity (1, 2, 3)"), std::string::npos) << a;
@@ -354,8 +346,8 @@ TEST(Guards, DiagnoseEnergyBounds) {
 TEST(Guards, EveryStepCatchesAFastOrNonFiniteParticle) {
   const real_t dt = 1e-4, skin = 0.001;  // bound: 0.5 r_min / dt = 0.5 0.01 / 1e-4 = 50 m/s
   auto gas = [&](const Vec3& v1) {
-    Particles p = test::make_particles({{0, 0.01, test::kRho, Vec3(0.2, 0.5, 0.5), Vec3(1, 0, 0)},
-                                        {1, 0.01, test::kRho, Vec3(0.7, 0.5, 0.5), v1}});
+    Particles p = test::make_particles(
+        {{0, 0.01, test::kRho, Vec3(0.2, 0.5, 0.5), Vec3(1, 0, 0)}, {1, 0.01, test::kRho, Vec3(0.7, 0.5, 0.5), v1}});
     return test::make_sim(std::move(p), test::direct_law(1e5, 0.3), dt, skin);
   };
   Simulation fast = gas(Vec3(0, 60, 0));
@@ -371,7 +363,8 @@ TEST(Guards, EveryStepCatchesAFastOrNonFiniteParticle) {
   Simulation nan = gas(Vec3(std::nan(""), 0, 0));
   nan.step();
   EXPECT_NE(nan.step_guard().find("numerical blow-up at step 1: particle 1 has a non-finite position or velocity"),
-            std::string::npos) << nan.step_guard();
+            std::string::npos)
+      << nan.step_guard();
 }
 
 // The overlap guard of every step (kMaxOverlapRatio, core/forces.hpp): spheres 7 (R = 1 cm)
@@ -385,9 +378,8 @@ TEST(Guards, EveryStepCatchesAFastOrNonFiniteParticle) {
 // radius.
 TEST(Guards, EveryStepCatchesAnOverlapBeyondTheGeometricLimit) {
   const real_t R1 = 0.01, R2 = 0.02, dt = 1e-4;
-  Particles p = test::make_particles(
-      {{7, R1, test::kRho, Vec3(0.3, 0.5, 0.5), Vec3(0.5, 0, 0)},
-       {12, R2, test::kRho, Vec3(0.3 + R1 + R2 + 0.001, 0.5, 0.5), Vec3(-0.5, 0, 0)}});
+  Particles p = test::make_particles({{7, R1, test::kRho, Vec3(0.3, 0.5, 0.5), Vec3(0.5, 0, 0)},
+                                      {12, R2, test::kRho, Vec3(0.3 + R1 + R2 + 0.001, 0.5, 0.5), Vec3(-0.5, 0, 0)}});
   Simulation sim = test::make_sim(std::move(p), test::direct_law(20, 0.3), dt, 0.002);
   std::int64_t first = -1;
   real_t ratio = 0, un = 0;
@@ -405,11 +397,13 @@ TEST(Guards, EveryStepCatchesAnOverlapBeyondTheGeometricLimit) {
   }
   ASSERT_GT(first, 0) << "the spheres never passed the limit";
   const std::string& m = sim.step_guard();
-  std::printf("[overlap guard] first beyond the limit at step %lld (ratio %.6f): %s\n",
-              (long long)first, ratio, m.c_str());
+  std::printf("[overlap guard] first beyond the limit at step %lld (ratio %.6f): %s\n", (long long)first, ratio,
+              m.c_str());
   char expect[200];
-  std::snprintf(expect, sizeof expect, "numerical blow-up at step %lld: overlap of particles 7 and 12 is %.6g "
-                "of the smaller radius (%.6g m, radius 0.01 m)", (long long)first, ratio, un);
+  std::snprintf(expect, sizeof expect,
+                "numerical blow-up at step %lld: overlap of particles 7 and 12 is %.6g "
+                "of the smaller radius (%.6g m, radius 0.01 m)",
+                (long long)first, ratio, un);
   EXPECT_EQ(m.rfind(expect, 0), 0u) << m << "\nexpected to start with: " << expect;
   EXPECT_LT(ratio, 1.1);  // caught in the step it crossed, not later
 }
@@ -433,8 +427,10 @@ TEST(Guards, OverlapGuardSilentOnADenseRun) {
       ASSERT_EQ(sim.step_guard(), "") << "d_max/d_min " << ratio_d << ", step " << s;
       largest = std::max(largest, sim.macro().max_overlap_ratio);
     }
-    std::printf("[overlap guard] d_max/d_min %.0f: largest overlap %.3f of the smaller radius over "
-                "2000 steps, Z %.2f\n", ratio_d, largest, sim.macro().coordination);
+    std::printf(
+        "[overlap guard] d_max/d_min %.0f: largest overlap %.3f of the smaller radius over "
+        "2000 steps, Z %.2f\n",
+        ratio_d, largest, sim.macro().coordination);
     EXPECT_GT(largest, 0.1);  // loaded contacts, so the guard was exercised
     EXPECT_LT(largest, kMaxOverlapRatio);
   }
@@ -472,8 +468,8 @@ TEST(Guards, BoundaryWorkOfACompressedLattice) {
   const real_t a = sim.cell().lengths()[0] / n, u = 2 * R - a;
   const real_t elastic = 3 * n * n * n * 0.5 * 1e5 * u * u;
   const real_t u0 = 1e-5, e0 = 3 * n * n * n * 0.5 * 1e5 * u0 * u0;
-  std::printf("[boundary work] W %.6e J, closed form %.6e J (kinetic %.2e J)\n",
-              sim.boundary_work(), elastic - e0, sim.macro().kinetic);
+  std::printf("[boundary work] W %.6e J, closed form %.6e J (kinetic %.2e J)\n", sim.boundary_work(), elastic - e0,
+              sim.macro().kinetic);
   EXPECT_NEAR(sim.boundary_work() / (elastic - e0), 1.0, 1e-3);
 }
 
@@ -488,10 +484,10 @@ std::string write_tmp(const std::string& name, const std::string& text) {
 // Two spheres of radius 10 mm 15 mm apart overlap by 5 mm = 0.5 of the radius: refused with the
 // file, both ids and the value; with max_initial_overlap = 0.6 the same file is accepted.
 TEST(InitialState, LargeOverlapOfADataFileIsRefused) {
-  const std::string data = write_tmp(
-      "fabrica_overlap.data",
-      "overlap\n\n3 atoms\n1 atom types\n\n0 0.2 xlo xhi\n0 0.2 ylo yhi\n0 0.2 zlo zhi\n\nAtoms\n\n"
-      "1 1 0.02 2650 0.05 0.1 0.1\n2 1 0.02 2650 0.065 0.1 0.1\n3 1 0.02 2650 0.15 0.15 0.15\n");
+  const std::string data =
+      write_tmp("fabrica_overlap.data",
+                "overlap\n\n3 atoms\n1 atom types\n\n0 0.2 xlo xhi\n0 0.2 ylo yhi\n0 0.2 zlo zhi\n\nAtoms\n\n"
+                "1 1 0.02 2650 0.05 0.1 0.1\n2 1 0.02 2650 0.065 0.1 0.1\n3 1 0.02 2650 0.15 0.15 0.15\n");
   const std::string scene = "[particles]\nsource = \"file\"\nfile = \"" + data + "\"\n";
   try {
     make_setup(parse_scene(scene, "overlap.toml"));
@@ -522,8 +518,8 @@ TEST(InitialState, LargestOverlapMatchesBruteForce) {
       const real_t ratio = un / std::min(k.p.radius[i], k.p.radius[j]);
       if (un > 0 && ratio > best) best = ratio, ba = k.p.id[i], bb = k.p.id[j];
     }
-  std::printf("[initial overlap] largest %.4f of the smaller radius, particles %lld and %lld\n",
-              best, (long long)ba, (long long)bb);
+  std::printf("[initial overlap] largest %.4f of the smaller radius, particles %lld and %lld\n", best, (long long)ba,
+              (long long)bb);
   EXPECT_GT(best, 0.0);
   EXPECT_NEAR(r.ratio, best, 1e-12);
   EXPECT_EQ(std::min(r.a, r.b), std::min(ba, bb));
@@ -535,10 +531,9 @@ TEST(InitialState, LargestOverlapMatchesBruteForce) {
 TEST(InitialState, TimeStepAboveTheEstimateRefusedUnlessForced) {
   const std::string base = "[particles]\ncount = 50\nd_min = 0.01\nd_max = 0.02\n[run]\n";
   for (const char* f : {"1.5", "2.0"}) {
-    EXPECT_THROW(make_setup(parse_scene(base + "time_step_fraction = " + f + "\n", "s.toml")),
-                 InputError);
-    const fabrica::Setup s = make_setup(
-        parse_scene(base + "time_step_fraction = " + f + "\nforce_time_step = true\n", "s.toml"));
+    EXPECT_THROW(make_setup(parse_scene(base + "time_step_fraction = " + f + "\n", "s.toml")), InputError);
+    const fabrica::Setup s =
+        make_setup(parse_scene(base + "time_step_fraction = " + f + "\nforce_time_step = true\n", "s.toml"));
     EXPECT_NEAR(s.params.dt / s.critical_dt, std::stod(f), 1e-14);
   }
 }
@@ -589,8 +584,7 @@ TEST(DensityScaling, SameStrainPathAsTheFasterUnscaledRun) {
   };
   const Simulation scaled = run(4.0, 5.0), fast = run(1.0, 10.0);
   const MacroState &a = scaled.macro(), &b = fast.macro();
-  std::printf("[density scaling] p %.10e vs %.10e Pa, KE %.6e vs %.6e J\n", a.p, b.p,
-              a.kinetic, b.kinetic);
+  std::printf("[density scaling] p %.10e vs %.10e Pa, KE %.6e vs %.6e J\n", a.p, b.p, a.kinetic, b.kinetic);
   EXPECT_GT(a.p, 0.0);
   EXPECT_EQ(a.stress, b.stress);
   EXPECT_EQ(a.e_normal, b.e_normal);

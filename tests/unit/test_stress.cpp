@@ -18,8 +18,8 @@ namespace {
 constexpr real_t kPi = std::numbers::pi;
 
 // n[k] spheres of radius R along axis k at spacing a[k]; the cell is n[k] a[k] long.
-Simulation lattice(const std::array<int, 3>& n, const Vec3& a, real_t R,
-                   const ContactLawParams& law, bool use_generator) {
+Simulation lattice(const std::array<int, 3>& n, const Vec3& a, real_t R, const ContactLawParams& law,
+                   bool use_generator) {
   Particles p;
   if (use_generator) {
     p = simple_cubic(n[0], R, a[0], test::kRho);
@@ -38,8 +38,7 @@ Simulation lattice(const std::array<int, 3>& n, const Vec3& a, real_t R,
   return Simulation(std::move(p), PeriodicCell(L), sp);
 }
 
-void check_lattice(Simulation& sim, const std::array<int, 3>& n, const Vec3& a, real_t R,
-                   real_t kn) {
+void check_lattice(Simulation& sim, const std::array<int, 3>& n, const Vec3& a, real_t R, real_t kn) {
   const real_t N = real_t(n[0]) * n[1] * n[2];
   const real_t V = n[0] * a[0] * n[1] * a[1] * n[2] * a[2];
   Mat3 exact = Mat3::Zero();
@@ -56,15 +55,15 @@ void check_lattice(Simulation& sim, const std::array<int, 3>& n, const Vec3& a, 
     const MacroState m = sim.macro();
     const real_t scale = exact.diagonal().maxCoeff();
     const real_t err = (m.stress - exact).cwiseAbs().maxCoeff() / scale;
-    std::printf("[stress] n = %d %d %d, a = %.4g %.4g %.4g: max |sigma - exact| / sigma = %.2e, "
-                "p rel err %.2e, q = %.3e (exact %.3e)\n",
-                n[0], n[1], n[2], a[0], a[1], a[2], err, m.p / p_exact - 1, m.q, q_exact);
+    std::printf(
+        "[stress] n = %d %d %d, a = %.4g %.4g %.4g: max |sigma - exact| / sigma = %.2e, "
+        "p rel err %.2e, q = %.3e (exact %.3e)\n",
+        n[0], n[1], n[2], a[0], a[1], a[2], err, m.p / p_exact - 1, m.q, q_exact);
     EXPECT_LT(err, 1e-10);
     EXPECT_NEAR(m.p / p_exact, 1.0, 1e-10);
     if (q_exact < 1e-8 * p_exact)  // isotropic: q = 0 up to rounding
       EXPECT_LT(m.q, 1e-10 * m.p);
-    else
-      EXPECT_NEAR(m.q / q_exact, 1.0, 1e-10);
+    else EXPECT_NEAR(m.q / q_exact, 1.0, 1e-10);
     EXPECT_EQ(m.contacts, std::int64_t(3 * N));
     EXPECT_DOUBLE_EQ(m.coordination, 6.0);
     EXPECT_DOUBLE_EQ(m.mech_coordination, 6.0);
@@ -136,10 +135,12 @@ TEST(Stress, LoveWeberWithShearForcesFromRawContacts) {
   const MacroState m = sim.macro();
   const real_t err = (m.stress - sigma).cwiseAbs().maxCoeff() / sigma.cwiseAbs().maxCoeff();
   const real_t asym = (sigma - sigma.transpose()).cwiseAbs().maxCoeff() / sigma.cwiseAbs().maxCoeff();
-  std::printf("[stress] with shear forces (max |f_s| / f_n = %.2f): rel err %.2e, asymmetric part "
-              "%.2e of max |sigma|\n", shear, err, asym);
+  std::printf(
+      "[stress] with shear forces (max |f_s| / f_n = %.2f): rel err %.2e, asymmetric part "
+      "%.2e of max |sigma|\n",
+      shear, err, asym);
   EXPECT_LT(err, 1e-12);
-  EXPECT_GT(shear, 0.05);  // shear forces are a real part of the stress
+  EXPECT_GT(shear, 0.05);      // shear forces are a real part of the stress
   EXPECT_GT(m.contacts, 150);  // of the 192 lattice contacts
 }
 
@@ -169,8 +170,8 @@ TEST(Stress, AffineRelativeVelocityLoadsTheShearSpring) {
   const real_t R = 0.01, un = 1e-6, kn = 1e5, e = 2.0, dt = 1e-6;
   const Vec3 n = Vec3(1, 1, 0).normalized();
   const Vec3 c(0.05, 0.05, 0.05);
-  Particles p = test::make_particles({{0, R, test::kRho, c - (R - 0.5 * un) * n},
-                                      {1, R, test::kRho, c + (R - 0.5 * un) * n}});
+  Particles p =
+      test::make_particles({{0, R, test::kRho, c - (R - 0.5 * un) * n}, {1, R, test::kRho, c + (R - 0.5 * un) * n}});
   SimulationParams sp;
   sp.law = test::direct_law(kn, 10.0);
   sp.skin = 0.1 * R;
@@ -184,8 +185,8 @@ TEST(Stress, AffineRelativeVelocityLoadsTheShearSpring) {
   const Vec3 va = Vec3(e, -e, 0).cwiseProduct(d);
   const Vec3 expected = -kn * (va - va.dot(d.normalized()) * d.normalized()) * dt;
   const Vec3 fs = sim.pairs().shear_spring(0);
-  std::printf("[kinematics] affine shear increment: |f_s| = %.6e N, expected %.6e N, rel err %.2e\n",
-              fs.norm(), expected.norm(), (fs - expected).norm() / expected.norm());
+  std::printf("[kinematics] affine shear increment: |f_s| = %.6e N, expected %.6e N, rel err %.2e\n", fs.norm(),
+              expected.norm(), (fs - expected).norm() / expected.norm());
   EXPECT_LT((fs - expected).norm(), 1e-6 * expected.norm());
   EXPECT_GT(expected.norm(), 0.0);
 }

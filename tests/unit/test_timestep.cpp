@@ -40,9 +40,8 @@ TEST(TimeStep, TwoEqualSpheresHandFormula) {
         const real_t kn = std::numbers::pi * R * R * law.youngs_modulus / (2 * R), ks = kn / kappa;
         const real_t kr = mu_r > 0 ? ks * 0.25 * R * R : 0.0;  // Rbar = R/2
         const real_t fs = damping_factor(0.5 * beta);
-        const real_t hand = std::min({std::sqrt(m / kn) * damping_factor(beta),
-                                      std::sqrt(m / ks) * fs,
-                                      std::sqrt(I / (ks * R * R + kr)) * fs});
+        const real_t hand = std::min(
+            {std::sqrt(m / kn) * damping_factor(beta), std::sqrt(m / ks) * fs, std::sqrt(I / (ks * R * R + kr)) * fs});
         const real_t dt = critical_time_step(p, law, false);
         EXPECT_NEAR(dt / hand, 1.0, 1e-14) << "kappa " << kappa << " mu_r " << mu_r;
       }
@@ -53,8 +52,7 @@ TEST(TimeStep, TwoEqualSpheresHandFormula) {
 // contact Delta = u_B - u_A + n x (a_B th_B + a_A th_A), relative rotation th_B - th_A; energy
 // 1/2 [k_n (Delta.n)^2 + k_s |Delta_t|^2 + k_r |dth_t|^2]. The pre-load's geometric stiffness
 // (order f_n / R, here 1e-3 k_n) is neglected.
-real_t verlet_limit(real_t m, real_t I, real_t a, real_t kn, real_t ks, real_t kr_pair,
-                    real_t kr_wall) {
+real_t verlet_limit(real_t m, real_t I, real_t a, real_t kn, real_t ks, real_t kr_pair, real_t kr_wall) {
   Eigen::MatrixXd K = Eigen::MatrixXd::Zero(12, 12);
   auto cross = [](const Vec3& n) {
     Mat3 c;
@@ -102,7 +100,8 @@ real_t pressed_pair_run(const ContactLawParams& law, real_t R, real_t delta, rea
                                 {1, R, kRho, c2, u * Vec3(-0.6, 0.4, 0.5), om * Vec3(-0.2, 0.8, 0.3)}});
   const real_t ke0 = kinetic_energy(p);
   Simulation sim = test::make_sim(std::move(p), law, dt, 0.2 * R,
-                                  {Wall{Vec3(0, 0, z0), Vec3::UnitZ(), Vec3::Zero(), false, {}}, Wall{Vec3(0, 0, top), -Vec3::UnitZ(), Vec3::Zero(), false, {}}});
+                                  {Wall{Vec3(0, 0, z0), Vec3::UnitZ(), Vec3::Zero(), false, {}},
+                                   Wall{Vec3(0, 0, top), -Vec3::UnitZ(), Vec3::Zero(), false, {}}});
   real_t ke_max = 0;
   for (int s = 0; s < steps; ++s) {
     sim.step();
@@ -126,12 +125,13 @@ TEST(TimeStep, PressedPairStableBelowEstimateUnstableAboveLimit) {
   EXPECT_NEAR(est / std::sqrt(I / (2 * ks * R * R)), 1.0, 1e-14);
   const real_t stable = pressed_pair_run(law, R, delta, 0.9 * est, 20000);
   const real_t unstable = pressed_pair_run(law, R, delta, 1.02 * limit, 2000);
-  std::printf("[timestep] estimate %.4e s, Verlet limit 2/omega_max %.4e s (ratio %.3f); "
-              "max KE/KE0 at 0.9 estimate: %.6f, at 1.02 limit: %.3g\n",
-              est, limit, est / limit, stable, unstable);
-  EXPECT_LT(est, limit);       // the estimate is conservative for this system
-  EXPECT_LT(stable, 1.01);     // bounded: Verlet started at equilibrium never exceeds KE0
-  EXPECT_GT(unstable, 1e6);    // and the limit is real
+  std::printf(
+      "[timestep] estimate %.4e s, Verlet limit 2/omega_max %.4e s (ratio %.3f); "
+      "max KE/KE0 at 0.9 estimate: %.6f, at 1.02 limit: %.3g\n",
+      est, limit, est / limit, stable, unstable);
+  EXPECT_LT(est, limit);     // the estimate is conservative for this system
+  EXPECT_LT(stable, 1.01);   // bounded: Verlet started at equilibrium never exceeds KE0
+  EXPECT_GT(unstable, 1e6);  // and the limit is real
 }
 
 }  // namespace
