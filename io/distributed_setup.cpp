@@ -13,6 +13,7 @@
 #include "parallel/guard.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -70,8 +71,11 @@ Piece read_piece(const std::string& path, std::uint64_t body, std::uint64_t size
   const std::uint64_t b1 = body + span * std::uint64_t(rank + 1) / std::uint64_t(ranks);
   Piece p;
   if (b0 == b1) return p;
+  errno = 0;
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the particle data file");
+  if (!in)
+    throw InputError(path + ": cannot open the particle data file (" +
+                     std::string(errno ? std::strerror(errno) : "unreadable") + ")");
   // A line starting before b0 is the previous rank's: start after its end.
   std::uint64_t from = b0;
   if (b0 > body) {

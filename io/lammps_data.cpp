@@ -8,8 +8,10 @@
 #include <charconv>
 #include <filesystem>
 #include <optional>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <unordered_map>
@@ -68,10 +70,12 @@ GlobalId parse_particle_id(const std::string& token, const std::string& where) {
 DataHeader read_data_header(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": is a directory, not a particle data file");
+  errno = 0;
   std::ifstream in(path, std::ios::binary);
+  const int err = errno;  // what open(2) said (no such file, permission denied)
   if (!in || fault_injected("data"))
-    throw InputError(path + ": cannot open the particle data file" +
-                     (in ? " (" + fault_text("data") + ")" : std::string()));
+    throw InputError(path + ": cannot open the particle data file (" +
+                     (in ? fault_text("data") : std::string(err ? std::strerror(err) : "unreadable")) + ")");
   DataHeader h;
   bool have_box[3] = {false, false, false};
   std::string line;
