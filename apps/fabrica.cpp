@@ -250,12 +250,13 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
 
   const ContactLawParams law = scene.law;
   const auto t0 = std::chrono::steady_clock::now();
-  if (scene.compress.enabled) {
-    ContactLawParams prep = law;
-    prep.friction = scene.compress.friction;
-    prep.rolling_friction = 0;
-    prep.twisting_friction = 0;
-    s.params.law = prep;
+  if (scene.compress.enabled) {  // every material's and pair's law alike
+    LawChanges prep;
+    prep.set(&ContactLawParams::friction, scene.compress.friction);
+    prep.set(&ContactLawParams::rolling_friction, 0);
+    prep.set(&ContactLawParams::twisting_friction, 0);
+    s.params.law = prep.applied_to(law);
+    s.params.materials.apply(prep);
   }
   const Vec3 l0 = s.cell.lengths();  // the strain reference of the snapshots (also on a restart)
   std::unique_ptr<Simulation> simp = ckpt
@@ -309,7 +310,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
                                              scene.compress.max_steps, scene.compress.target_pressure));
       snapshot(true);
       sim.cell().set_strain_rate(Vec3::Zero());
-      sim.set_law(law);
+      sim.set_laws(law, scene_materials(scene));
       const MacroState m = sim.macro();
       fmt::print("-- compressed: void ratio {:.4f}, solid fraction {:.4f}; now mu_s = {}, mu_r = {}\n", m.void_ratio,
                  1.0 / (1.0 + m.void_ratio), law.friction, law.rolling_friction);

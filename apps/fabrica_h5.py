@@ -72,6 +72,7 @@ class Particles:
     velocity: np.ndarray  #: (N, 3) m/s
     spin: np.ndarray      #: (N, 3) rad/s
     radius: np.ndarray    #: (N,) m
+    material: np.ndarray  #: (N,) uint8, the index of its [[material]] (0: one material)
 
 
 @dataclass
@@ -231,7 +232,10 @@ class RunFile:
             g = self._snapshot(f, case, step)
             p = g["particles"]
             return Particles(info=self._info(case, g), id=p["id"][()], position=p["position"][()],
-                             velocity=p["velocity"][()], spin=p["spin"][()], radius=p["radius"][()])
+                             velocity=p["velocity"][()], spin=p["spin"][()], radius=p["radius"][()],
+                             # files written before the materials hold one material
+                             material=(p["material"][()] if "material" in p
+                                       else np.zeros(len(p["id"]), dtype=np.uint8)))
 
     def contacts(self, case, step, strong_ratio=1.0):
         """The contacts of the snapshot of ``case`` at ``step`` (:class:`Contacts`).

@@ -23,7 +23,7 @@ real_t round6(real_t x) {
 
 SpecimenResponse specimen_response(Simulation& sim) {
   double m[18] = {};
-  add_specimen_response(sim.particles(), sim.pairs(), sim.cell(), sim.params().law, m);
+  add_specimen_response(sim.particles(), sim.pairs(), sim.cell(), sim.params().law, m, &sim.params().materials);
   sim.domain().sum_all(std::span<double>(m, 18));
   const real_t V = sim.cell().volume();
   SpecimenResponse r;

@@ -83,6 +83,7 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
         tot.count, d_mean * 1e3, mpi.size(), s.params.dt, s.params.dt / s.critical_dt, n);
   std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   s.params.law = scene.law;  // the set-up's is sized for the largest mu_r of the stages
+  s.params.materials = scene_materials(scene);
   std::unique_ptr<Simulation> simp = restart
       ? std::make_unique<Simulation>(std::move(*saved), domain.get())
       : std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(), s.holding);

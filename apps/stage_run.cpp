@@ -116,7 +116,7 @@ void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
   // spheres: 128 bytes per contact).
   const Particles& p = std::as_const(sim_).particles();  // const: the ghosts keep drifting
   const auto records = [&](const ContactVisitor& fn) {
-    for_each_contact_record(p, sim_.cell(), sim_.params().law, sim_.pairs(), fn);
+    for_each_contact_record(p, sim_.cell(), sim_.params().law, sim_.pairs(), fn, &sim_.params().materials);
   };
   const FabricOptions opt{scene_.fabric.strong_ratio, int(scene_.fabric.rose_bins)};
   const FabricResult r = analyse_fabric(records, sim_.cell().volume(), opt, sim_.domain());
@@ -126,7 +126,13 @@ void StageRun::fabric_row(const StageSpec& st, const Vec3& eps) {
 }
 
 void StageRun::apply_contact(const StageSpec& st) {
-  if (st.law.any()) sim_.set_law(stage_law(sim_.params().law, st));
+  if (st.own_law) {
+    Materials m = scene_materials(scene_);
+    m.apply(st.law);
+    sim_.set_laws(st.law.applied_to(scene_.law), m);
+  } else if (st.law.any()) {
+    sim_.change_law(st.law);  // the scene's law and every material's
+  }
   if (st.local_damping) sim_.set_local_damping(*st.local_damping);
 }
 

@@ -40,6 +40,14 @@ Scene triaxial_setup_scene(const Scene& scene) {
   // Damping shortens the critical time step: the estimate takes the strongest dashpots any
   // stage sets (a stage's damping_ratio_normal / _shear).
   sized.law = most_damped_law(sized.law, scene.stages);
+  // Every material alike (a case's or stage's mu_r is every pair's).
+  for (MaterialSpec& m : sized.materials) {
+    m.law.rolling_friction = std::max(m.law.rolling_friction, sized.law.rolling_friction);
+    m.law = most_damped_law(m.law, scene.stages);
+  }
+  for (Materials::Given& g : sized.material_pairs)
+    if (const auto r = g.numbers.get(&ContactLawParams::rolling_friction))
+      g.numbers.set(&ContactLawParams::rolling_friction, std::max(*r, sized.law.rolling_friction));
   return sized;
 }
 

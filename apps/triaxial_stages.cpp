@@ -28,12 +28,12 @@ StageSpec consolidation_stage(const Scene& scene) {
 
 StageSpec equilibration_stage(const Scene& scene, real_t rolling_friction) {
   StageSpec st = isotropic(scene, "equilibration");
-  st.law.set(&ContactLawParams::friction, scene.law.friction);
+  st.own_law = true;  // each material's friction
   st.law.set(&ContactLawParams::rolling_friction, rolling_friction);
-  // Twisting resistance as rolling resistance: the case's from the equilibration of a case, else
-  // from the shear.
-  st.law.set(&ContactLawParams::twisting_friction,
-             scene.triaxial.equilibration == TriaxialSpec::Equilibration::Case ? scene.law.twisting_friction : 0.0);
+  // Twisting resistance as rolling resistance: the case's from the equilibration of a case (the
+  // scene's own), else from the shear.
+  if (scene.triaxial.equilibration != TriaxialSpec::Equilibration::Case)
+    st.law.set(&ContactLawParams::twisting_friction, 0.0);
   return st;
 }
 
@@ -45,9 +45,8 @@ StageSpec shear_stage(const Scene& scene, real_t rolling_friction) {
   const TriaxialSpec& tx = scene.triaxial;
   StageSpec st;
   if (tx.equilibration != TriaxialSpec::Equilibration::Case) {  // switched here, not before
-    st.law.set(&ContactLawParams::friction, scene.law.friction);
+    st.own_law = true;                                          // each material's friction and twisting friction
     st.law.set(&ContactLawParams::rolling_friction, rolling_friction);
-    st.law.set(&ContactLawParams::twisting_friction, scene.law.twisting_friction);
   }
   st.name = "shear";
   st.where = "[triaxial]";

@@ -41,6 +41,7 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
   // The time step must suit the stiffest stage: rolling springs of the largest mu_r included.
   Setup s = setup ? std::move(*setup) : make_run_setup(triaxial_setup_scene(scene), mpi.comm(), domain_options(scene));
   s.params.law = scene.law;
+  s.params.materials = scene_materials(scene);
   const SpecimenTotals tot = specimen_totals(s.particles, mpi.comm());  // of every rank's share
   d_mean_ = tot.diameter_sum / real_t(tot.count);
   density_ = tot.mass / tot.volume;

@@ -136,6 +136,9 @@ struct Wall {
   Vec3 velocity = Vec3::Zero();  // m/s (a servo wall: its normal part is the servo's)
   bool own_law = false;
   ContactLawParams law;  // used when own_law
+  // Its material (core/contact/materials.hpp; -1: none): a sphere of material m meets it with
+  // the law Materials::pair(m, material), in a scene of several materials.
+  std::int32_t material = -1;
   // Servo control, when servo_pressure > 0: after every step the normal part of the velocity is
   // set so that the spheres' push on the wall approaches servo_pressure times the cell's
   // cross-section across the wall's axis (core/wall_servo.hpp).

@@ -9,14 +9,17 @@ namespace fabrica {
 namespace {
 
 template <class Model>
-void contact_records_of(Model, const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
-                        const PairList& pairs, const std::function<void(const ContactRecord&)>& fn) {
+void contact_records_of(Model, const Particles& p, const PeriodicCell& cell, const ContactLawParams& scene_law,
+                        const Materials* materials, const PairList& pairs,
+                        const std::function<void(const ContactRecord&)>& fn) {
   std::array<Vec3, 27> shift;
   for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
-  const bool rolling = law.rolling() && pairs.rolling;
+  const bool mixed = materials && !materials->empty();
   for (std::size_t q = 0; q < pairs.size(); ++q) {
     const Index i = pairs.i[q], j = pairs.j[q];
     if (!pairs.touching[q] || std::size_t(i) >= p.n_owned()) continue;
+    const ContactLawParams& law = mixed ? materials->pair(p.material[i], p.material[j]) : scene_law;
+    const bool rolling = law.rolling() && pairs.rolling;
     const Vec3 d = p.x[j] + shift[pairs.image[q]] - p.x[i];
     const real_t sum_r = p.radius[i] + p.radius[j];
     const real_t r2 = d.squaredNorm();
@@ -46,14 +49,20 @@ void contact_records_of(Model, const Particles& p, const PeriodicCell& cell, con
 
 template <class Model>
 std::vector<ContactRecord> wall_records_of(Model, const Particles& p, const ContactLawParams& law,
-                                           const std::vector<Wall>& walls, const WallContactList& wl) {
+                                           const Materials* materials, const std::vector<Wall>& walls,
+                                           const WallContactList& wl) {
+  const bool mixed = materials && !materials->empty();
   constexpr real_t inf = std::numeric_limits<real_t>::infinity();
   std::vector<ContactRecord> out;
   for (std::size_t q = 0; q < wl.size(); ++q) {
     if (!wl.touching[q]) continue;
     const Index i = wl.i[q];
     const Wall& W = walls[std::size_t(wl.wall[q])];
-    const ContactLawParams& l = W.own_law ? W.law : law;
+    // As the force loop takes it (core/forces.cpp, wall_forces).
+    const ContactLawParams& l = W.material >= 0 ? materials->pair(p.material[i], std::size_t(W.material))
+        : W.own_law                             ? W.law
+        : mixed                                 ? materials->pair(p.material[i], p.material[i])
+                                                : law;
     const real_t R = p.radius[i], dist = (p.x[i] - W.point).dot(W.normal);
     if (dist >= R) continue;
     ContactRecord c;
@@ -80,12 +89,13 @@ std::vector<ContactRecord> wall_records_of(Model, const Particles& p, const Cont
 }  // namespace
 
 void for_each_contact_record(const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
-                             const PairList& pairs, const std::function<void(const ContactRecord&)>& fn) {
-  with_model(law.model, [&](auto m) { contact_records_of(m, p, cell, law, pairs, fn); });
+                             const PairList& pairs, const std::function<void(const ContactRecord&)>& fn,
+                             const Materials* materials) {
+  with_model(law.model, [&](auto m) { contact_records_of(m, p, cell, law, materials, pairs, fn); });
 }
 
 std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
-                                           const PairList& pairs) {
+                                           const PairList& pairs, const Materials* materials) {
   // Room for the touching pairs of owned bodies at once: grown by doubling, the records took up
   // to three times their size at the moment of a copy (53 MB for 17 MB of records at 108,672
   // spheres, the peak of a triaxial run).
@@ -93,13 +103,15 @@ std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCel
   for (std::size_t q = 0; q < pairs.size(); ++q) n += pairs.touching[q] && std::size_t(pairs.i[q]) < p.n_owned();
   std::vector<ContactRecord> out;
   out.reserve(n);
-  for_each_contact_record(p, cell, law, pairs, [&](const ContactRecord& c) { out.push_back(c); });
+  for_each_contact_record(
+      p, cell, law, pairs, [&](const ContactRecord& c) { out.push_back(c); }, materials);
   return out;
 }
 
 std::vector<ContactRecord> wall_contact_records(const Particles& p, const ContactLawParams& law,
-                                                const std::vector<Wall>& walls, const WallContactList& wl) {
-  return with_model(law.model, [&](auto m) { return wall_records_of(m, p, law, walls, wl); });
+                                                const std::vector<Wall>& walls, const WallContactList& wl,
+                                                const Materials* materials) {
+  return with_model(law.model, [&](auto m) { return wall_records_of(m, p, law, materials, walls, wl); });
 }
 
 }  // namespace fabrica

@@ -35,19 +35,22 @@ struct ContactRecord {
   Vec3 force() const { return fn * normal + ft; }
 };
 
-// This rank's records (see above). 'law' must be the law of the step that produced the springs.
+// This rank's records (see above). 'law' (and, in a scene of several materials, 'materials')
+// must be the law of the step that produced the springs.
 std::vector<ContactRecord> contact_records(const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
-                                           const PairList& pairs);
+                                           const PairList& pairs, const Materials* materials = nullptr);
 // The same records, one at a time and in the same order, without holding them all (snapshots
 // of large specimens).
 void for_each_contact_record(const Particles& p, const PeriodicCell& cell, const ContactLawParams& law,
-                             const PairList& pairs, const std::function<void(const ContactRecord&)>& fn);
+                             const PairList& pairs, const std::function<void(const ContactRecord&)>& fn,
+                             const Materials* materials = nullptr);
 
 // This rank's touching sphere-wall contacts (the rank owning the sphere), in list order: id1 the
 // sphere, id2 = -1 - wall index (the convention of the contact history), normal from the
 // sphere's centre towards the wall, branch = (R - u_n/2) normal the arm from the centre to the
 // contact point; fn, ft and mr with the wall's law (its own, or 'law'), on the wall (body 2).
 std::vector<ContactRecord> wall_contact_records(const Particles& p, const ContactLawParams& law,
-                                                const std::vector<Wall>& walls, const WallContactList& contacts);
+                                                const std::vector<Wall>& walls, const WallContactList& contacts,
+                                                const Materials* materials = nullptr);
 
 }  // namespace fabrica

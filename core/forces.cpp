@@ -101,7 +101,9 @@ bool fetch_all_ahead(std::size_t particles) {
 // that does not measure: the boundary work needs the diagonal of the stress), or everything.
 constexpr int kNone = 0, kVirial = 1, kFull = 2;
 
-template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
+// Mixed: a scene of several materials, the law of each contact that of its pair of materials
+// (ctx.materials), one contact at a time (the lanes of a SIMD law share one law).
+template <class Model, int Roll, bool Twist, bool Viscous, bool Mixed, int Measure>
 struct PairKernel {
   static constexpr bool Rolling = Roll != kNoRolling;
   static constexpr bool Moments = Rolling || Twist;  // a moment beside the shear force's
@@ -122,17 +124,24 @@ struct PairKernel {
   std::size_t body_ahead_end = 0;  // contacts in the work arrays (the prefetch's bound)
   bool fetch_all = false;          // fetch_all_ahead(): every line a contact reads
 
+  // The law of a contact of bodies i and j.
+  const ContactLawParams& law_of(Index i, Index j) const {
+    if constexpr (Mixed) return ctx.materials->pair(P.material[i], P.material[j]);
+    else return ctx.law;
+  }
+
   // The contact of pair q (bodies i, j) opens after nc touching pairs of this block: the
   // energy left in its springs is lost, and its spring slot is given back.
   [[gnu::noinline]] void open_contact(std::size_t q, Index i, Index j, std::size_t nc) {
     const real_t* R = P.radius.data();
     const real_t* m = P.mass.data();
     // The springs' energy at the opening overlap, u_n = 0 (Hertz-Mindlin: none is left).
-    const Pair c = Model::template constants<Roll, false>(ctx.law, R[i], R[j], m[i], m[j]);
+    const ContactLawParams& law = law_of(i, j);
+    const Pair c = Model::template constants<Roll, false>(law, R[i], R[j], m[i], m[j]);
     const real_t own_i = std::size_t(i) < n_owned ? 1.0 : 0.0;
     const Index s = pl.slot[q];
     PairList::Work::Opening o{nc, own_i * Model::energy_shear(c, 0.0, pl.spring_fs[s]), 0.0};
-    if constexpr (Rolling) o.e_rolling = own_i * Model::energy_rolling(ctx.law, c, 0.0, pl.spring_mr[s]);
+    if constexpr (Rolling) o.e_rolling = own_i * Model::energy_rolling(law, c, 0.0, pl.spring_mr[s]);
     if constexpr (Twist) o.e_rolling += own_i * Model::energy_twisting(c, 0.0, pl.spring_mt[s]);
     pl.give_slot(q);
     pl.work.openings.push_back(o);
@@ -270,11 +279,12 @@ struct PairKernel {
   void contacts(std::size_t c) {
     using namespace simd;
     constexpr int kLanes = Lanes<T>::n;
-    const ContactLawParams& law = ctx.law;
+    static_assert(!Mixed || kLanes == 1, "a law per contact: one contact at a time");
     const real_t dt = ctx.dt;
     const PairList::Work& W = pl.work;
     const Index* ci = W.i.data() + c;
     const Index* cj = W.j.data() + c;
+    const ContactLawParams& law = law_of(ci[0], cj[0]);
     const Index* cs = W.s.data() + c;
     const real_t* R = P.radius.data();
     // The second bodies of the contacts kBodyAhead on: their velocities, spins, forces and
@@ -431,9 +441,10 @@ struct PairKernel {
       next_before = next_opening < W.openings.size() ? W.openings[next_opening].before : kNone;
       body_ahead_end = nc;
       std::size_t c = 0;
-      if (ctx.lanes == 4)
-        for (; c + 4 <= nc; c += 4) contacts<d4>(c);
-      if (ctx.lanes != 4 || q1 == np)
+      if constexpr (!Mixed)
+        if (ctx.lanes == 4)
+          for (; c + 4 <= nc; c += 4) contacts<d4>(c);
+      if (Mixed || ctx.lanes != 4 || q1 == np)
         for (; c < nc; ++c) contacts<real_t>(c);
       // Carry contacts [c, nc) and the openings not booked yet to the front.
       for (std::size_t k = c; k < nc; ++k) {
@@ -449,10 +460,10 @@ struct PairKernel {
   }
 };
 
-template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
+template <class Model, int Roll, bool Twist, bool Viscous, bool Mixed, int Measure>
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl, Dissipation& diss,
                  ContactSums* sums) {
-  PairKernel<Model, Roll, Twist, Viscous, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
+  PairKernel<Model, Roll, Twist, Viscous, Mixed, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
   for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
   K.fetch_all = ctx.fetch_ahead < 0 ? fetch_all_ahead(P.size()) : ctx.fetch_ahead > 0;
   if constexpr (Model::kPreviousOverlap)
@@ -463,9 +474,10 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
   diss.viscous += K.e_visc;
 }
 
-// Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the wall's own
-// law or the scene's.
-template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
+// Sphere (body 1) against a plane (body 2) moving at the wall's velocity, with the law of the
+// sphere's and the wall's materials, the wall's own law, or the scene's (Mixed: the sphere's
+// material's).
+template <class Model, int Roll, bool Twist, bool Viscous, bool Mixed, int Measure>
 void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dissipation& diss, ContactSums* sums,
                  real_t* wall_power) {
   constexpr bool Rolling = Roll != kNoRolling;
@@ -474,7 +486,10 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
   for (std::size_t q = 0; q < wl.size(); ++q) {
     const Index i = wl.i[q];
     const Wall& W = ctx.walls[wl.wall[q]];
-    const ContactLawParams& law = W.own_law ? W.law : ctx.law;
+    const ContactLawParams& law = W.material >= 0 ? ctx.materials->pair(P.material[i], std::size_t(W.material))
+        : W.own_law                               ? W.law
+        : Mixed                                   ? ctx.materials->pair(P.material[i], P.material[i])
+                                                  : ctx.law;
     const real_t dist = (P.x[i] - W.point).dot(W.normal);
     const real_t R = P.radius[i];
     if (dist >= R) {
@@ -550,25 +565,26 @@ void wall_forces(Particles& P, const ForceContext& ctx, WallContactList& wl, Dis
   if (wall_power) *wall_power = power;
 }
 
-template <class Model, int Roll, bool Twist, bool Viscous, int Measure>
+template <class Model, int Roll, bool Twist, bool Viscous, bool Mixed, int Measure>
 void all_forces(Particles& p, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl, WallContactList& wl,
                 Dissipation& diss, ContactSums* sums, real_t* wall_power) {
-  pair_forces<Model, Roll, Twist, Viscous, Measure>(p, cell, ctx, pl, diss, sums);
-  if (wl.size() != 0) wall_forces<Model, Roll, Twist, Viscous, Measure>(p, ctx, wl, diss, sums, wall_power);
+  pair_forces<Model, Roll, Twist, Viscous, Mixed, Measure>(p, cell, ctx, pl, diss, sums);
+  if (wl.size() != 0) wall_forces<Model, Roll, Twist, Viscous, Mixed, Measure>(p, ctx, wl, diss, sums, wall_power);
   else if (wall_power) *wall_power = 0;
 }
 
 using Kernel = void (*)(Particles&, const PeriodicCell&, const ForceContext&, PairList&, WallContactList&, Dissipation&,
                         ContactSums*, real_t*);
 
-// One table per model, indexed by ((roll * 2 + twist) * 2 + viscous) * 3 + measure (roll:
-// kNoRolling or a rolling model, core/contact/rolling.hpp; measure: kNone, kVirial, kFull).
+// One table per model, indexed by (((roll * 2 + twist) * 2 + viscous) * 2 + mixed) * 3 +
+// measure (roll: kNoRolling or a rolling model, core/contact/rolling.hpp; mixed: several
+// materials; measure: kNone, kVirial, kFull).
 template <class Model, std::size_t... K>
 constexpr std::array<Kernel, sizeof...(K)> make_kernels(std::index_sequence<K...>) {
-  return {all_forces<Model, int(K / 12), (K / 6) % 2 == 1, (K / 3) % 2 == 1, int(K % 3)>...};
+  return {all_forces<Model, int(K / 24), (K / 12) % 2 == 1, (K / 6) % 2 == 1, (K / 3) % 2 == 1, int(K % 3)>...};
 }
 template <class Model>
-constexpr std::array<Kernel, 48> kKernels = make_kernels<Model>(std::make_index_sequence<48>{});
+constexpr std::array<Kernel, 96> kKernels = make_kernels<Model>(std::make_index_sequence<96>{});
 
 }  // namespace
 
@@ -598,8 +614,14 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
     if (w.own_law)
       rolling = rolling || w.law.rolling(), twisting = twisting || w.law.twisting(),
       viscous = viscous || w.law.viscous();
+  const bool mixed = ctx.materials && !ctx.materials->empty();
+  if (mixed) {  // every pair of materials, walls' included
+    rolling = rolling || ctx.materials->any([](const ContactLawParams& l) { return l.rolling(); });
+    twisting = twisting || ctx.materials->any([](const ContactLawParams& l) { return l.twisting(); });
+    viscous = viscous || ctx.materials->any([](const ContactLawParams& l) { return l.viscous(); });
+  }
   const int roll = rolling ? 1 + int(ctx.law.rolling_model) : kNoRolling;
-  const std::size_t k = std::size_t(((roll * 2 + twisting) * 2 + viscous) * 3 + measure);
+  const std::size_t k = std::size_t((((roll * 2 + twisting) * 2 + viscous) * 2 + mixed) * 3 + measure);
   // Walls share the scene's model (io/scene.cpp refuses another).
   with_model(ctx.law.model, [&](auto model) {
     kKernels<decltype(model)>[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);

@@ -4,6 +4,7 @@
 // loop without a single instruction of them; walls cost nothing when there are none.
 #pragma once
 #include "core/cell.hpp"
+#include "core/contact/materials.hpp"
 #include "core/contact_list.hpp"
 #include "core/exact_sum.hpp"
 #include "core/particles.hpp"
@@ -78,6 +79,9 @@ struct ForceContext {
   // the particle count (core/forces.cpp, fetch_all_ahead), 0 the first lines of the partner's
   // fields, 1 every line a contact reads.
   int fetch_ahead = -1;
+  // A scene of several materials: the law of each pair of materials (null or empty: 'law' for
+  // every contact). The pair loop then runs one contact at a time (core/forces.cpp).
+  const Materials* materials = nullptr;
 };
 
 // Sets f = m g and t = 0 (of the ghosts only if ctx.owned_ready), then adds every contact.

@@ -14,6 +14,7 @@ void Particles::reserve(std::size_t n) {
     for (auto* a : {&f, &t}) a->reserve(n);
   for (auto* a : {&radius, &mass}) a->reserve(n);
   id.reserve(n);
+  material.reserve(n);
 }
 
 void Particles::reserve_more(std::size_t n) {
@@ -40,6 +41,7 @@ void Particles::resize(std::size_t n) {
     for (auto* a : {&f, &t}) a->resize(n, Vec3::Zero());
   for (auto* a : {&radius, &mass}) a->resize(n, 0.0);
   id.resize(n, -1);
+  material.resize(n, 0);
 }
 
 void Particles::add(const SphereInit& s) {
@@ -53,6 +55,7 @@ void Particles::add(const SphereInit& s) {
   radius.push_back(s.radius);
   mass.push_back(m);
   id.push_back(s.id);
+  material.push_back(s.material);
   ++n_owned_;
 }
 
@@ -113,6 +116,8 @@ void Particles::permute_owned(std::span<const Index> order) {
   }
   std::vector<GlobalId> ti;
   apply_order(id, order, in_place, ti);
+  std::vector<std::uint8_t> tm;
+  apply_order(material, order, in_place, tm);
   n_owned_ = order.size();
 }
 

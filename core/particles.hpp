@@ -3,6 +3,7 @@
 #pragma once
 #include "core/types.hpp"
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -10,11 +11,12 @@ namespace fabrica {
 
 struct SphereInit {
   GlobalId id;
-  real_t radius;          // m
-  real_t density;         // kg/m^3
-  Vec3 x;                 // m
-  Vec3 v = Vec3::Zero();  // m/s (fluctuating velocity, see docs/design.md)
-  Vec3 w = Vec3::Zero();  // rad/s
+  real_t radius;              // m
+  real_t density;             // kg/m^3
+  Vec3 x;                     // m
+  Vec3 v = Vec3::Zero();      // m/s (fluctuating velocity, see docs/design.md)
+  Vec3 w = Vec3::Zero();      // rad/s
+  std::uint8_t material = 0;  // its material (core/contact/materials.hpp; 0 with one material)
 };
 
 class Particles {
@@ -25,6 +27,8 @@ class Particles {
   std::vector<real_t> radius;  // m
   std::vector<real_t> mass;    // kg
   std::vector<GlobalId> id;
+  // The material of each sphere (core/contact/materials.hpp): all 0 in a scene of one material.
+  std::vector<std::uint8_t> material;
 
   // The moment of inertia of a solid sphere, 2/5 m R^2, and the inverses the half kicks use are
   // derived from mass and radius where they are needed, not stored (24 bytes per particle):

@@ -180,6 +180,7 @@ void Simulation::compute(bool measure, real_t dt, bool virial_only) {
     std::fill(wall_sums_.words().begin(), wall_sums_.words().end(), 0);
   }
   ForceContext ctx{par_.law, par_.walls, par_.gravity, dt, &overlap_, par_.kernel_lanes};
+  ctx.materials = &par_.materials;
   ctx.wall_load = servo ? &wall_sums_ : nullptr;
   ctx.owned_ready = owned_ready_;
   ctx.virial_only = virial_only;
@@ -255,9 +256,18 @@ void Simulation::set_skin(real_t skin) {
   rebuild();
 }
 
-void Simulation::set_law(const ContactLawParams& law) {
+void Simulation::change_law(const LawChanges& changes) {
+  Materials m = par_.materials;
+  m.apply(changes);
+  set_laws(changes.applied_to(par_.law), m);
+}
+
+void Simulation::set_law(const ContactLawParams& law) { set_laws(law, par_.materials); }
+
+void Simulation::set_laws(const ContactLawParams& law, const Materials& materials) {
   const bool had_rolling = par_.rolling(), had_twisting = par_.twisting();
   par_.law = law;
+  par_.materials = materials;
   if (par_.rolling() && !had_rolling) {
     pairs_.set_rolling(true);
     walls_.mr.assign(walls_.size(), Vec3::Zero());

@@ -22,6 +22,9 @@ namespace fabrica {
 
 struct SimulationParams {
   ContactLawParams law;
+  // A scene of several materials: each pair's law (core/contact/materials.hpp); empty: 'law'
+  // for every contact.
+  Materials materials;
   real_t dt = 0;                  // s (see critical_time_step)
   real_t skin = 0;                // m, Verlet skin
   Vec3 gravity = Vec3::Zero();    // m/s^2
@@ -36,17 +39,17 @@ struct SimulationParams {
 
   // The kernel's switches: the scene's law or a wall's own law needs them.
   bool rolling() const {
-    bool r = law.rolling();
+    bool r = law.rolling() || materials.any([](const ContactLawParams& l) { return l.rolling(); });
     for (const Wall& w : walls) r = r || (w.own_law && w.law.rolling());
     return r;
   }
   bool twisting() const {
-    bool t = law.twisting();
+    bool t = law.twisting() || materials.any([](const ContactLawParams& l) { return l.twisting(); });
     for (const Wall& w : walls) t = t || (w.own_law && w.law.twisting());
     return t;
   }
   bool viscous() const {
-    bool v = law.viscous();
+    bool v = law.viscous() || materials.any([](const ContactLawParams& l) { return l.viscous(); });
     for (const Wall& w : walls) v = v || (w.own_law && w.law.viscous());
     return v;
   }
@@ -154,6 +157,11 @@ class Simulation {
   const PeriodicCell& cell() const { return cell_; }
   const SimulationParams& params() const { return par_; }
   void set_law(const ContactLawParams& law);  // e.g. switching mu_s / mu_r between stages
+  // Some numbers of the law set anew (a [[stage]]'s): in the scene's law, every material's and
+  // every pair's.
+  void change_law(const LawChanges& changes);
+  // The law and the materials' laws (a [compress] stage put back).
+  void set_laws(const ContactLawParams& law, const Materials& materials);
   void set_local_damping(real_t alpha) { par_.local_damping = alpha; }
   // A new time step (s) from the next step on (e.g. a branch run at another step size).
   void set_time_step(real_t dt) {

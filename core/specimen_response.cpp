@@ -9,9 +9,10 @@ namespace fabrica {
 
 namespace {
 template <class Model, bool Viscous>
-void add_response(const Particles& P, const PairList& pl, const PeriodicCell& cell, const ContactLawParams& law,
-                  double* m) {
+void add_response(const Particles& P, const PairList& pl, const PeriodicCell& cell, const ContactLawParams& scene_law,
+                  const Materials* materials, double* m) {
   const Vec3& L = cell.lengths();
+  const bool mixed = materials && !materials->empty();
   for (std::size_t q = 0; q < pl.size(); ++q) {
     if (!pl.touching[q] || std::size_t(pl.i[q]) >= P.n_owned()) continue;
     const Index i = pl.i[q], j = pl.j[q];
@@ -21,6 +22,7 @@ void add_response(const Particles& P, const PairList& pl, const PeriodicCell& ce
     const real_t dist = std::sqrt(d2);
     const Vec3 n = d / dist;
     const real_t un = std::max(0.0, P.radius[i] + P.radius[j] - dist);
+    const ContactLawParams& law = mixed ? materials->pair(P.material[i], P.material[j]) : scene_law;
     const auto c = Model::template constants<false, Viscous>(law, P.radius[i], P.radius[j], P.mass[i], P.mass[j]);
     const real_t kn = Model::normal_stiffness(c, un), ks = Model::shear_stiffness(c, un);
     real_t cn = 0, cs = 0;
@@ -36,11 +38,13 @@ void add_response(const Particles& P, const PairList& pl, const PeriodicCell& ce
 }  // namespace
 
 void add_specimen_response(const Particles& p, const PairList& pairs, const PeriodicCell& cell,
-                           const ContactLawParams& law, double m[18]) {
+                           const ContactLawParams& law, double m[18], const Materials* materials) {
   with_model(law.model, [&](auto model) {
     using Model = decltype(model);
-    if (law.viscous()) add_response<Model, true>(p, pairs, cell, law, m);
-    else add_response<Model, false>(p, pairs, cell, law, m);
+    const bool viscous =
+        law.viscous() || (materials && materials->any([](const ContactLawParams& l) { return l.viscous(); }));
+    if (viscous) add_response<Model, true>(p, pairs, cell, law, materials, m);
+    else add_response<Model, false>(p, pairs, cell, law, materials, m);
   });
 }
 

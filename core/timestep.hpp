@@ -22,11 +22,15 @@
 
 namespace fabrica {
 
-real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls);
+// With several materials ('materials' not empty), over every law a sphere may meet (linear) or
+// every material's elastic constants (Hertz-Mindlin).
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls,
+                          const Materials* materials = nullptr);
 // The Rayleigh time step of one sphere of radius R and density rho of the law's material [s].
 real_t rayleigh_time_step(real_t radius, real_t density, const ContactLawParams& law);
 // The same over a part of the particles (one rank's), with the smallest and largest radius of
 // all of them as the partners: the minimum over the ranks of this is the whole set's estimate.
-real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls, real_t rmin, real_t rmax);
+real_t critical_time_step(const Particles& p, const ContactLawParams& law, bool walls, real_t rmin, real_t rmax,
+                          const Materials* materials = nullptr);
 
 }  // namespace fabrica

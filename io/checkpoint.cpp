@@ -262,8 +262,9 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   }
   const SimulationParams& par = sim.params();
   const bool twisting = par.twisting();
+  const bool materials = !par.materials.empty();
   FieldWriter g;
-  g.text("particle_record", particle_record_schema()).text("contact_record", contact_record_schema(twisting));
+  g.text("particle_record", particle_record_schema(materials)).text("contact_record", contact_record_schema(twisting));
   g.vec3("cell.lengths", sim.cell().lengths()).vec3("cell.strain_rate", sim.cell().strain_rate());
   write_law(g, par.law);
   g.f64("dt", par.dt).f64("skin", par.skin).vec3("gravity", par.gravity);
@@ -273,7 +274,8 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
     g.u8("wall.own_law", w.own_law ? 1 : 0);
     if (w.own_law) write_law(g, w.law);
     g.f64("wall.servo_pressure", w.servo_pressure).f64("wall.servo_relaxation", w.servo_relaxation);
-    g.f64("wall.servo_max_speed", w.servo_max_speed);  // format 6
+    g.f64("wall.servo_max_speed", w.servo_max_speed);   // format 6
+    if (materials) g.i32("wall.material", w.material);  // format 10
   }
   g.u64("driven", par.driven.size());  // the sets of driven particles (format 4)
   for (const DrivenSet& d : par.driven) {
@@ -282,6 +284,7 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
     g.vec3("driven.velocity", d.velocity).vec3("driven.spin", d.spin);
   }
   g.u8("spatial_sort", par.spatial_sort ? 1 : 0);
+  if (materials) write_materials(g, par.materials);  // format 10
   g.i64("step", sim.step_count()).i64("rebuilds", sim.rebuild_count()).f64("time", sim.time());
   write_macro(g, sim.macro());
   Simulation& mut = const_cast<Simulation&>(sim);  // Domain accessors are not const
@@ -295,10 +298,10 @@ void CheckpointWriter::add_simulation(const std::string& prefix, const Simulatio
   g.f64("energy.wall_work", ea.wall_work).f64("energy.drive_work", ea.drive_work);
   add_fields(prefix + ".global", g);
 
-  Staged parts{prefix + ".particles", SectionKind::Distributed, std::uint32_t(particle_record_bytes()), {}};
+  Staged parts{prefix + ".particles", SectionKind::Distributed, std::uint32_t(particle_record_bytes(materials)), {}};
   parts.records = sim.particles().n_owned();
-  parts.produce = [&sim](std::uint64_t first, std::uint64_t n, std::string& out) {
-    write_particles(sim.particles(), std::size_t(first), std::size_t(n), out);
+  parts.produce = [&sim, materials](std::uint64_t first, std::uint64_t n, std::string& out) {
+    write_particles(sim.particles(), std::size_t(first), std::size_t(n), out, materials);
   };
   staged_.push_back(std::move(parts));
   Staged contacts{prefix + ".contacts", SectionKind::Distributed, std::uint32_t(contact_record_bytes(twisting)), {}};
@@ -606,6 +609,7 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
     w.servo_pressure = g.f64("wall.servo_pressure");
     w.servo_relaxation = g.f64("wall.servo_relaxation");
     w.servo_max_speed = g.f64("wall.servo_max_speed");
+    if (g.next_is("wall.material")) w.material = g.i32("wall.material");
     par.walls.push_back(w);
   }
   const auto nd = g.u64("driven");
@@ -622,6 +626,11 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
     par.driven.push_back(d);
   }
   par.spatial_sort = g.u8("spatial_sort") != 0;
+  if (g.next_is("materials")) par.materials = read_materials(g);
+  for (const Wall& w : par.walls)
+    if (w.material >= std::int32_t(par.materials.size()))
+      throw InputError(where + ".global: wall.material = " + std::to_string(w.material) + " of " +
+                       std::to_string(par.materials.size()) + " materials (corrupted)");
   snap.step = g.i64("step");
   snap.rebuilds = g.i64("rebuilds");
   snap.time = g.f64("time");

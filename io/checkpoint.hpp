@@ -33,14 +33,16 @@ namespace fabrica {
 // Raise the format version with any change of the file's structure. The fields of a section
 // carry their own layout (names and types), so a change of what a section holds is refused by
 // the reader naming the field, in any version.
-inline constexpr std::uint32_t kCheckpointFormat = 9;
+inline constexpr std::uint32_t kCheckpointFormat = 10;
 // The oldest format this build reads: 6 differs from 7 only in its particle records, which
 // carry three values this build derives (io/state_fields.hpp ParticleRecordReader); 7 from 8
 // only in the contact law's last four fields (law.model, law.poisson_ratio, law.rolling_model,
 // law.rolling_damping: io/state_fields.cpp read_law reads a law without them as the linear law
 // with the elastic-plastic rolling spring); 8 from 9 in the law's last field
 // (law.twisting_friction: without it, none) and the twisting spring at the end of the contact
-// records of a scene with twisting resistance (io/state_fields.hpp).
+// records of a scene with twisting resistance (io/state_fields.hpp); 9 from 10 in what a scene
+// of several materials adds (the material in the particle records, wall.material and the
+// materials' laws after spatial_sort: absent, one material).
 inline constexpr std::uint32_t kOldestCheckpointFormat = 6;
 inline constexpr std::size_t kHeaderBytes = 2048;
 

@@ -105,7 +105,8 @@ std::string line_of(const Piece& p, std::size_t k) {
 }
 
 // The distributed read of a data file: this rank's share (from the directory), its box.
-DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int ranks, std::int64_t& natoms_out) {
+DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int ranks, std::int64_t& natoms_out,
+                         const std::vector<std::int64_t>* types) {
   DataHeader h;
   agree(comm, [&] { h = read_data_header(path); });
   natoms_out = h.natoms;
@@ -183,7 +184,7 @@ DataFile read_data_share(const std::string& path, MPI_Comm comm, int rank, int r
       std::string w;
       if (!(ls >> w)) continue;
       if (*section == DataSection::Atoms) {
-        const AtomLine a{parse_atom_line(line, h, path, int(lineno)), lineno};
+        const AtomLine a{parse_atom_line(line, h, path, int(lineno), types), lineno};
         std::vector<char>& b = to_dir[std::size_t(std::uint64_t(a.s.id) % std::uint64_t(ranks))];
         put(b, std::int8_t(0));
         put(b, a);
@@ -266,7 +267,8 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
   Holding holding = Holding::Share;
   if (sc.source == ParticleSource::File) {
     std::int64_t natoms = 0;
-    DataFile df = read_data_share(sc.data_file, comm, rank, ranks, natoms);
+    const std::vector<std::int64_t> types = material_types(sc);
+    DataFile df = read_data_share(sc.data_file, comm, rank, ranks, natoms, types.empty() ? nullptr : &types);
     s.particles = std::move(df.particles);
     const Vec3 L = sc.cell_size.value_or(df.hi - df.lo);
     // The offender with the smallest id over all ranks, as the serial check names it.
@@ -344,7 +346,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
         for (const char *c = b.data(), *e = c + b.size(); c < e;) {
           const auto id = get<GlobalId>(c);
           const auto rad = get<real_t>(c);
-          got.add({id, rad, sc.density, get<Vec3>(c)});
+          got.add({id, rad, sc.density, get<Vec3>(c)});  // its material and mass: apply_scene_run
         }
       return got;
     };
@@ -414,7 +416,8 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
     });
   }
   apply_scene_run(sc, s);
-  double dt = s.particles.n_owned() ? critical_time_step(s.particles, sc.law, false, rmin, rmax) : 1e300;
+  double dt =
+      s.particles.n_owned() ? critical_time_step(s.particles, sc.law, false, rmin, rmax, &s.params.materials) : 1e300;
   if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp); each rank checks its spheres
     agree(comm, [&] { s.params.walls = scene_walls(sc, s.cell); });
     // The first wall with an offending sphere on any rank, and on it the smallest id, as the
@@ -428,7 +431,7 @@ Setup make_distributed_setup(const Scene& sc, MPI_Comm comm, const MpiDomainOpti
       if (o.wall == std::size_t(first[0]) && o.wall < s.params.walls.size() && s.particles.id[o.particle] == first[1])
         refuse_wall_offence(sc, s.params.walls, s.particles, o);
     });
-    dt = std::min(dt, walls_critical_time_step(sc, s.particles, rmin, rmax));
+    dt = std::min(dt, walls_critical_time_step(sc, s.particles, rmin, rmax, &s.params.materials));
   }
   if (!sc.driven.empty()) {  // [[driven]]: every id a particle of some rank
     std::vector<std::int64_t> n = driven_counts(sc, s.particles);

@@ -155,7 +155,8 @@ std::string data_line_body(const std::string& line) {
   return hash == std::string::npos ? line : line.substr(0, hash);
 }
 
-SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path, int lineno) {
+SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path, int lineno,
+                           const std::vector<std::int64_t>* types) {
   const std::string body = data_line_body(line);
   double val[7];
   if (!parse_numbers(body, 7, val))
@@ -176,7 +177,20 @@ SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const s
     if (!std::isfinite(xk)) bad(names[k], xk, "is not finite");
     if (xk < h.lo[k] || xk > h.hi[k]) bad(names[k], xk, "lies outside the box given in the header");
   }
-  return {id, 0.5 * dia, rho, Vec3(val[4], val[5], val[6]) - h.lo};
+  SphereInit s{id, 0.5 * dia, rho, Vec3(val[4], val[5], val[6]) - h.lo};
+  if (types) {  // its material, by its atom type
+    const double ty = val[1];
+    const auto k = std::find(types->begin(), types->end(), std::int64_t(ty)) - types->begin();
+    if (ty != std::floor(ty) || std::size_t(k) == types->size()) {
+      std::ostringstream m;
+      m << where(path, lineno) << ": particle " << id << " type = " << ty
+        << " is the type of no [[material]] of the scene (each atom type of the file needs a material with "
+           "type = N)";
+      throw InputError(m.str());
+    }
+    s.material = std::uint8_t(k);
+  }
+  return s;
 }
 
 DataMotion parse_velocity_line(const std::string& line, const std::string& path, int lineno) {
@@ -203,7 +217,7 @@ std::string data_duplicate_id(const std::string& path, int lineno, GlobalId id, 
   return m.str();
 }
 
-DataFile read_lammps_data(const std::string& path) {
+DataFile read_lammps_data(const std::string& path, const std::vector<std::int64_t>* types) {
   const DataHeader h = read_data_header(path);
   check_memory(where(path, h.natoms_line) + ": '" + std::to_string(h.natoms) + " atoms'",
                double(h.natoms) * kBytesPerSphere, "200 B per sphere at least");
@@ -238,7 +252,7 @@ DataFile read_lammps_data(const std::string& path) {
       continue;
     }
     if (*section == DataSection::Atoms) {
-      const SphereInit s = parse_atom_line(line, h, path, lineno);
+      const SphereInit s = parse_atom_line(line, h, path, lineno, types);
       if (!index.emplace(s.id, out.particles.n_owned()).second)
         throw InputError(data_duplicate_id(path, lineno, s.id, false));
       out.particles.add(s);

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace fabrica {
 
@@ -23,7 +24,9 @@ struct DataFile {
 // (a whole number >= 1, within the machine's memory), each box axis (present before Atoms, hi >
 // lo), ids (kMaxParticleId), diameters (kMinDiameter, kMaxDiameter in io/scene.hpp), densities,
 // positions inside the box, every atom once, the count.
-DataFile read_lammps_data(const std::string& path);
+// With 'types' (a scene of [[material]] tables: types[k] the atom type of material k, -1 for
+// none), each sphere's material is that of its type, and a type of no material is refused.
+DataFile read_lammps_data(const std::string& path, const std::vector<std::int64_t>* types = nullptr);
 
 // The pieces of the reader, shared with the distributed one (io/distributed_setup.cpp), which
 // reads the body in byte ranges, one per rank. Each throws InputError as above.
@@ -42,7 +45,8 @@ enum class DataSection { Atoms, Velocities };
 DataSection data_section_keyword(const std::string& word, const std::string& path, int lineno);
 std::string data_line_body(const std::string& line);  // without its comment
 // An Atoms line: the sphere, its position relative to the box's lower corner.
-SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path, int lineno);
+SphereInit parse_atom_line(const std::string& line, const DataHeader& h, const std::string& path, int lineno,
+                           const std::vector<std::int64_t>* types = nullptr);
 struct DataMotion {
   GlobalId id;
   Vec3 v, w;

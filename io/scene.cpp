@@ -217,6 +217,152 @@ void parse_wall_law(Section& W, const toml::table* t, WallSpec& w) {
   w.own_law = w.own_law || given || W.has("restitution_normal") || W.has("restitution_shear");
 }
 
+// The names of the scene's materials, for a message.
+std::string material_names(const Scene& sc) {
+  std::string t = "the scene's: ";
+  for (std::size_t k = 0; k < sc.materials.size(); ++k) t += (k ? ", \"" : "\"") + sc.materials[k].name + "\"";
+  return t;
+}
+
+// [[material]] tables (docs/scene.md, "Materials"): each a name, the spheres it is (a data
+// file's atom type, or a fraction of the generated spheres), their density, and the law keys
+// it gives anew: those a [[wall]] may replace (kLawParameters 'wall') and the restitutions.
+void parse_materials(const toml::node* node, const std::string& path, Scene& sc) {
+  if (!node) return;
+  const toml::array* a = node->as_array();
+  if (!a || !a->is_array_of_tables() || a->empty())
+    throw InputError(path + ": material = " + Section::node_text(*node) +
+                     ": materials are tables [[material]] (docs/scene.md, \"Materials\")");
+  if (a->size() > kMaxMaterials)
+    throw InputError(path + ": [[material]]: " + std::to_string(a->size()) + " tables, more than the " +
+                     std::to_string(kMaxMaterials) + " materials a scene may have");
+  const bool file = sc.source == ParticleSource::File;
+  real_t total = 0;
+  for (std::size_t k = 0; k < a->size(); ++k) {
+    const toml::table* t = a->get(k)->as_table();
+    Section M(t, path, "material #" + std::to_string(k + 1));
+    MaterialSpec m;
+    const auto name = M.string("name");
+    if (!name || name->empty()) M.fail("name", name ? "\"\"" : "(missing)", "a material needs a name");
+    for (const MaterialSpec& o : sc.materials)
+      if (o.name == *name) M.fail("name", "\"" + *name + "\"", "names another [[material]] too");
+    m.name = *name;
+    if (const auto ty = M.integer("type")) {
+      if (!file) M.fail("type", std::to_string(*ty), "is the atom type of a data file: used with source = \"file\"");
+      if (*ty < 1) M.fail("type", std::to_string(*ty), "must be a positive integer (a LAMMPS atom type)");
+      for (const MaterialSpec& o : sc.materials)
+        if (o.type == *ty) M.fail("type", std::to_string(*ty), "is the type of [[material]] \"" + o.name + "\" too");
+      m.type = *ty;
+    }
+    if (const auto f = M.number("fraction")) {
+      if (file)
+        M.fail("fraction", number_text(*f, 10),
+               "is a share of generated spheres: with source = \"file\" give the data file's atom type (type)");
+      require(M, "fraction", *f, *f > 0 && *f <= 1, "must lie in (0, 1] (a share of the spheres by number)");
+      m.fraction = *f;
+      total += *f;
+    }
+    m.density = sc.density;
+    if (const auto d = M.number("density")) {
+      if (file) M.fail("density", number_text(*d, 10), "is given per sphere by the data file (its density column)");
+      require(M, "density", *d, *d > 0, "must be positive (kg/m^3)");
+      m.density = *d;
+    }
+    m.law = sc.law;
+    // A material gives the keys a wall may give (the elastic constants, friction, dashpot ratios);
+    // the damping rates and rolling_damping are the scene's ([contact]).
+    for (const char* key : {"damping_rate_normal", "damping_rate_shear", "rolling_damping", "model", "rolling_model"})
+      if (M.has(key))
+        M.fail(key, Section::node_text(*t->get(key)), "is a [contact] key shared by every material; give it there");
+    parse_law_numbers(M, t, m.law, true);
+    parse_restitution(M, m.law);
+    if (!sc.materials.empty() && m.law.model == ContactModel::Linear &&
+        m.law.stiffness_mode != sc.materials[0].law.stiffness_mode) {
+      const bool direct = m.law.stiffness_mode == NormalStiffnessMode::Direct;
+      const char* key = direct ? "normal_stiffness" : "youngs_modulus";
+      M.fail(key, M.has(key) ? Section::node_text(*t->get(key)) : "(from [contact])",
+             std::string("mixes the ways of giving the linear law's stiffness: [[material]] \"") +
+                 sc.materials[0].name + "\" takes k_n from " + (direct ? "youngs_modulus" : "normal_stiffness") +
+                 "; every material gives youngs_modulus, or every one normal_stiffness");
+    }
+    M.reject_unknown();
+    sc.materials.push_back(m);
+  }
+  // Each sphere of exactly one material.
+  std::size_t spheres = 0;
+  for (const MaterialSpec& m : sc.materials) spheres += m.spheres();
+  if (spheres == 0)
+    throw InputError(path + ": [[material]]: no material is given to spheres: give each sphere material " +
+                     (file ? "the data file's atom type (type = N)" : "its share of the generated spheres (fraction)"));
+  if (!file && std::abs(total - 1.0) > 1e-9)
+    throw InputError(path + ": [[material]] fraction: the fractions add up to " + number_text(total, 10) +
+                     ", not 1 (every generated sphere is of one material)");
+}
+
+// [[material_pair]] tables: the friction coefficients and dashpots of the contacts of two
+// materials, replacing the mixing rule (as LIGGGHTS' peratomtypepair).
+void parse_material_pairs(const toml::node* node, const std::string& path, Scene& sc) {
+  if (!node) return;
+  const toml::array* a = node->as_array();
+  if (!a || !a->is_array_of_tables() || a->empty())
+    throw InputError(path + ": material_pair = " + Section::node_text(*node) +
+                     ": pairs of materials are tables [[material_pair]] (docs/scene.md, \"Materials\")");
+  if (sc.materials.size() < 2) throw InputError(path + ": [[material_pair]] needs two or more [[material]] tables");
+  for (std::size_t k = 0; k < a->size(); ++k) {
+    const toml::table* t = a->get(k)->as_table();
+    Section M(t, path, "material_pair #" + std::to_string(k + 1));
+    M.mark_used("materials");
+    const toml::node* n = t->get("materials");
+    const toml::array* names = n ? n->as_array() : nullptr;
+    if (!names || names->size() != 2 || !names->get(0)->is_string() || !names->get(1)->is_string())
+      M.fail("materials", n ? Section::node_text(*n) : "(missing)",
+             "must name the two materials of the pair: materials = [\"a\", \"b\"]");
+    std::size_t ab[2];
+    for (int e = 0; e < 2; ++e) {
+      const std::string nm = *names->get(std::size_t(e))->value<std::string>();
+      const auto it =
+          std::find_if(sc.materials.begin(), sc.materials.end(), [&](const MaterialSpec& x) { return x.name == nm; });
+      if (it == sc.materials.end())
+        M.fail("materials", Section::node_text(*n),
+               "\"" + nm + "\" is not a [[material]] (" + material_names(sc) + ")");
+      ab[e] = std::size_t(it - sc.materials.begin());
+    }
+    for (const Materials::Given& g : sc.material_pairs)
+      if ((g.a == ab[0] && g.b == ab[1]) || (g.a == ab[1] && g.b == ab[0]))
+        M.fail("materials", Section::node_text(*n), "is given by another [[material_pair]] too");
+    // The numbers into a copy of the law, then those given as the pair's.
+    ContactLawParams law = sc.law;
+    const auto numbers = {&ContactLawParams::friction, &ContactLawParams::rolling_friction,
+                          &ContactLawParams::twisting_friction, &ContactLawParams::damping_ratio_n,
+                          &ContactLawParams::damping_ratio_s};
+    Materials::Given g{ab[0], ab[1], {}};
+    for (const LawParameter& p : kLawParameters) {
+      if (!p.key || std::find(numbers.begin(), numbers.end(), p.member) == numbers.end()) continue;
+      const auto v = M.number(p.key);
+      if (!v) continue;
+      require(M, p.key, *v, within(p.bound, *v), bound_text(p.bound));
+      g.numbers.set(p.member, *v);
+    }
+    for (const char* key : {"damping_ratio_normal", "damping_ratio_shear"}) {
+      const char* e = key[14] == 'n' ? "restitution_normal" : "restitution_shear";
+      if (M.has(key) && M.has(e))
+        M.fail(e, Section::node_text(*t->get(e)), std::string("give ") + e + " or " + key + ", not both");
+    }
+    if (M.has("restitution_normal") || M.has("restitution_shear")) {
+      parse_restitution(M, law);
+      if (M.has("restitution_normal")) g.numbers.set(&ContactLawParams::damping_ratio_n, law.damping_ratio_n);
+      if (M.has("restitution_shear") || (law.model == ContactModel::HertzMindlin && !M.has("damping_ratio_shear")))
+        g.numbers.set(&ContactLawParams::damping_ratio_s, law.damping_ratio_s);
+    }
+    M.reject_unknown();
+    if (!g.numbers.any())
+      M.fail("materials", Section::node_text(*n),
+             "gives no number for the pair (friction, rolling_friction, twisting_friction, restitution_normal, "
+             "restitution_shear, damping_ratio_normal, damping_ratio_shear)");
+    sc.material_pairs.push_back(g);
+  }
+}
+
 // [[wall]] tables: planes of the periodic cell, perpendicular to a cell axis (the cell stays
 // periodic along every axis: a plane not perpendicular to one would not be invariant under its
 // periods). Checked against the cell and the particles in io/wall_setup.cpp.
@@ -266,7 +412,24 @@ void parse_walls(const toml::node* node, const std::string& path, Scene& sc) {
       for (const char* key : {"servo_relaxation", "max_speed"})
         if (W.has(key)) W.fail(key, Section::node_text(*t->get(key)), "is a setting of the servo: give pressure too");
     }
+    if (const auto m = W.string("material")) {
+      const auto it =
+          std::find_if(sc.materials.begin(), sc.materials.end(), [&](const MaterialSpec& x) { return x.name == *m; });
+      if (it == sc.materials.end())
+        W.fail("material", "\"" + *m + "\"",
+               sc.materials.empty() ? "names a material, but the scene has no [[material]] tables"
+                                    : "is not the name of a [[material]] (" + material_names(sc) + ")");
+      w.material = std::int32_t(it - sc.materials.begin());
+    }
+    if (!sc.materials.empty())  // the law of a wall is that of its material with the sphere's
+      for (const LawParameter& p : kLawParameters)
+        for (const char* key : {p.key, p.wall ? "restitution_normal" : nullptr, p.wall ? "restitution_shear" : nullptr})
+          if (key && W.has(key))
+            W.fail(key, Section::node_text(*t->get(key)),
+                   "with [[material]] tables a wall's contacts take the law of its material and the sphere's: "
+                   "give the wall material = \"<name>\" (a [[material]] of its own numbers) instead");
     parse_wall_law(W, t, w);
+    if (w.material >= 0 && sc.materials.size() > 1) w.own_law = false;
     W.reject_unknown();
     sc.walls.push_back(w);
   }
@@ -363,13 +526,14 @@ Scene parse_scene(const std::string& text, const std::string& path) {
                                                "run",       "triaxial", "parallel", "fabric"};
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
-    if (key == "stage") continue;                    // [[stage]]: io/stage_parse.cpp, below
-    if (key == "wall" || key == "driven") continue;  // [[wall]], [[driven]]: parse_walls, parse_driven
+    if (key == "stage") continue;                               // [[stage]]: io/stage_parse.cpp, below
+    if (key == "wall" || key == "driven") continue;             // [[wall]], [[driven]]: parse_walls, parse_driven
+    if (key == "material" || key == "material_pair") continue;  // parse_materials, parse_material_pairs
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
                        ": unknown top-level entry (expected one of the tables [particles], "
                        "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], "
-                       "[[stage]], [[wall]], [[driven]])");
+                       "[[stage]], [[wall]], [[driven]], [[material]], [[material_pair]])");
   }
   auto table = [&](const char* name) { return root[name].as_table(); };
 
@@ -460,6 +624,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   parse_law_numbers(K, table("contact"), law, false);
   parse_restitution(K, law);
   K.reject_unknown();
+  parse_materials(root.get("material"), path, sc);
+  parse_material_pairs(root.get("material_pair"), path, sc);
+  if (sc.materials.size() == 1) {  // one material: the scene's law and density are its own
+    sc.law = sc.materials[0].law;
+    if (sc.source == ParticleSource::Generate) sc.density = sc.materials[0].density;
+  }
 
   Section Q(table("compress"), path, "compress");
   CompressSpec& cp = sc.compress;
@@ -658,5 +828,32 @@ Scene load_scene(const std::string& path) {
 }
 
 Scene default_scene() { return parse_scene(kDemoScene, "<built-in demo scene>"); }
+
+Materials scene_materials(const Scene& sc) {
+  Materials m;
+  if (sc.materials.size() < 2) return m;
+  for (const MaterialSpec& x : sc.materials) {
+    m.names.push_back(x.name);
+    m.laws.push_back(x.law);
+  }
+  m.mix_pairs(sc.material_pairs);
+  return m;
+}
+
+std::uint8_t generated_material(const Scene& sc, GlobalId id) {
+  // The fractional part of (id + 1) / golden ratio: evenly spread over [0, 1) for consecutive
+  // ids (the counts of each material within a few of fraction x N), and a function of the id
+  // alone.
+  const real_t u = std::fmod(real_t(id + 1) * 0.6180339887498949, 1.0);
+  real_t upto = 0;
+  std::size_t last = 0;
+  for (std::size_t k = 0; k < sc.materials.size(); ++k) {
+    if (sc.materials[k].fraction <= 0) continue;
+    last = k;
+    upto += sc.materials[k].fraction;
+    if (u < upto) return std::uint8_t(k);
+  }
+  return std::uint8_t(last);  // the rounding of the sum of the fractions
+}
 
 }  // namespace fabrica

@@ -124,6 +124,17 @@ struct WallSpec {
   real_t max_speed = 0;           // m/s; 0: 1e-3 of the smallest radius per time step
   bool own_law = false;           // some [contact] key given in the wall's table
   ContactLawParams law;           // the scene's law with the wall's keys
+  std::int32_t material = -1;     // the [[material]] it names (index into Scene::materials), or -1
+};
+
+// [[material]] (docs/scene.md, "Materials"): the k-th table is material k (Particles::material).
+struct MaterialSpec {
+  std::string name;
+  ContactLawParams law;    // [contact] with the material's keys
+  real_t density = 0;      // kg/m^3, of its generated spheres
+  std::int64_t type = -1;  // the data file's atom type of its spheres (-1: none)
+  real_t fraction = 0;     // its share of the generated spheres, by number (0: none)
+  bool spheres() const { return type >= 0 || fraction > 0; }
 };
 
 struct Scene {
@@ -160,7 +171,18 @@ struct Scene {
   std::vector<StageSpec> stages;
   std::vector<WallSpec> walls;    // [[wall]]
   std::vector<DrivenSet> driven;  // [[driven]] (docs/scene.md "Driven particles")
+  // [[material]] and [[material_pair]] (empty: one material, [contact]'s law and [particles]
+  // density). With exactly one [[material]], 'law' and 'density' are its own.
+  std::vector<MaterialSpec> materials;
+  std::vector<Materials::Given> material_pairs;
 };
+
+// The law of every pair of the scene's materials (core/contact/materials.hpp); empty for a
+// scene of one material.
+Materials scene_materials(const Scene& sc);
+// The material of generated sphere 'id' (a scene with [[material]] fractions): the fractions'
+// share of the ids, by a low-discrepancy sequence of the id (the same on any rank count).
+std::uint8_t generated_material(const Scene& sc, GlobalId id);
 
 Scene load_scene(const std::string& path);
 Scene parse_scene(const std::string& text, const std::string& path);  // path: for messages

@@ -117,7 +117,23 @@ void refuse_outside_cell(const Scene& sc, const Particles& p, std::size_t a, con
                    number_text(p.x[a][k] + lo[k]) + ")");
 }
 
+std::vector<std::int64_t> material_types(const Scene& sc) {
+  std::vector<std::int64_t> t;
+  if (sc.source == ParticleSource::File)
+    for (const MaterialSpec& m : sc.materials) t.push_back(m.type);
+  return t;
+}
+
 void apply_scene_run(const Scene& sc, Setup& s) {
+  Particles& p = s.particles;
+  if (sc.source == ParticleSource::Generate && sc.materials.size() > 1)  // (a data file's: by type when read)
+    for (std::size_t a = 0; a < p.n_owned(); ++a) {
+      const std::uint8_t m = generated_material(sc, p.id[a]);
+      const real_t R = p.radius[a];
+      p.material[a] = m;
+      p.mass[a] = sc.materials[m].density * 4.0 / 3.0 * std::numbers::pi * R * R * R;  // as Particles::add
+    }
+  s.params.materials = scene_materials(sc);
   if (sc.density_scaling != 1.0) s.particles.scale_density(sc.density_scaling);
   s.params.law = sc.law;
   s.params.skin = sc.skin;
@@ -128,7 +144,8 @@ void apply_scene_run(const Scene& sc, Setup& s) {
 Setup make_setup(const Scene& sc) {
   Setup s;
   if (sc.source == ParticleSource::File) {
-    DataFile df = read_lammps_data(sc.data_file);
+    const std::vector<std::int64_t> types = material_types(sc);
+    DataFile df = read_lammps_data(sc.data_file, types.empty() ? nullptr : &types);
     s.particles = std::move(df.particles);
     const Vec3 box = df.hi - df.lo;
     const Vec3 L = sc.cell_size.value_or(box);
@@ -189,13 +206,14 @@ Setup make_setup(const Scene& sc) {
   const OverlapReport ov = largest_overlap(s.particles, s.cell);
   if (ov.ratio > sc.max_initial_overlap) throw InputError(overlap_message(sc, ov));
   apply_scene_run(sc, s);
-  s.critical_dt = critical_time_step(s.particles, sc.law, false);
+  s.critical_dt = critical_time_step(s.particles, sc.law, false, &s.params.materials);
   if (!sc.walls.empty()) {  // [[wall]] (io/wall_setup.hpp)
     s.params.walls = scene_walls(sc, s.cell);
     if (const WallOffence o = first_wall_offence(sc, s.params.walls, s.particles); o.wall < s.params.walls.size())
       refuse_wall_offence(sc, s.params.walls, s.particles, o);
-    s.critical_dt = std::min(
-        s.critical_dt, walls_critical_time_step(sc, s.particles, s.particles.min_radius(), s.particles.max_radius()));
+    s.critical_dt = std::min(s.critical_dt,
+                             walls_critical_time_step(sc, s.particles, s.particles.min_radius(),
+                                                      s.particles.max_radius(), &s.params.materials));
   }
   if (!sc.driven.empty()) {  // [[driven]] (io/wall_setup.hpp)
     check_driven_counts(sc, driven_counts(sc, s.particles));

@@ -53,9 +53,14 @@ std::size_t outside_cell(const Particles& p, const Vec3& L);
 [[noreturn]] void refuse_outside_cell(const Scene& scene, const Particles& p, std::size_t a, const Vec3& L,
                                       const Vec3& lo);
 
-// [run] density_scaling applied to the particles, and the contact law, skin, gravity and local
-// damping of the scene copied into the parameters (make_setup and make_distributed_setup).
+// The materials of generated spheres (several materials: each its material by
+// generated_material, its mass by the material's density), [run] density_scaling applied to
+// the particles, and the contact law, materials, skin, gravity and local damping of the scene
+// copied into the parameters (make_setup and make_distributed_setup).
 void apply_scene_run(const Scene& scene, Setup& s);
+// The atom type of each material of a data-file scene (-1: a wall's material); empty without
+// [[material]] tables.
+std::vector<std::int64_t> material_types(const Scene& sc);
 
 // The time step the scene asks for, validated against the estimate (used again when the
 // contact parameters change between stages).

@@ -18,6 +18,7 @@ namespace {
 struct PartRec {
   std::int64_t id;
   double x[3], v[3], w[3], r;
+  std::uint8_t material;
 };
 struct ContRec {
   std::int64_t id1, id2;
@@ -111,7 +112,9 @@ std::vector<Column<PartRec>> particle_columns() {
           f64<R>("position", "m", 3, [=](const R& r, double* d) { copy3(r.x, d); }),
           f64<R>("velocity", "m/s", 3, [=](const R& r, double* d) { copy3(r.v, d); }),
           f64<R>("spin", "rad/s", 3, [=](const R& r, double* d) { copy3(r.w, d); }),
-          f64<R>("radius", "m", 0, [](const R& r, double* d) { *d = r.r; })};
+          f64<R>("radius", "m", 0, [](const R& r, double* d) { *d = r.r; }),
+          // the index of its [[material]] (0 in a scene of one material)
+          {"material", "1", 0, h5::Type::U8, [](const R& r, void* d) { *static_cast<std::uint8_t*>(d) = r.material; }}};
 }
 
 std::vector<Column<ContRec>> contact_columns(double strong_threshold) {
@@ -166,9 +169,10 @@ void write_round(const std::vector<h5::Dataset>& ds, const std::vector<Column<Re
 // Every contact row of this rank: the particle contacts, then the wall contacts.
 void for_each_row(const Simulation& sim, const std::function<void(const ContactRecord&)>& fn) {
   const Particles& p = sim.particles();
-  for_each_contact_record(p, sim.cell(), sim.params().law, sim.pairs(), fn);
+  for_each_contact_record(p, sim.cell(), sim.params().law, sim.pairs(), fn, &sim.params().materials);
   if (!sim.params().walls.empty())
-    for (const ContactRecord& c : wall_contact_records(p, sim.params().law, sim.params().walls, sim.wall_contacts()))
+    for (const ContactRecord& c :
+         wall_contact_records(p, sim.params().law, sim.params().walls, sim.wall_contacts(), &sim.params().materials))
       fn(c);
 }
 
@@ -234,6 +238,7 @@ double SnapshotWriter::write(const h5::Group& g) const {
       r.id = p.id[i];
       put(r.x, p.x[i]), put(r.v, p.v[i]), put(r.w, p.w[i]);
       r.r = p.radius[i];
+      r.material = p.material[i];
       parts.push_back(r);
     }
     std::vector<ContRec> conts;

@@ -74,6 +74,9 @@ struct StageSpec {
   // kLawParameters marked 'stage' (core/contact/params.hpp). A damping ratio replaces the dashpot
   // of that direction, rate form included (stage_law).
   LawChanges law;
+  // The scene's own law put back first, each material's own (the triaxial test's switch after
+  // consolidation, whose friction was every pair's), then 'law' set.
+  bool own_law = false;
   std::optional<real_t> local_damping;
   bool reset_strain = false;  // the series' strains measured from this stage's start
   StageFabric fabric = StageFabric::None;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstring>
 #include <iterator>
+#include <string_view>
 #include <type_traits>
 
 namespace fabrica {
@@ -85,6 +86,37 @@ ContactLawParams read_law(FieldReader& r) {
   return l;
 }
 
+void write_materials(FieldWriter& w, const Materials& m) {
+  w.u64("materials", m.size());
+  for (std::size_t k = 0; k < m.size(); ++k) {
+    w.text("material.name", m.names[k]);
+    write_law(w, m.laws[k]);
+  }
+  for (const ContactLawParams& l : m.pairs) {
+    write_law(w, l);
+    w.f64("pair.estar", l.pair_estar).f64("pair.gstar", l.pair_gstar);
+  }
+}
+
+Materials read_materials(FieldReader& r) {
+  Materials m;
+  const std::uint64_t n = r.u64("materials");
+  if (n < 2 || n > kMaxMaterials)
+    throw InputError("checkpoint field materials = " + std::to_string(n) + ": not a count of materials (2 to " +
+                     std::to_string(kMaxMaterials) + "; a corrupt file)");
+  for (std::uint64_t k = 0; k < n; ++k) {
+    m.names.push_back(r.text("material.name"));
+    m.laws.push_back(read_law(r));
+  }
+  for (std::uint64_t k = 0; k < n * n; ++k) {
+    ContactLawParams l = read_law(r);
+    l.pair_estar = r.f64("pair.estar");
+    l.pair_gstar = r.f64("pair.gstar");
+    m.pairs.push_back(l);
+  }
+  return m;
+}
+
 void write_dissipation(FieldWriter& w, const Dissipation& d) { dissipation_fields(w, d); }
 Dissipation read_dissipation(FieldReader& r) {
   Dissipation d;
@@ -105,6 +137,8 @@ template <class T>
 void put_value(std::string& out, const T& v) {
   if constexpr (std::is_same_v<T, GlobalId>) {
     put_le(out, std::uint64_t(v), 8);
+  } else if constexpr (std::is_same_v<T, std::uint8_t>) {
+    out.push_back(char(v));
   } else if constexpr (std::is_same_v<T, real_t>) {
     std::uint64_t b;
     std::memcpy(&b, &v, 8);
@@ -119,6 +153,9 @@ const char* get_value(const char* in, T& v) {
   if constexpr (std::is_same_v<T, GlobalId>) {
     v = GlobalId(get_le(in, 8));
     return in + 8;
+  } else if constexpr (std::is_same_v<T, std::uint8_t>) {
+    v = std::uint8_t(*in);
+    return in + 1;
   } else if constexpr (std::is_same_v<T, real_t>) {
     const std::uint64_t b = get_le(in, 8);
     std::memcpy(&v, &b, 8);
@@ -131,38 +168,49 @@ const char* get_value(const char* in, T& v) {
 template <class T>
 const char* type_of() {
   if constexpr (std::is_same_v<T, GlobalId>) return "i64";
+  else if constexpr (std::is_same_v<T, std::uint8_t>) return "u8";
   else if constexpr (std::is_same_v<T, real_t>) return "f64";
   else return "f64[3]";
 }
+template <class T>
+constexpr std::size_t size_of() {
+  return std::is_same_v<T, Vec3> ? 24 : std::is_same_v<T, std::uint8_t> ? 1 : 8;
+}
+// The material is in the records of a scene of several materials only (format 10).
+bool recorded(const char* name, bool materials) { return materials || std::string_view(name) != "material"; }
 }  // namespace
 
-std::string particle_record_schema() {
+std::string particle_record_schema(bool materials) {
   std::string s;
   Particles probe;
   for_each_property(probe, [&](const char* name, auto& vec, Travel) {
     using T = typename std::decay_t<decltype(vec)>::value_type;
-    s += (s.empty() ? "" : ";") + std::string(name) + ":" + type_of<T>();
+    if (recorded(name, materials)) s += (s.empty() ? "" : ";") + std::string(name) + ":" + type_of<T>();
   });
   return s;
 }
 
-std::size_t particle_record_bytes() {
+std::size_t particle_record_bytes(bool materials) {
   std::size_t b = 0;
   Particles probe;
-  for_each_property(probe, [&](const char*, auto& vec, Travel) {
+  for_each_property(probe, [&](const char* name, auto& vec, Travel) {
     using T = typename std::decay_t<decltype(vec)>::value_type;
-    b += std::is_same_v<T, Vec3> ? 24 : 8;
+    if (recorded(name, materials)) b += size_of<T>();
   });
   return b;
 }
 
-void write_particles(const Particles& p, std::size_t first, std::size_t n, std::string& out) {
-  out.reserve(out.size() + n * particle_record_bytes());
+void write_particles(const Particles& p, std::size_t first, std::size_t n, std::string& out, bool materials) {
+  out.reserve(out.size() + n * particle_record_bytes(materials));
   for (std::size_t a = first; a < first + n; ++a)
-    for_each_property(p, [&](const char*, const auto& vec, Travel) { put_value(out, vec[a]); });
+    for_each_property(p, [&](const char* name, const auto& vec, Travel) {
+      if (recorded(name, materials)) put_value(out, vec[a]);
+    });
 }
 
-void write_particles(const Particles& p, std::string& out) { write_particles(p, 0, p.n_owned(), out); }
+void write_particles(const Particles& p, std::string& out, bool materials) {
+  write_particles(p, 0, p.n_owned(), out, materials);
+}
 
 namespace {
 // The fields of earlier particle records that this build derives instead of reading.
@@ -178,7 +226,7 @@ ParticleRecordReader::ParticleRecordReader(const std::string& schema, const std:
     for_each_property(probe, [&](const char* name, auto& vec, Travel) {
       using T = typename std::decay_t<decltype(vec)>::value_type;
       mine.push_back(std::string(name) + ":" + type_of<T>());
-      size.push_back(std::is_same_v<T, Vec3> ? 24 : 8);
+      size.push_back(size_of<T>());
     });
   }
   std::vector<bool> seen(mine.size(), false);
@@ -201,7 +249,7 @@ ParticleRecordReader::ParticleRecordReader(const std::string& schema, const std:
     bytes_ += fields_.back().bytes;
   }
   for (std::size_t k = 0; k < mine.size(); ++k)
-    if (!seen[k])
+    if (!seen[k] && mine[k] != "material:u8")  // one material: not recorded, 0
       throw InputError(where + ": the particle records have no field '" + mine[k] + "' (their layout: '" + schema +
                        "')");
 }

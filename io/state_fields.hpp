@@ -14,18 +14,23 @@ namespace fabrica {
 // Contact law, measures, dissipation: one field per member, named "<prefix>.<member>".
 void write_law(FieldWriter& w, const ContactLawParams& law);
 ContactLawParams read_law(FieldReader& r);
+// The materials of a scene of several (format 10): names, own laws, and every pair's law with
+// its effective moduli.
+void write_materials(FieldWriter& w, const Materials& m);
+Materials read_materials(FieldReader& r);
 void write_macro(FieldWriter& w, const MacroState& m);
 MacroState read_macro(FieldReader& r);
 void write_dissipation(FieldWriter& w, const Dissipation& d);
 Dissipation read_dissipation(FieldReader& r);
 
 // Particle records: every property of parallel/properties.hpp, in its order (id i64, vectors
-// f64[3], scalars f64).
-std::string particle_record_schema();
-std::size_t particle_record_bytes();
-void write_particles(const Particles& p, std::string& out);  // the owned ones
+// f64[3], scalars f64, the material u8), the material only in a scene of several materials
+// ('materials'; format 10): a record without it reads as material 0.
+std::string particle_record_schema(bool materials = false);
+std::size_t particle_record_bytes(bool materials = false);
+void write_particles(const Particles& p, std::string& out, bool materials = false);  // the owned ones
 // Owned particles [first, first + n) only.
-void write_particles(const Particles& p, std::size_t first, std::size_t n, std::string& out);
+void write_particles(const Particles& p, std::size_t first, std::size_t n, std::string& out, bool materials = false);
 // The particle records of a checkpoint by the layout it names ('name:type;...'): this build's,
 // or an earlier one whose other fields are values this build derives (checkpoint format 6:
 // inertia, inv_mass and inv_inertia, all f64, derived from mass and radius since format 7),

@@ -31,6 +31,7 @@ std::vector<Wall> scene_walls(const Scene& sc, const PeriodicCell& cell) {
       throw InputError(where(sc, k) + "point = " + vec(s.point) + ": its plane (coordinate " + std::to_string(a + 1) +
                        " = " + number_text(s.point[a]) + ") lies outside the cell [0, " + number_text(L[a]) + "] m");
     Wall w{s.point, s.normal, s.velocity, s.own_law, s.law};
+    w.material = sc.materials.size() > 1 ? s.material : -1;  // one material: the scene's law
     w.servo_pressure = s.pressure;
     w.servo_relaxation = s.servo_relaxation;
     w.servo_max_speed = s.max_speed;  // 0 until set_servo_speed_caps (the time step unknown here)
@@ -94,10 +95,11 @@ void refuse_wall_offence(const Scene& sc, const std::vector<Wall>& walls, const 
                    ": [run] max_initial_overlap = " + number_text(sc.max_initial_overlap));
 }
 
-real_t walls_critical_time_step(const Scene& sc, const Particles& p, real_t rmin, real_t rmax) {
+real_t walls_critical_time_step(const Scene& sc, const Particles& p, real_t rmin, real_t rmax,
+                                const Materials* materials) {
   real_t dt = std::numeric_limits<real_t>::infinity();
   if (sc.walls.empty() || p.n_owned() == 0) return dt;
-  dt = critical_time_step(p, sc.law, true, rmin, rmax);
+  dt = critical_time_step(p, sc.law, true, rmin, rmax, materials);
   for (const WallSpec& w : sc.walls)
     if (w.own_law) dt = std::min(dt, critical_time_step(p, w.law, true, rmin, rmax));
   return dt;

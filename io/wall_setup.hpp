@@ -39,7 +39,8 @@ WallOffence first_wall_offence(const Scene& scene, const std::vector<Wall>& wall
 
 // The critical time step (core/timestep.hpp) with the walls: the scene's law with a wall as a
 // partner, and each wall's own law; +infinity without walls. rmin, rmax: of all particles.
-real_t walls_critical_time_step(const Scene& scene, const Particles& p, real_t rmin, real_t rmax);
+real_t walls_critical_time_step(const Scene& scene, const Particles& p, real_t rmin, real_t rmax,
+                                const Materials* materials = nullptr);
 
 // [[driven]]: how many particles of 'p' (owned ones) each set names; with the sums over every
 // rank's part, check_driven_counts throws InputError for a set naming an id that is not a

@@ -99,7 +99,9 @@ void write_xdmf(const std::string& path, const std::string& h5file, const std::v
           << "        <Geometry GeometryType=\"XYZ\">\n          " << item("position", 3, "Float", 8)
           << "\n        </Geometry>\n"
           << attribute("radius", "Scalar", 0, "Float") << attribute("velocity", "Vector", 3, "Float")
-          << attribute("spin", "Vector", 3, "Float") << attribute("id", "Scalar", 0, "Int");
+          << attribute("spin", "Vector", 3, "Float") << attribute("id", "Scalar", 0, "Int")
+          << std::string("        <Attribute Name=\"material\" AttributeType=\"Scalar\" Center=\"Node\">\n          ") +
+                item("material", 0, "UChar", 1) + "\n        </Attribute>\n";
       });
 }
 

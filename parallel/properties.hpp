@@ -30,6 +30,7 @@ void for_each_property(P& p, F&& f) {
   f("radius", p.radius, Travel::AtCreation);
   f("mass", p.mass, Travel::AtCreation);
   f("id", p.id, Travel::AtCreation);
+  f("material", p.material, Travel::AtCreation);
   f("f", p.f, Travel::Never);
   f("t", p.t, Travel::Never);
 }

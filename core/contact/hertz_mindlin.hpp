@@ -7,6 +7,8 @@
 //
 //   one material (E, nu); a sphere and a wall are of the same material:
 //   E* = E / (2 (1 - nu^2)),  G* = E / (4 (2 - nu)(1 + nu))                              [Pa]
+//   two materials (core/contact/materials.hpp): 1/E* = sum (1 - nu_i^2) / E_i,
+//   1/G* = sum 2 (2 - nu_i)(1 + nu_i) / E_i
 //   R* = R1 R2 / (R1 + R2) (a wall: R* = R1),  m* likewise                         [m], [kg]
 //   f_n = 4/3 E* sqrt(R*) u_n^{3/2}  (+ dashpot), never tensile                           [N]
 //   k_n = df_n/du_n = 2 E* sqrt(R* u_n),   k_t = 8 G* sqrt(R* u_n)                        [N/m]
@@ -64,12 +66,15 @@ struct HertzMindlin {
   template <class T>
   using Pair = HertzPairL<T>;
 
-  // The effective moduli of two bodies of the scene's one material [Pa].
+  // The effective moduli of two bodies of one material [Pa], or of the pair of two materials
+  // that the mixing rule set (core/contact/materials.hpp).
   static real_t effective_modulus(const ContactLawParams& law) {
+    if (law.pair_estar > 0) return law.pair_estar;
     const real_t nu = law.poisson_ratio;
     return law.youngs_modulus / (2.0 * (1.0 - nu * nu));
   }
   static real_t effective_shear_modulus(const ContactLawParams& law) {
+    if (law.pair_gstar > 0) return law.pair_gstar;
     const real_t nu = law.poisson_ratio;
     return law.youngs_modulus / (4.0 * (2.0 - nu) * (1.0 + nu));
   }

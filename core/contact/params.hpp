@@ -41,6 +41,11 @@ struct ContactLawParams {
   real_t damping_ratio_s = 0.0;  // beta_s [-]
   real_t damping_rate_n = 0.0;   // eta_n [1/s], c_n = eta_n m_eff (linear only)
   real_t damping_rate_s = 0.0;   // eta_s [1/s] (linear only)
+  // Hertz-Mindlin between two materials (core/contact/materials.hpp): the pair's effective
+  // moduli E*, G* [Pa], which no single (E, nu) gives; 0 for one material (E*, G* from E, nu).
+  // Not scene keys: the mixing rule sets them.
+  real_t pair_estar = 0.0;
+  real_t pair_gstar = 0.0;
 
   bool rolling() const { return rolling_friction > 0.0; }
   bool twisting() const { return twisting_friction > 0.0; }

@@ -292,6 +292,55 @@ TEST(Stages, StageSetsContactParameters) {
   EXPECT_EQ(r.sim.params().law.damping_ratio_s, 0.1);
 }
 
+// With several materials: the triaxial consolidation sets every pair's friction; the switch after
+// it puts back each pair's own (the mixing rule's, a [[material_pair]]'s) with the case's mu_r
+// for every pair; a [[stage]]'s friction is every pair's.
+TEST(Stages, TriaxialSwitchPutsBackEachMaterialsLaw) {
+  const Scene scene = parse_scene(R"([contact]
+friction = 0.3
+[triaxial]
+consolidation_friction = 1000.0
+[[material]]
+name = "a"
+fraction = 0.5
+friction = 0.2
+[[material]]
+name = "b"
+fraction = 0.25
+friction = 0.6
+[[material]]
+name = "c"
+fraction = 0.25
+[[material_pair]]
+materials = ["b", "c"]
+friction = 0.45
+)",
+                                  "materials.toml");
+  Fcc f;
+  Simulation sim = f.make();
+  sim.set_laws(sim.params().law, scene_materials(scene));
+  std::ostringstream series;
+  StageRun run(scene, sim, 2 * Fcc::R, 2650, &series, nullptr);
+  auto one_step = [](StageSpec st) {
+    st.end = StageEnd{};
+    st.end.steps = 1;
+    return st;
+  };
+  run.run(one_step(consolidation_stage(scene)), 0);
+  const Materials& m = sim.params().materials;
+  for (std::size_t a = 0; a < 3; ++a)
+    for (std::size_t b = 0; b < 3; ++b) EXPECT_EQ(m.pair(a, b).friction, 1000.0);
+  run.run(one_step(equilibration_stage(scene, 0.1)), 1);
+  const real_t own[3][3] = {{0.2, 0.2, 0.2}, {0.2, 0.6, 0.45}, {0.2, 0.45, 0.3}};
+  for (std::size_t a = 0; a < 3; ++a)
+    for (std::size_t b = 0; b < 3; ++b) {
+      EXPECT_EQ(m.pair(a, b).friction, own[a][b]) << a << ", " << b;
+      EXPECT_EQ(m.pair(a, b).rolling_friction, 0.1);
+    }
+  EXPECT_EQ(sim.params().law.friction, 0.3);
+  EXPECT_TRUE(sim.params().rolling());
+}
+
 // A stage's damping ratio replaces that direction's dashpot, rate form included; later stages
 // keep it until one changes it.
 TEST(Stages, StageLawReplacesTheDashpot) {

@@ -200,7 +200,8 @@ def _xdmf_file(xmf, h5, f, cases):
                 if f[path].shape != dims or dims[0] != n:
                     fail(f"{xmf}: {path} has shape {f[path].shape}, the XDMF says {dims}")
                 dt = f[path].dtype
-                want = ("Float" if dt.kind == "f" else "Int" if dt.kind == "i" else "UInt", str(dt.itemsize))
+                want = ("Float" if dt.kind == "f" else "Int" if dt.kind == "i"
+                        else "UChar" if dt.itemsize == 1 else "UInt", str(dt.itemsize))
                 if (item.get("NumberType"), item.get("Precision")) != want:
                     fail(f"{xmf}: {path} is {dt}, the XDMF says NumberType {item.get('NumberType')} "
                          f"Precision {item.get('Precision')}")

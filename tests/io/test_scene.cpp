@@ -506,6 +506,9 @@ TEST(Scene, LawParametersAreDeclaredOnce) {
       expect_error(
           "[contact]\n" + model + "[[wall]]\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n" + p.key + " = " + bad + "\n",
           {"[wall #1]", p.key, bad, bound_text(p.bound)});
+    if (p.wall)  // a [[material]] takes the keys a wall takes
+      expect_error("[contact]\n" + model + "[[material]]\nname = \"m\"\nfraction = 1.0\n" + p.key + " = " + bad + "\n",
+                   {"[material #1]", p.key, bad, bound_text(p.bound)});
     if (p.stage)
       expect_error("[[stage]]\ntype = \"hold\"\n" + std::string(p.key) + " = " + bad + "\nend = { steps = 1 }\n",
                    {std::string("stage[1].") + p.key, bad, bound_text(p.bound)});

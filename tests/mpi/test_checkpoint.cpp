@@ -57,6 +57,22 @@ std::string dense_text() {
 
 Setup dense_setup() { return make_setup(load_scene(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml")); }
 
+// Two materials on the dense specimen: every third sphere (by id) of material 1, twice as dense,
+// three times as stiff, of another friction and rolling friction than material 0 (the scene's).
+void two_materials(Setup& s) {
+  ContactLawParams b = s.params.law;
+  b.youngs_modulus *= 3;
+  b.friction = 0.5;
+  b.rolling_friction = b.rolling_friction > 0 ? 2 * b.rolling_friction : 0.2;
+  s.params.materials.names = {"a", "b"};
+  s.params.materials.laws = {s.params.law, b};
+  s.params.materials.mix_pairs();
+  Particles& p = s.particles;
+  for (std::size_t a = 0; a < p.n_owned(); ++a)
+    if (p.id[a] % 3 == 0) p.material[a] = 1, p.mass[a] *= 2;
+  s.params.dt = 0.25 * critical_time_step(p, s.params.law, false, &s.params.materials);
+}
+
 // The cell deforms (shear-like: axis 1 shortens, 2 and 3 lengthen) so that the saved strain
 // rates and the rebuild criterion's reference lengths matter.
 void deform(Simulation& sim) { sim.cell().set_strain_rate(Vec3(-2.0, 1.0, 1.0)); }
@@ -208,10 +224,11 @@ TEST(Checkpoint, BitwiseContinuation) {
 
 // The same continuation with another law: the law, its model and the springs come back from the
 // file, and the restarted run is the uninterrupted one bit for bit.
-void continues_bitwise(const ContactLawParams& law, const std::string& name) {
+void continues_bitwise(const ContactLawParams& law, const std::string& name, bool materials = false) {
   fabrica::Setup s = dense_setup();
   s.params.law = law;
   s.params.dt = 0.25 * critical_time_step(s.particles, law, false);
+  if (materials) two_materials(s);
   const std::string text = dense_text();
   Simulation ref(s.particles, s.cell, s.params);
   deform(ref);
@@ -235,6 +252,13 @@ void continues_bitwise(const ContactLawParams& law, const std::string& name) {
   EXPECT_EQ(restarted.params().law.model, law.model);
   EXPECT_EQ(restarted.params().law.poisson_ratio, law.poisson_ratio);
   EXPECT_EQ(restarted.params().law.twisting_friction, law.twisting_friction);
+  EXPECT_EQ(restarted.params().materials.size(), materials ? 2u : 0u);
+  if (materials) {
+    const ContactLawParams &a = restarted.params().materials.pair(0, 1), &b = s.params.materials.pair(0, 1);
+    EXPECT_EQ(a.youngs_modulus, b.youngs_modulus);
+    EXPECT_EQ(a.pair_estar, b.pair_estar);
+    EXPECT_EQ(a.friction, b.friction);
+  }
   run_to(restarted, kSteps);
   expect_same_trajectory(restarted, ref);
   EXPECT_GT(ref.macro().dissipated.rolling, 0.0);
@@ -251,6 +275,18 @@ TEST(Checkpoint, HertzMindlinBitwiseContinuation) {
   law.damping_rate_n = law.damping_rate_s = 0;
   law.damping_ratio_n = 0.1;
   continues_bitwise(law, "hertz");
+}
+
+// Two materials (format 10: the material in the particle records, the pairs' laws in the
+// global fields), with each model.
+TEST(Checkpoint, MaterialsBitwiseContinuation) {
+  ContactLawParams law = dense_setup().params.law;
+  continues_bitwise(law, "materials_linear", true);
+  law.model = ContactModel::HertzMindlin;
+  law.poisson_ratio = 0.25;
+  law.damping_rate_n = law.damping_rate_s = 0;
+  law.damping_ratio_n = 0.1;
+  continues_bitwise(law, "materials_hertz", true);
 }
 
 // Twisting resistance, whose springs the contact records then carry (format 9), with each

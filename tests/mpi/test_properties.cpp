@@ -67,10 +67,11 @@ TEST(Properties, FieldPiecesAreTheGhostRangesOfEachField) {
   for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(pieces[k].bytes, sizes[k]);
   EXPECT_TRUE(field_pieces(p, first, 0, Message::Refresh).empty());
   EXPECT_TRUE(field_piece_bytes(0, Message::Refresh).empty());
-  // Full messages carry the properties set at creation too (radius, mass, id; the moment of
-  // inertia and the inverses are derived from them, not sent).
-  EXPECT_EQ(field_pieces(p, first, 3, Message::Full).size(), 6u);
-  EXPECT_EQ(bytes_per_particle(Message::Full), 3 * sizeof(Vec3) + 2 * sizeof(real_t) + sizeof(GlobalId));
+  // Full messages carry the properties set at creation too (radius, mass, id, material; the
+  // moment of inertia and the inverses are derived from them, not sent).
+  EXPECT_EQ(field_pieces(p, first, 3, Message::Full).size(), 7u);
+  EXPECT_EQ(bytes_per_particle(Message::Full),
+            3 * sizeof(Vec3) + 2 * sizeof(real_t) + sizeof(GlobalId) + sizeof(std::uint8_t));
   // The every-step forward message leaves the positions out (the ghosts drift themselves): v, w.
   const std::vector<BytePiece> fwd = field_pieces(p, first, 3, Message::Forward);
   ASSERT_EQ(fwd.size(), 2u);
