@@ -89,10 +89,10 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
       for (const ContactRecord& c : snap.contacts) walls_all += c.id2 < 0;
       fmt::print(
           "{} step {}: eps1 {:.4f}, {} contacts{}, q/p {:.4f}, (q/p)* all {:.4f}, "
-          "ns-sf/ns-wf/s-sf/s-wf {:.4f}\n",
+          "ns-sf/ns-wf/s-sf/s-wf {:.4f} (with the exact shares of p: {:.4f})\n",
           name, info.step, snap.info.strain[0], res.contacts,
           walls_all ? fmt::format(" (and {} with walls, not in the fabric)", walls_all) : std::string(), res.q_p,
-          res.q_p_star[kPartAll], res.q_p_star[kPartSlideForce]);
+          res.q_p_star[kPartAll], res.q_p_star[kPartSlideForce], res.q_p_exact[kPartSlideForce]);
       ++analysed;
     }
     agree(mpi.comm(), [&] {

@@ -14,14 +14,17 @@ std::string num(real_t v) { return std::isnan(v) ? std::string("nan") : fmt::for
 
 void write_fabric_headers(const FabricStreams& out, int rose_bins) {
   if (out.fabric)
-    *out.fabric << "stage,step,eps1,network,count,mean_fn,zeta,gamma,xi,phi11,phi22,phi33,phi12,"
+    *out.fabric << "stage,step,eps1,network,count,mean_fn,zeta,gamma,xi,share,phi11,phi22,phi33,phi12,"
                    "phi23,phi13,phi_1,phi_2,phi_3,dir_1,dir_2,dir_3,a_c,a_b,a_n,a_t,ac11,ac22,"
-                   "ac33,an11,an22,an33,at11,at22,at33,b0,f0,p_k,q_k,s11_k,s22_k,s33_k,"
-                   "nonpositive_weights,min_weight\n";
+                   "ac33,an11,an22,an33,at11,at22,at33,b0,f0,p_k,q_k,s11_k,s22_k,s33_k,s12_k,s23_k,"
+                   "s13_k,s21_k,s32_k,s31_k,nonpositive_weights,min_weight\n";
   if (out.sff) {
     *out.sff << "stage,step,eps1,contacts,mean_fn,p,q,q_p";
     for (auto name : kPartitionNames) *out.sff << ",q_p_star_" << name;
     for (auto name : kPartitionNames) *out.sff << ",q_p_tensor_" << name;
+    for (auto name : kPartitionNames) *out.sff << ",q_p_exact_" << name;
+    for (auto name : kPartitionNames) *out.sff << ",q_p_exact_tensor_" << name;
+    for (auto name : kPartitionNames) *out.sff << ",q_p_recombined_" << name;
     *out.sff << '\n';
   }
   if (out.rose) {
@@ -43,6 +46,7 @@ void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::
                           n.zeta,
                           n.gamma,
                           n.xi,
+                          n.share,
                           n.phi(0, 0),
                           n.phi(1, 1),
                           n.phi(2, 2),
@@ -74,7 +78,13 @@ void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::
                           qk,
                           n.stress(0, 0),
                           n.stress(1, 1),
-                          n.stress(2, 2)};
+                          n.stress(2, 2),
+                          n.stress(0, 1),
+                          n.stress(1, 2),
+                          n.stress(0, 2),
+                          n.stress(1, 0),
+                          n.stress(2, 1),
+                          n.stress(2, 0)};
       *out.fabric << label << ',' << kNetworkNames[k] << ',' << n.count;
       for (real_t x : v) *out.fabric << ',' << num(x);
       *out.fabric << ',' << n.nonpositive_weights << ',' << num(n.min_weight) << '\n';
@@ -85,6 +95,9 @@ void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::
              << num(r.q_p);
     for (real_t x : r.q_p_star) *out.sff << ',' << num(x);
     for (real_t x : r.q_p_star_tensor) *out.sff << ',' << num(x);
+    for (real_t x : r.q_p_exact) *out.sff << ',' << num(x);
+    for (real_t x : r.q_p_exact_tensor) *out.sff << ',' << num(x);
+    for (real_t x : r.q_p_recombined) *out.sff << ',' << num(x);
     *out.sff << '\n';
   }
   if (out.rose) {

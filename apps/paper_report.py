@@ -120,18 +120,25 @@ def findings_section(findings):
 def sff_section(run):
     header = ["partition"]
     for c in run.cases:
-        header += [f"{c.text}: mean", "max", "tensor form: mean"]
+        header += [f"{c.text}: mean", "max", "tensor form: mean", "exact shares: mean", "max",
+                   "exact shares, tensor: mean"]
     rows = []
     for p in pd.PARTITIONS:
         r = [pd.PARTITION_LABELS[p]]
         for c in run.cases:
             m, mx = pf.sff_deviation(c, p)
             t, _ = pf.sff_deviation(c, p, "tensor")
-            r += [f"{100 * m:.2f} %", f"{100 * mx:.1f} %", f"{100 * t:.2f} %" if np.isfinite(t) else "-"]
+            e, ex = pf.sff_deviation(c, p, "exact")
+            et, _ = pf.sff_deviation(c, p, "exact_tensor")
+            pc = lambda v, d=2: f"{100 * v:.{d}f} %" if np.isfinite(v) else "-"  # noqa: E731
+            r += [pc(m), pc(mx, 1), pc(t), pc(e), pc(ex, 1), pc(et)]
         rows.append(r)
     return ("<h2 id='sff'>Stress-force-fabric residuals per partition</h2>"
             "<p>|(q/p)* - q/p| / (q/p) over the rows of the shear stage: (q/p)* = 2/5 &Sigma; xi_k (a_c + a_b + "
-            "a_n + 3/2 a_t) of the partition (the spec's scalar form), and the tensor form of docs/fabric.md.</p>"
+            "a_n + 3/2 a_t) of the partition (the spec's scalar form, the study's weights xi_k = zeta_k gamma_k), "
+            "and the tensor form of docs/fabric.md; then the exact form, the same sums weighted by each network's "
+            "share of the mean stress, p_k / p (from the Love-Weber decomposition sigma = &Sigma; sigma^k; "
+            "docs/fabric.md, \"Each network's share of the stress\").</p>"
             + table(header, rows, lambda k, v: " class='num'" if k > 0 else ""))
 
 

@@ -5,8 +5,8 @@ docs/fabric.md) as PNG files in the output directory:
   fabric_evolution.png  a_c, a_n, a_t of the main networks against axial strain, per case
   fabric_vs_mur.png     a_c, a_n and xi of all, ns, sf, ns-sf against mu_r, at the peak of q/p
                         and at the end of shear (needs two cases or more)
-  sff.png               (q/p)* of every partition (solid; tensor form dashed) and the measured
-                        q/p against axial strain
+  sff.png               (q/p)* of every partition (solid; tensor form dashed; with the exact
+                        shares p_k / p dotted) and the measured q/p against axial strain
   rose_<case>.png       rose diagrams of contact normals (planes 1-2 and 2-3) at the end of shear
 Rows of a network whose second-order density 1 + a^c:nn is negative in some direction
 (min_weight <= 0) are left out of the a_b, a_n, a_t curves (docs/fabric.md).
@@ -117,7 +117,9 @@ def main():
             line, = ax[0, i].plot(q["eps1"], q["q_p_star_" + p], lw=1.0, label=f"(q/p)* {p}")
             if "q_p_tensor_" + p in q.dtype.names:  # the tensor form (docs/fabric.md), dashed
                 ax[0, i].plot(q["eps1"], q["q_p_tensor_" + p], "--", lw=0.8, color=line.get_color())
-        ax[0, i].set_title(f"{c} (dashed: tensor form)")
+            if "q_p_exact_" + p in q.dtype.names and p != "all":  # weights p_k / p, dotted
+                ax[0, i].plot(q["eps1"], q["q_p_exact_" + p], ":", lw=1.0, color=line.get_color())
+        ax[0, i].set_title(f"{c} (dashed: tensor form; dotted: exact shares p_k/p)")
         ax[0, i].set_xlabel("axial strain eps_1")
         ax[0, i].set_ylabel("q/p")
         ax[0, i].legend(fontsize=7)

@@ -15,7 +15,8 @@ writes OUT/figures/ (docs/fabric.md, "Figures of the study", says what each show
   fig10_stress_strain.png           q/p and eps_v against eps_1 for every mu_r
   fig11_xi_vs_mur.png               xi of ns, sf, ns-sf against eps_1 and against mu_r
   fig12_sff.png                     (q/p)* of {ns-sf, ns-wf, s-sf, s-wf} against the measured
-                                    q/p, and the mean deviation of every partition
+                                    q/p, and the mean deviation of every partition (with the
+                                    study's weights xi and with the exact shares p_k / p)
 and OUT/report.html (apps/paper_report.py) unless --no-report. Figures 3-8 show the case whose
 mu_r is nearest the study's 0.05 (among mu_r > 0). Needs /usr/bin/python3 with numpy,
 matplotlib and h5py (Debian's python3-numpy, python3-matplotlib, python3-h5py).
@@ -279,10 +280,13 @@ def fig_sff(run, path, written):
         ax[0].plot(100 * q["eps1"], q["q_p"], color=col[c.name], lw=1.6, label=f"$q/p$, {c.label}")
         ax[0].plot(100 * q["eps1"], q["q_p_star_ns_s_sf_wf"], "o", ms=3.5, mfc="none", color=col[c.name],
                    label=f"$(q/p)^*$, {c.label}")
+        if "q_p_exact_ns_s_sf_wf" in q.dtype.names:  # weighted by the exact shares p_k / p
+            ax[0].plot(100 * q["eps1"], q["q_p_exact_ns_s_sf_wf"], "+", ms=4, color=col[c.name],
+                       label=f"$(q/p)^*_{{exact}}$, {c.label}")
     ax[0].set_xlabel(EPS1)
     ax[0].set_ylabel(r"stress ratio")
-    ax[0].set_title("(a) measured $q/p$ (lines) and the SFF prediction $(q/p)^*$ of\n"
-                    "{ns-sf, ns-wf, s-sf, s-wf} (circles)")
+    ax[0].set_title("(a) measured $q/p$ (lines), the SFF prediction $(q/p)^*$ of {ns-sf, ns-wf, s-sf, s-wf}\n"
+                    "(circles: weights $\\xi_k$; crosses: the exact shares $p_k/p$)")
     ax[0].legend(ncol=2, fontsize=8)
     parts = list(pd.PARTITIONS)
     w = 0.8 / len(run.cases)
@@ -290,6 +294,10 @@ def fig_sff(run, path, written):
     for i, c in enumerate(run.cases):
         ax[1].bar(x + (i - (len(run.cases) - 1) / 2) * w,
                   [100 * sff_deviation(c, p)[0] for p in parts], width=w, color=col[c.name], label=c.label)
+        exact = [100 * sff_deviation(c, p, "exact")[0] for p in parts]
+        if all(np.isfinite(exact)):  # the exact form: outlined bars over the study's
+            ax[1].bar(x + (i - (len(run.cases) - 1) / 2) * w, exact, width=0.6 * w, fill=False,
+                      edgecolor="k", lw=0.8, label="exact shares" if i == 0 else None)
     ax[1].axhline(5, color="k", lw=0.8, ls="--")
     ax[1].text(len(parts) - 0.5, 5.3, "5 %", ha="right", fontsize=8)
     ax[1].set_xticks(x)

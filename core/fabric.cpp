@@ -257,20 +257,38 @@ FabricResult analyse_fabric(const std::function<void(const ContactVisitor&)>& vi
       }
     nf.phi_major = v;
   }
+  // The exact shares of p and the networks' signed stress ratios (derived from the exact sums
+  // of pass 2, so rank-independent like everything above).
+  std::array<real_t, kNetworks> q_p_k{};
+  for (int k = 0; k < kNetworks; ++k) {
+    NetworkFabric& nf = out.net[k];
+    real_t pk = 0, qk = 0;
+    deviatoric_invariants(nf.stress, pk, qk);
+    nf.share = nf.count > 0 && out.p > 0 ? pk / out.p : 0.0;
+    q_p_k[k] = nf.count > 0 && pk > 0 ? (dev(nf.stress).cwiseProduct(sdev).sum() < 0 ? -qk : qk) / pk : 0.0;
+  }
   for (int p = 0; p < kPartitions; ++p) {
     real_t norm = 0;
     for (int k : partition_networks(p)) norm += out.net[k].zeta * (out.net[k].count ? out.net[k].gamma : 0.0);
-    real_t sum = 0;
-    Mat3 D = Mat3::Zero();
+    real_t sum = 0, sum_exact = 0, recombined = 0;
+    Mat3 D = Mat3::Zero(), D_exact = Mat3::Zero();
     for (int k : partition_networks(p)) {
       NetworkFabric& nf = out.net[k];
       nf.xi = nf.count > 0 && norm > 0 ? nf.zeta * nf.gamma / norm : 0.0;
       if (nf.count == 0) continue;
-      sum += nf.xi * (nf.a_c + nf.a_b + nf.a_n + 1.5 * nf.a_t);
-      D += 0.4 * nf.xi * (nf.ac + nf.ab + nf.an + 1.5 * nf.at);
+      const real_t index = nf.a_c + nf.a_b + nf.a_n + 1.5 * nf.a_t;
+      const Mat3 tensor = nf.ac + nf.ab + nf.an + 1.5 * nf.at;
+      sum += nf.xi * index;
+      D += 0.4 * nf.xi * tensor;
+      sum_exact += nf.share * index;
+      D_exact += 0.4 * nf.share * tensor;
+      recombined += nf.share * q_p_k[k];
     }
     out.q_p_star[p] = 0.4 * sum;
     out.q_p_star_tensor[p] = std::sqrt(1.5 * D.cwiseProduct(D).sum());
+    out.q_p_exact[p] = 0.4 * sum_exact;
+    out.q_p_exact_tensor[p] = std::sqrt(1.5 * D_exact.cwiseProduct(D_exact).sum());
+    out.q_p_recombined[p] = recombined;
   }
   return out;
 }

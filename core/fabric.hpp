@@ -51,6 +51,12 @@ struct NetworkFabric {
   Mat3 ac = Mat3::Zero(), ab = Mat3::Zero(), an = Mat3::Zero(), at = Mat3::Zero();  // deviatoric
   real_t a_c = 0, a_b = 0, a_n = 0, a_t = 0;  // signed indices sign(a:s) sqrt(3/2 a:a)
   real_t zeta = 0, gamma = 0, xi = 0;
+  // The network's exact share of the mean stress, p_k / p = tr(stress) / tr(sigma of all): the
+  // weight of network k in the exact decomposition s / p = sum_k (p_k / p) (s^k / p_k) of a
+  // partition's deviatoric stress ratio (0 if empty or p = 0). xi = zeta gamma = (sum f_n over k) /
+  // (sum f_n over all) is this share only if every branch had the same length, since
+  // tr(f (x) b) = f_n |b| for a branch along n.
+  real_t share = 0;
   Vec3 phi_principal = Vec3::Zero();     // eigenvalues of phi, descending
   Vec3 phi_major = Vec3::Zero();         // unit eigenvector of the largest (first nonzero component > 0)
   Mat3 stress = Mat3::Zero();            // (1/V) sum over the network of f (x) b [Pa]
@@ -74,6 +80,19 @@ struct FabricResult {
   // sqrt(3/2 D:D) with D = (2/5) sum_k xi_k (a^c + a^b + a^n + 3/2 a^t) - the first-order
   // prediction without the assumption that the tensors are coaxial with the stress.
   std::array<real_t, kPartitions> q_p_star_tensor{};
+  // The exact form (docs/fabric.md, "Each network's share of the stress"): the same two sums
+  // with the weights xi_k replaced by the networks' exact shares of p, share_k = p_k / p, which is
+  // what the Love-Weber decomposition sigma = sum_k sigma^k and the first-order expansion
+  // sigma^k = p_k (I + (2/5) (a^c + a^b + a^n + 3/2 a^t)) give:
+  //   q_p_exact = (2/5) sum_k share_k (a_c + a_b + a_n + 3/2 a_t),
+  //   q_p_exact_tensor = sqrt(3/2 D:D), D = (2/5) sum_k share_k (a^c + a^b + a^n + 3/2 a^t).
+  std::array<real_t, kPartitions> q_p_exact{};
+  std::array<real_t, kPartitions> q_p_exact_tensor{};
+  // The networks' measured stress ratios recombined as the scalar form combines its terms:
+  // sum_k share_k sign(s^k : s) q_k / p_k. Were every network's SFF relation exact
+  // ((2/5)(a_c + a_b + a_n + 3/2 a_t) = q_k / p_k), q_p_exact would be this; it differs from q/p
+  // only where the networks' deviatoric stresses are not coaxial with s (for 'all' it is q/p).
+  std::array<real_t, kPartitions> q_p_recombined{};
   int rose_bins = 0;
   int reductions = 0;  // collective sums made (3)
 };

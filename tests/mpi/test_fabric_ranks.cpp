@@ -52,9 +52,12 @@ std::vector<double> flatten(const FabricResult& r) {
   put(r.stress);
   for (double x : r.q_p_star) v.push_back(x);
   for (double x : r.q_p_star_tensor) v.push_back(x);
+  for (double x : r.q_p_exact) v.push_back(x);
+  for (double x : r.q_p_exact_tensor) v.push_back(x);
+  for (double x : r.q_p_recombined) v.push_back(x);
   for (const NetworkFabric& n : r.net) {
     v.insert(v.end(),
-             {double(n.count), n.mean_fn, n.a_c, n.a_b, n.a_n, n.a_t, n.zeta, n.gamma, n.xi,
+             {double(n.count), n.mean_fn, n.a_c, n.a_b, n.a_n, n.a_t, n.zeta, n.gamma, n.xi, n.share,
               double(n.nonpositive_weights), n.min_weight});
     for (const Mat3* m :
          {&n.phi, &n.branch, &n.normal_force, &n.tangential_force, &n.ac, &n.ab, &n.an, &n.at, &n.stress})

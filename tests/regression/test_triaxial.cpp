@@ -626,7 +626,10 @@ TEST(Triaxial, HigherConsolidationFrictionGivesLooserSpecimen) {
 // 4.3 % / 1.4 % and 6.9 % / 1.6 %. The sub-network partitions are reported, not asserted
 // (docs/fabric.md gives the numbers and the reasons: small networks are not coaxial with the
 // stress, and where 1 + a^c:nn < 0 (min_weight <= 0) the weights 1 / (1 + a^c:nn) are
-// meaningless).
+// meaningless). Also reported: the exact forms (the weights xi_k replaced by the networks' exact
+// shares of p, p_k / p; docs/fabric.md "Each network's share of the stress") and the networks'
+// measured q_k / p_k recombined with those shares, which separate the weights' part of a
+// partition's deviation from the part of each network's own first-order relation.
 TEST(Triaxial, StressForceFabricPrediction) {
   Study& st = study();
   // Pooled over the rows of both cases: the asserted figures (see above).
@@ -659,8 +662,11 @@ TEST(Triaxial, StressForceFabricPrediction) {
       const std::string name(kPartitionNames[p]);
       bool conditioned = true;
       for (int k : partition_networks(p)) conditioned = conditioned && !ill.count(std::string(kNetworkNames[k]));
-      // The spec's scalar form (asserted for 'all'), then the tensor form (reported only).
-      for (const std::string prefix : {"q_p_star_", "q_p_tensor_"}) {
+      // The spec's scalar form (asserted for 'all'), then the tensor form, the two forms with the
+      // exact shares p_k / p as weights and the networks' measured q_k / p_k recombined with
+      // them (reported only).
+      for (const std::string prefix :
+           {"q_p_star_", "q_p_tensor_", "q_p_exact_", "q_p_exact_tensor_", "q_p_recombined_"}) {
         const auto star = sff.of(prefix + name, "shear");
         double mean = 0, worst = 0, within = 0;
         for (std::size_t k = 0; k < q.size(); ++k) {
@@ -669,16 +675,20 @@ TEST(Triaxial, StressForceFabricPrediction) {
           worst = std::max(worst, d);
           within += d < 0.05;
         }
-        const bool scalar = prefix == "q_p_star_";
+        const std::string form = prefix == "q_p_star_" ? "scalar"
+            : prefix == "q_p_tensor_"                  ? "tensor"
+            : prefix == "q_p_exact_"                   ? "exact"
+            : prefix == "q_p_exact_tensor_"            ? "exact tensor"
+                                                       : "recombined";
         pooled[prefix + name].first += mean * double(q.size());
         pooled[prefix + name].second += int(q.size());
         if (!conditioned) ill_any.insert(name);
         if (root())
           std::printf(
-              "[7] mu_r = %.1f, %-6s SFF partition %-11s: |(q/p)* - q/p| / (q/p) mean "
+              "[7] mu_r = %.1f, %-12s SFF partition %-11s: |(q/p)* - q/p| / (q/p) mean "
               "%5.2f %%, max %6.2f %%, %3.0f %% of %zu rows within 5 %%%s\n",
-              b->mu_r, scalar ? "scalar" : "tensor", name.c_str(), 100 * mean, 100 * worst,
-              100 * within / double(q.size()), q.size(), !conditioned ? " (a network with min_weight <= 0)" : "");
+              b->mu_r, form.c_str(), name.c_str(), 100 * mean, 100 * worst, 100 * within / double(q.size()), q.size(),
+              !conditioned ? " (a network with min_weight <= 0)" : "");
       }
     }
     if (root())
@@ -696,7 +706,7 @@ TEST(Triaxial, StressForceFabricPrediction) {
   }
   for (const auto& [key, v] : pooled)
     if (root() && key != "q_p_star_all" && key != "q_p_tensor_all")
-      std::printf("[7] both cases, %-22s: mean deviation %5.2f %% (reported)\n", key.c_str(),
+      std::printf("[7] both cases, %-28s: mean deviation %5.2f %% (reported)\n", key.c_str(),
                   100 * v.first / double(v.second));
 }
 
