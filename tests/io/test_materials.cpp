@@ -352,6 +352,75 @@ restitution_normal = 0.6
   EXPECT_NEAR(r.v_ratio, 0.6, 0.005 * 0.6);
 }
 
+// ---- Oblique impact against the measured tangential restitution --------------------------------
+
+// Kharaz, Gorham & Salman 2001 (Powder Technol. 120:281): 5 mm aluminium oxide spheres (4,000
+// kg/m^3, E = 380 GPa, nu = 0.23) on a thick soda-lime glass anvil (E = 70 GPa, nu = 0.25) at
+// 3.9 m/s, mu = 0.092: the tangential coefficient of restitution e_t = v_t' / v_t of the centre
+// against the impact angle from the normal, the data Di Renzo & Di Maio 2004 (Chem. Eng. Sci.
+// 59:525, figure 8) compare their models with (as tabulated in MFIX's DEM05 verification case).
+struct Measurement {
+  real_t angle_deg, et;
+};
+constexpr Measurement kKharaz[] = {{2.0275, 0.7938},  {3.9282, 0.7450},  {9.6304, 0.6728},  {20.0845, 0.5964},
+                                   {30.2218, 0.6883}, {39.3031, 0.7719}, {49.5459, 0.8469}, {59.8416, 0.9019}};
+
+// The sphere (material "alumina") on a wall of material "glass", elastic (e_n = 1, as Di Renzo &
+// Di Maio run it), Hertz-Mindlin; returns e_t at the given angle.
+real_t kharaz_et(real_t angle_deg, real_t dt) {
+  const fs::path dir = scene_dir("kharaz");
+  const real_t R = 0.0025, v = 3.9, a = angle_deg * kPi / 180;
+  const real_t vn = v * std::cos(a), vt = v * std::sin(a);
+  std::ostringstream d;
+  d.precision(17);
+  d << "kharaz\n\n1 atoms\n1 atom types\n\n0 0.1 xlo xhi\n0 0.1 ylo yhi\n0 0.1 zlo zhi\n\nAtoms\n\n1 1 " << 2 * R
+    << " 4000 0.05 0.05 " << 0.02 + R + 3 * vn * dt << "\n\nVelocities\n\n1 " << vt << " 0 " << -vn << " 0 0 0\n";
+  std::ofstream(dir / "s.data") << d.str();
+  std::ostringstream t;
+  t.precision(17);
+  t << "[particles]\nsource = \"file\"\nfile = \"s.data\"\n[cell]\nsize = [0.1, 0.1, 0.1]\n[contact]\n"
+       "model = \"hertz_mindlin\"\nfriction = 0.092\n[run]\ntime_step = "
+    << dt
+    << "\nskin = 0.0005\n[[material]]\nname = \"alumina\"\ntype = 1\nyoungs_modulus = 380e9\npoisson_ratio = 0.23\n"
+       "[[material]]\nname = \"glass\"\nyoungs_modulus = 70e9\npoisson_ratio = 0.25\n"
+       "[[wall]]\npoint = [0, 0, 0.02]\nnormal = [0, 0, 1]\nmaterial = \"glass\"\n";
+  std::ofstream(dir / "s.toml") << t.str();
+  fabrica::Setup s = make_setup(load_scene((dir / "s.toml").string()));
+  Simulation sim(std::move(s.particles), s.cell, s.params);
+  bool touched = false;
+  for (int k = 0; k < 1000000; ++k) {
+    sim.step();
+    const bool touching = sim.wall_contacts().size() == 1 && sim.wall_contacts().touching[0];
+    touched = touched || touching;
+    if (touched && !touching) break;
+  }
+  EXPECT_TRUE(touched);
+  return sim.particles().v[0].x() / vt;
+}
+
+// Fabrica's Hertz-Mindlin against the 8 measured points. Tolerances: 0.02 where the sphere slides
+// throughout (from 30 degrees on: e_t = 1 - mu (1 + e) / tan(angle), rigid-body sliding, which
+// the measurements follow to about 0.01); 0.15 below, in the partial-slip regime, the spread of
+// the published models there (at 2 degrees the linear spring-dashpot gives 0.864 and a Hertzian
+// model without Mindlin's micro-slip 0.997 in MFIX's tabulation of Di Renzo & Di Maio's cases,
+// against the measured 0.794): the elastic models do not have the experiment's e_n = 0.98 nor
+// its micro-slip. And the shape: e_t smallest at the same measured angle (20 degrees).
+TEST(Materials, ObliqueImpactAgainstKharazMeasurements) {
+  const real_t R = 0.0025, m = 4000 * 4 / 3.0 * kPi * R * R * R;
+  const real_t estar = estar_of(380e9, 0.23, 70e9, 0.25);
+  const real_t tc = 2.868 * std::pow(m * m / (R * estar * estar * 3.9), 0.2);
+  real_t lowest = 2, at = 0;
+  for (const Measurement& x : kKharaz) {
+    const real_t et = kharaz_et(x.angle_deg, tc / 1000);
+    const real_t sliding = 1 - 0.092 * 2 / std::tan(x.angle_deg * kPi / 180);
+    std::printf("[materials] Kharaz: angle %7.4f deg: e_t %.4f, measured %.4f (difference %+.4f), rigid sliding %.4f\n",
+                x.angle_deg, et, x.et, et - x.et, sliding);
+    EXPECT_NEAR(et, x.et, x.angle_deg >= 30 ? 0.02 : 0.15) << x.angle_deg << " degrees";
+    if (et < lowest) lowest = et, at = x.angle_deg;
+  }
+  EXPECT_EQ(at, 20.0845);
+}
+
 // ---- Bad input ----------------------------------------------------------------------------------
 
 void expect_error(const std::string& name, const std::string& toml, std::initializer_list<std::string> fragments,
