@@ -28,15 +28,16 @@
 namespace fabrica {
 namespace {
 
-// A random gas of spheres in a cell, with "contacts" between random near pairs (branch to the
-// nearest image, so many cross the faces) carrying random forces and flags.
+// A random gas of spheres in a cell, with "contacts" between near pairs (branch to the nearest
+// image, so many cross the faces; about 3 a sphere) carrying random forces and flags.
 struct Sample {
   Vec3 L{0.05, 0.04, 0.06};
   std::vector<CgParticle> p;
   std::vector<CgContact> c;
 };
 
-Sample sample(std::size_t n, std::uint64_t seed) {
+// Pairs closer than 'reach' (to the nearest image) are the contacts.
+Sample sample(std::size_t n, std::uint64_t seed, double reach = 0.0066) {
   Sample s;
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
@@ -52,14 +53,12 @@ Sample sample(std::size_t n, std::uint64_t seed) {
   }
   PeriodicCell cell(s.L);
   for (std::size_t i = 0; i < n; ++i)
-    for (int t = 0; t < 3; ++t) {
-      const std::size_t j = std::size_t(u(rng) * double(n)) % n;
-      if (j == i) continue;
+    for (std::size_t j = i + 1; j < n; ++j) {
       CgContact c;
-      c.rec.id1 = GlobalId(std::min(i, j)), c.rec.id2 = GlobalId(std::max(i, j));
-      const CgParticle& a = s.p[std::size_t(c.rec.id1)];
-      c.rec.branch = cell.minimum_image(s.p[std::size_t(c.rec.id2)].x - a.x);
-      if (c.rec.branch.norm() > 0.01) continue;
+      c.rec.id1 = GlobalId(i), c.rec.id2 = GlobalId(j);
+      const CgParticle& a = s.p[i];
+      c.rec.branch = cell.minimum_image(s.p[j].x - a.x);
+      if (c.rec.branch.norm() > reach) continue;
       c.rec.normal = c.rec.branch.normalized();
       c.rec.overlap = 1e-5;
       c.rec.fn = 10 * u(rng);
@@ -106,6 +105,7 @@ TEST(CoarseGrain, VolumeIntegralsAreLoveWeberAndSolidVolume) {
     double mass = 0;
     for (const CgParticle& p : s.p) mass += p.mass;
     EXPECT_LT(std::abs(volume_integral(r, "density", 0) - mass) / mass, 1e-12);
+    std::printf("%zu spheres, %zu contacts, ", s.p.size(), s.c.size());
     std::printf("%s: contact stress integral %.2e, solid volume %.2e, contact count %.2e (relative errors)\n",
                 type == KernelType::Gaussian ? "gaussian" : "lucy", worst, es, en);
   }
