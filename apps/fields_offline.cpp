@@ -41,11 +41,12 @@ struct Masses {
   double scaling = 1;
   double of(std::uint8_t material, double r) const {
     const double rho = density[std::min<std::size_t>(material, density.size() - 1)];
-    return rho * scaling * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    // As the run computes it (Particles::add, then Particles::scale_density): the same bits.
+    return rho * 4.0 / 3.0 * std::numbers::pi * r * r * r * scaling;
   }
 };
 
-Masses masses_of(const FieldsOfflineArgs& a) {
+Masses masses_of(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   Masses m;
   if (a.density) {
     if (!(*a.density > 0) || !std::isfinite(*a.density))
@@ -53,7 +54,8 @@ Masses masses_of(const FieldsOfflineArgs& a) {
     m.density = {*a.density};
     return m;
   }
-  const RunFileInfo ri = read_run_info(a.file);
+  RunFileInfo ri;
+  agree(mpi.comm(), [&] { ri = read_run_info(a.file); });
   Scene sc;
   try {
     sc = parse_scene(ri.scene_text, ri.scene_path);
@@ -159,7 +161,7 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
             "rank, more than half of the machine's {:.3g} B: give fewer cells (--cells) or a larger --spacing",
             name, s.step, g.n[0], g.n[1], g.n[2], g.nodes(), bytes, memory));
     }
-  const Masses masses = masses_of(a);
+  const Masses masses = masses_of(mpi, a);
 
   const fs::path out = a.output.empty() ? fs::path(a.file).parent_path() / "fields.h5" : fs::path(a.output);
   const std::string tmp = out.string() + ".tmp";
