@@ -3,9 +3,12 @@
 //   fabrica run [scene.toml] [--output DIR] [--overwrite] [--restart CKPT]
 //   fabrica info OUT/run.h5
 //   fabrica fabric OUT/run.h5 [--case C] [--step S | --all] [--strong-ratio R] [--bins B] [-o DIR]
+//   fabrica fields OUT/run.h5 [--case C] [--step S | --all] [--spacing H | --cells NX NY NZ]
+//                  [--kernel gaussian|lucy] [--width W] [--cutoff C] [--density RHO] [-o FILE]
 //   fabrica checkpoint-info CKPT
 #include "apps/app_checkpoint.hpp"
 #include "apps/fabric_offline.hpp"
+#include "apps/fields_offline.hpp"
 #include "apps/series_file.hpp"
 #include "apps/stage_driver.hpp"
 #include "apps/triaxial.hpp"
@@ -405,6 +408,24 @@ int main(int argc, char** argv) {
   fabc->add_option("--strong-ratio", fab.strong_ratio, "strong: f_n > R x mean f_n (default 1)");
   fabc->add_option("--bins", fab.bins, "rose diagram bins over [0, pi) (default 36)");
   fabc->add_option("-o,--output", fab.outdir, "output directory (default: <dir of file>/fabric)");
+  FieldsOfflineArgs fld;
+  std::vector<int> cells;
+  CLI::App* fldc =
+      app.add_subcommand("fields", "coarse-grained fields of the snapshots in OUT/run.h5 on a grid (docs/fields.md)");
+  fldc->add_option("file", fld.file, "run.h5 of a run")->required();
+  fldc->add_option("--case", fld.case_name, "case (default: every case)");
+  auto* fsteps = fldc->add_option("--step", fld.step, "step of the snapshot (default: the last of each case)");
+  fldc->add_flag("--all", fld.all, "every snapshot")->excludes(fsteps);
+  auto* fspacing = fldc->add_option("--spacing", fld.spacing, "grid spacing, m (default: the mean diameter)");
+  fldc->add_option("--cells", cells, "nodes along x, y, z")->expected(3)->excludes(fspacing);
+  fldc->add_option("--kernel", fld.kernel, "gaussian (default) or lucy");
+  fldc->add_option("--width", fld.width,
+                   "kernel width, m: the Gaussian's standard deviation (default: the mean diameter), Lucy's support "
+                   "radius (default: 3 mean diameters)");
+  fldc->add_option("--cutoff", fld.cutoff, "the Gaussian's support radius in widths (default 3)");
+  fldc->add_option("--density", fld.density, "particle density, kg/m^3 (default: the run's scene)");
+  fldc->add_option("--strong-ratio", fld.strong_ratio, "strong: f_n > R x mean f_n (default 1)");
+  fldc->add_option("-o,--output", fld.output, "output HDF5 file (default: <dir of file>/fields.h5)");
   std::string ckpt_path;
   CLI::App* ckptc = app.add_subcommand("checkpoint-info", "print the header of a checkpoint");
   ckptc->add_option("checkpoint", ckpt_path, "checkpoint file")->required();
@@ -414,6 +435,10 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) { return mpi.rank() == 0 ? app.exit(e) : e.get_exit_code(); }
     if (*infoc) return info(mpi, info_path);
     if (*fabc) return fabric_offline(mpi, fab);
+    if (*fldc) {
+      if (cells.size() == 3) fld.cells = std::array<int, 3>{cells[0], cells[1], cells[2]};
+      return fields_offline(mpi, fld);
+    }
     if (*ckptc) {
       Checkpoint::Expect any;
       any.allow_blowup = true;

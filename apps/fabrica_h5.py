@@ -12,6 +12,13 @@ reader ``io/snapshot.hpp`` and returns the same values (checked by the test
     c = run.contacts("mur_0.2", last.step)    # Contacts: c.fn, c.normal, c.strong, ...
     strong_share = c.strong.mean()
 
+Coarse-grained fields (docs/fields.md; ``fabrica fields OUT/run.h5`` writes ``OUT/fields.h5``)::
+
+    fl = fabrica_h5.RunFile("out/demo/fields.h5")
+    inst = fl.field_instants("mur_0.2")[-1]   # FieldsInfo: case, step, cells, spacing, kernel, ...
+    f = fl.fields("mur_0.2", inst.step)       # dict: name -> array indexed [i, j, k(, a(, b))]
+    phi = f["solid_fraction"]                 # (nx, ny, nz); f["stress"] is (nx, ny, nz, 3, 3)
+
 Needs h5py and numpy (Debian's python3-h5py, python3-numpy; use /usr/bin/python3).
 Every error (missing, damaged or foreign file, unknown case or step) is a
 :class:`FabricaFileError` whose message names the file and the object.
@@ -25,7 +32,8 @@ try:
 except ImportError as e:  # pragma: no cover
     raise ImportError(f"fabrica_h5: {e}; install python3-h5py and run with /usr/bin/python3") from e
 
-__all__ = ["FabricaFileError", "RunFile", "RunInfo", "Series", "SnapshotInfo", "Particles", "Contacts"]
+__all__ = ["FabricaFileError", "RunFile", "RunInfo", "Series", "SnapshotInfo", "Particles", "Contacts",
+           "FieldsInfo"]
 
 
 class FabricaFileError(Exception):
@@ -148,6 +156,23 @@ class Series:
         return np.array([s == stage for s in self.stage], dtype=bool)
 
 
+@dataclass
+class FieldsInfo:
+    """The attributes of one instant of coarse-grained fields ``/fields/<case>/<step>``."""
+    case: str
+    step: int
+    time: float               #: s
+    cell_lengths: np.ndarray  #: (3,) m
+    cells: np.ndarray         #: (3,) int, nodes along x, y, z
+    spacing: np.ndarray       #: (3,) m; node (i, j, k) at origin + (i, j, k) * spacing
+    origin: np.ndarray        #: (3,) m, the first node (half a spacing from the cell's corner)
+    kernel: str               #: "gaussian" or "lucy"
+    width: float              #: m: the Gaussian's standard deviation, Lucy's support radius
+    cutoff: float             #: the Gaussian's support radius in widths (1 for Lucy)
+    names: list               #: the fields stored (dataset names)
+    displacement_from_step: int = -1  #: the earlier snapshot of the displacement fields (-1: none)
+
+
 class RunFile:
     """A Fabrica run file, opened read-only for each call (like the C++ reader)."""
 
@@ -262,3 +287,45 @@ class RunFile:
                 x1 = pos[np.searchsorted(ids, d["id1"])]
                 d["ends"] = np.stack([x1, x1 + d["branch"]], axis=1)
             return Contacts(info=self._info(case, g), **d)
+
+    @staticmethod
+    def _fields_info(case, g):
+        a = g.attrs
+        return FieldsInfo(case=case, step=int(a["step"]), time=float(a["time"]),
+                          cell_lengths=np.asarray(a["cell_lengths"], dtype=np.float64),
+                          cells=np.asarray(a["cells"]).astype(np.int64),
+                          spacing=np.asarray(a["spacing"], dtype=np.float64),
+                          origin=np.asarray(a["origin"], dtype=np.float64),
+                          kernel=_text(a["kernel"]), width=float(a["width"]), cutoff=float(a["cutoff"]),
+                          names=sorted(g), displacement_from_step=int(a.get("displacement_from_step", -1)))
+
+    def field_instants(self, case=None):
+        """Every instant of coarse-grained fields (:class:`FieldsInfo`) of ``case``, or of every
+        case (in name order), by step."""
+        with self._open() as f:
+            if "fields" not in f:
+                return []
+            fl = f["fields"]
+            if case is not None and case not in fl:
+                raise FabricaFileError(f"{self.path}: no fields of case '{case}' (no group /fields/{case})")
+            out = []
+            for c in ([case] if case is not None else sorted(fl)):
+                out.extend(sorted((self._fields_info(c, g) for g in fl[c].values()), key=lambda s: s.step))
+            return out
+
+    def fields(self, case, step, names=None):
+        """The fields of ``case`` at ``step`` (all, or ``names``) as a dict name -> array indexed
+        [i, j, k] by the node along x, y, z: scalars (nx, ny, nz), vectors (nx, ny, nz, 3),
+        tensors (nx, ny, nz, 3, 3) (row a, column b). The file stores them (nz, ny, nx[, c])."""
+        with self._open() as f:
+            g = self._group(f, f"fields/{case}/{int(step):012d}", f"no fields of case '{case}' at step {step}")
+            out = {}
+            for name in (names if names is not None else sorted(g)):
+                if name not in g:
+                    raise FabricaFileError(f"{self.path}: no field '{name}' of case '{case}' at step {step}")
+                v = g[name][()]
+                v = np.swapaxes(v, 0, 2)  # (nx, ny, nz[, c])
+                if v.ndim == 4 and v.shape[3] == 9:
+                    v = v.reshape(v.shape[:3] + (3, 3))
+                out[name] = v
+            return out

@@ -22,8 +22,9 @@ constexpr int kPartNrRNets[] = {kNr, kR};
 constexpr int kPartSlideRollNets[] = {kNsNr, kNsR, kSNr, kSR};
 constexpr int kPartSlideForceNets[] = {kNsSf, kNsWf, kSSf, kSWf};
 
-// The six networks a contact belongs to (one per partition).
-std::array<int, kPartitions> networks_of(const ContactRecord& c, real_t threshold) {
+}  // namespace
+
+std::array<int, kPartitions> contact_networks(const ContactRecord& c, real_t threshold) {
   const bool s = c.sliding, r = c.rolling, strong = c.fn > threshold;
   return {kAll,
           s ? kS : kNs,
@@ -32,6 +33,8 @@ std::array<int, kPartitions> networks_of(const ContactRecord& c, real_t threshol
           s ? (r ? kSR : kSNr) : (r ? kNsR : kNsNr),
           s ? (strong ? kSSf : kSWf) : (strong ? kNsSf : kNsWf)};
 }
+
+namespace {
 
 // Symmetric tensor components in the order of the sums: 00, 11, 22, 01, 12, 02.
 constexpr int kSymI[6] = {0, 1, 2, 0, 1, 0};
@@ -134,7 +137,7 @@ FabricResult analyse_fabric(const std::function<void(const ContactVisitor&)>& vi
       const Vec3& n = c.normal;
       const Vec3 f = c.force();
       const int b12 = rose_bin(n[1], n[0], B), b23 = rose_bin(n[2], n[1], B);
-      for (int k : networks_of(c, threshold)) {
+      for (int k : contact_networks(c, threshold)) {
         const std::size_t base = std::size_t(k) * kSlots2;
         s.add(base + kFn, c.fn);
         for (int m = 0; m < 6; ++m) s.add(base + kNn + m, n[kSymI[m]] * n[kSymJ[m]]);
@@ -182,7 +185,7 @@ FabricResult analyse_fabric(const std::function<void(const ContactVisitor&)>& vi
     visit([&](const ContactRecord& c) {
       const Vec3& n = c.normal;
       const real_t len = c.branch.norm();
-      for (int k : networks_of(c, threshold)) {
+      for (int k : contact_networks(c, threshold)) {
         const real_t w = 1.0 + n.dot(out.net[k].ac * n);
         if (!(w > 0)) {
           ++bad[k];

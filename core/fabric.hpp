@@ -35,6 +35,9 @@ inline constexpr std::array<std::string_view, kPartitions> kPartitionNames = {"a
                                                                               "nr_r", "ns_s_nr_r", "ns_s_sf_wf"};
 std::span<const int> partition_networks(int partition);
 int partition_of(int network);  // the partition a network belongs to
+// The six networks contact 'c' belongs to (one per partition, in partition order); strong:
+// f_n > threshold.
+std::array<int, kPartitions> contact_networks(const ContactRecord& c, real_t threshold);
 
 struct FabricOptions {
   real_t strong_ratio = 1.0;  // strong: f_n > strong_ratio * (global mean f_n)

@@ -264,6 +264,24 @@ Dataset Group::create_dataset(const std::string& rel, Type t, hsize_t rows, hsiz
   return Dataset(std::move(d), file_, child_name(rel), comm_);
 }
 
+Dataset Group::create_dataset(const std::string& rel, Type t, const std::vector<hsize_t>& dims) const {
+  if (dims.empty()) fail("creating dataset " + rel + ": no dimensions");
+  hsize_t width = H5Tget_size(native(t));
+  for (std::size_t k = 1; k < dims.size(); ++k) width *= std::max<hsize_t>(dims[k], 1);
+  std::vector<hsize_t> chunk = dims;
+  chunk[0] = dims[0] > 0 ? std::clamp<hsize_t>(kChunkBytes / width, 1, dims[0]) : 0;
+  Handle space = dataspace(dims, dims);
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  if (chunk[0] > 0) {
+    check(H5Pset_chunk(dcpl.get(), int(chunk.size()), chunk.data()), "chunking " + rel);
+    if (checksums_enabled()) check(H5Pset_fletcher32(dcpl.get()), "adding the Fletcher-32 checksum to " + rel);
+  }
+  H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER);
+  Handle d(H5Dcreate2(id(), rel.c_str(), native(t), space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT), H5Dclose);
+  if (!d.valid()) check(-1, "creating dataset " + rel);
+  return Dataset(std::move(d), file_, child_name(rel), comm_);
+}
+
 Dataset Group::open_dataset(const std::string& rel) const {
   if (!exists(rel)) fail("no dataset '" + rel + "'");
   Handle d(H5Dopen2(id(), rel.c_str(), H5P_DEFAULT), H5Dclose);

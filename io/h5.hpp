@@ -112,6 +112,9 @@ class Group : public Object {
   // A dataset of 'rows' x 'cols' elements (cols = 0: one-dimensional). With chunk_rows > 0 it is
   // chunked and extendible along the rows (for appending).
   Dataset create_dataset(const std::string& rel, Type t, hsize_t rows, hsize_t cols, hsize_t chunk_rows = 0) const;
+  // A fixed-size dataset of any rank 'dims' (chunked along the first dimension, checksummed like
+  // the others): the coarse-grained fields (nz, ny, nx[, components]). Written with write_rows.
+  Dataset create_dataset(const std::string& rel, Type t, const std::vector<hsize_t>& dims) const;
   Dataset open_dataset(const std::string& rel) const;
   // A scalar dataset holding a string (any length).
   void write_string(const std::string& rel, const std::string& text, bool writer) const;

@@ -153,7 +153,9 @@ ParticleSnapshot read_particle_snapshot(const std::string& path, const std::stri
     r.velocity = vec3s(p.open_dataset("velocity"), n);
     r.spin = vec3s(p.open_dataset("spin"), n);
     r.radius = p.open_dataset("radius").read_doubles();
-    if (r.radius.size() != n || std::int64_t(n) != r.info.particles) p.fail("datasets of different lengths");
+    r.material = p.exists("material") ? p.open_dataset("material").read_bytes() : std::vector<std::uint8_t>(n, 0);
+    if (r.radius.size() != n || r.material.size() != n || std::int64_t(n) != r.info.particles)
+      p.fail("datasets of different lengths");
     return r;
   });
 }

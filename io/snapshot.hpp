@@ -32,11 +32,12 @@ struct ContactSnapshot {
 
 struct ParticleSnapshot {
   SnapshotInfo info;
-  std::vector<GlobalId> id;    // increasing
-  std::vector<Vec3> position;  // m
-  std::vector<Vec3> velocity;  // m/s
-  std::vector<Vec3> spin;      // rad/s
-  std::vector<real_t> radius;  // m
+  std::vector<GlobalId> id;            // increasing
+  std::vector<Vec3> position;          // m
+  std::vector<Vec3> velocity;          // m/s
+  std::vector<Vec3> spin;              // rad/s
+  std::vector<real_t> radius;          // m
+  std::vector<std::uint8_t> material;  // the index of its [[material]] (0 in files without it)
 };
 
 // One series table /series/<case>: a column per quantity, as in the CSV series.

@@ -129,4 +129,49 @@ void write_contacts_xdmf(const std::string& path, const std::string& h5file, con
                  });
 }
 
+void write_fields_xdmf(const std::string& path, const std::string& h5file,
+                       const std::vector<FieldsXdmfEntry>& entries) {
+  std::ostringstream x;
+  x.precision(17);
+  x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+       "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+       "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n  <Domain>\n";
+  std::vector<std::string> cases;
+  for (const auto& e : entries)
+    if (std::find(cases.begin(), cases.end(), e.case_name) == cases.end()) cases.push_back(e.case_name);
+  for (const std::string& c : cases) {
+    x << "    <Grid Name=\"" << xml_escape(c + "_fields")
+      << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    for (const FieldsXdmfEntry& e : entries) {
+      if (e.case_name != c) continue;
+      // XDMF orders the axes slowest first: z, y, x (the datasets are (nz, ny, nx[, c])).
+      const std::string dims =
+          std::to_string(e.cells[2]) + " " + std::to_string(e.cells[1]) + " " + std::to_string(e.cells[0]);
+      x << "      <Grid Name=\"" << xml_escape(c + "_fields_" + layout::step_name(e.step))
+        << "\" GridType=\"Uniform\">\n"
+        << "        <Time Value=\"" << e.time << "\"/>\n"
+        << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims << "\"/>\n"
+        << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+        << "          <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << e.origin[2]
+        << " " << e.origin[1] << " " << e.origin[0] << "</DataItem>\n"
+        << "          <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << e.spacing[2]
+        << " " << e.spacing[1] << " " << e.spacing[0] << "</DataItem>\n"
+        << "        </Geometry>\n";
+      for (const auto& [name, comps] : e.quantities) {
+        const char* kind = comps == 1 ? "Scalar" : comps == 3 ? "Vector" : "Tensor";
+        x << "        <Attribute Name=\"" << xml_escape(name) << "\" AttributeType=\"" << kind
+          << "\" Center=\"Node\">\n"
+          << "          <DataItem Dimensions=\"" << dims << (comps > 1 ? " " + std::to_string(comps) : std::string())
+          << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+          << xml_escape(h5file + ":" + e.group + "/" + name) << "</DataItem>\n"
+          << "        </Attribute>\n";
+      }
+      x << "      </Grid>\n";
+    }
+    x << "    </Grid>\n";
+  }
+  x << "  </Domain>\n</Xdmf>\n";
+  write_file_atomic(path, x.str(), "xdmf");
+}
+
 }  // namespace fabrica

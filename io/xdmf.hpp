@@ -2,6 +2,7 @@
 // XDMF reader) where the snapshot datasets lie in the HDF5 file, one temporal collection per
 // case. Written to path.tmp, checked, synced and renamed (io/write_check.hpp).
 #pragma once
+#include <array>
 #include <cstdint>
 #include <string>
 #include <tuple>
@@ -22,6 +23,21 @@ void write_xdmf(const std::string& path, const std::string& h5file, const std::v
 // attributes fn, ft_norm, mr_norm, sliding, rolling, strong, id1, id2.
 void write_contacts_xdmf(const std::string& path, const std::string& h5file, const std::vector<XdmfEntry>& entries,
                          std::int64_t vertices);
+
+// One instant of coarse-grained fields (docs/fields.md): the group of its datasets in h5file,
+// the grid (nodes along x, y, z; spacing and first node, m) and each dataset's name and number
+// of components (1 scalar, 3 vector, 9 tensor).
+struct FieldsXdmfEntry {
+  std::string case_name, group;  // group: absolute path of the instant's group
+  std::int64_t step = 0;
+  double time = 0;
+  std::array<int, 3> cells{1, 1, 1};
+  std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+  std::vector<std::pair<std::string, int>> quantities;
+};
+// The fields' sidecar: per case a temporal collection of 3DCoRectMesh grids (nodes at
+// origin + i spacing), each dataset a node attribute (Dimensions nz ny nx [components]).
+void write_fields_xdmf(const std::string& path, const std::string& h5file, const std::vector<FieldsXdmfEntry>& entries);
 
 // s with &, <, > and " escaped for XML text and attributes.
 std::string xml_escape(const std::string& s);

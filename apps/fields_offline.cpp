@@ -1,0 +1,324 @@
+#include "apps/fields_offline.hpp"
+
+#include "core/coarse_grain.hpp"
+#include "core/serial_domain.hpp"
+#include "io/errors.hpp"
+#include "io/h5.hpp"
+#include "io/layout.hpp"
+#include "io/memory_check.hpp"
+#include "io/scene.hpp"
+#include "io/snapshot.hpp"
+#include "io/version.hpp"
+#include "io/write_check.hpp"
+#include "io/xdmf.hpp"
+#include "parallel/guard.hpp"
+#include "parallel/mpi_domain.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <numbers>
+
+namespace fabrica {
+namespace {
+
+// The grid of one instant: the given cell counts, or round(L / spacing) nodes along each axis.
+FieldGrid grid_of(const FieldsOfflineArgs& a, const Vec3& L, double spacing) {
+  FieldGrid g;
+  g.lengths = L;
+  for (int k = 0; k < 3; ++k)
+    g.n[k] = a.cells ? (*a.cells)[k] : int(std::max(1.0, std::min(std::round(L[k] / spacing), 2.0e9)));
+  return g;
+}
+
+// Each particle's mass: its material's density (or --density) x density_scaling x its volume.
+struct Masses {
+  std::vector<double> density;  // by material
+  double scaling = 1;
+  double of(std::uint8_t material, double r) const {
+    const double rho = density[std::min<std::size_t>(material, density.size() - 1)];
+    // As the run computes it (Particles::add, then Particles::scale_density): the same bits.
+    return rho * 4.0 / 3.0 * std::numbers::pi * r * r * r * scaling;
+  }
+};
+
+Masses masses_of(const MpiContext& mpi, const FieldsOfflineArgs& a) {
+  Masses m;
+  if (a.density) {
+    if (!(*a.density > 0) || !std::isfinite(*a.density))
+      throw InputError(fmt::format("--density = {}: must be positive", *a.density));
+    m.density = {*a.density};
+    return m;
+  }
+  RunFileInfo ri;
+  agree(mpi.comm(), [&] { ri = read_run_info(a.file); });
+  Scene sc;
+  try {
+    sc = parse_scene(ri.scene_text, ri.scene_path);
+  } catch (const InputError& e) {
+    throw InputError(
+        fmt::format("{}: cannot take the densities from the run's scene ({}): give --density", a.file, e.what()));
+  }
+  if (sc.materials.empty()) m.density = {sc.density};
+  for (const MaterialSpec& s : sc.materials) m.density.push_back(s.density);
+  m.scaling = sc.density_scaling;
+  return m;
+}
+
+// Writes one instant's fields into group g: a dataset per field, shape (nz, ny, nx[, comps]).
+void write_fields(const h5::Group& g, const FieldsResult& r, std::vector<std::pair<std::string, int>>& listed) {
+  const std::array<int, 3>& n = r.grid.n;
+  for (const Field& f : r.fields) {
+    std::vector<hsize_t> dims{hsize_t(n[2]), hsize_t(n[1]), hsize_t(n[0])};
+    if (f.components > 1) dims.push_back(hsize_t(f.components));
+    const h5::Dataset d = g.create_dataset(f.name, h5::Type::F64, dims);
+    d.set_attr("unit", f.unit);
+    d.write_rows(h5::Type::F64, 0, dims[0], f.values.data(), true);
+    listed.emplace_back(f.name, f.components);
+  }
+}
+
+std::string kernel_text(const FieldKernel& k) {
+  return k.type == KernelType::Gaussian ? fmt::format("gaussian, width {} m, cut-off {} widths", k.width, k.cutoff)
+                                        : fmt::format("lucy, support radius {} m", k.width);
+}
+
+}  // namespace
+
+int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
+  namespace fs = std::filesystem;
+  const bool root = mpi.rank() == 0;
+  FieldKernel kernel;
+  if (a.kernel == "gaussian") kernel.type = KernelType::Gaussian;
+  else if (a.kernel == "lucy") kernel.type = KernelType::Lucy;
+  else throw InputError(fmt::format("--kernel = \"{}\": must be \"gaussian\" or \"lucy\"", a.kernel));
+  kernel.cutoff = a.cutoff;
+  if (a.spacing && (!(*a.spacing > 0) || !std::isfinite(*a.spacing)))
+    throw InputError(fmt::format("--spacing = {}: must be positive", *a.spacing));
+  if (a.cells)
+    for (int k = 0; k < 3; ++k)
+      if ((*a.cells)[k] < 1)
+        throw InputError(
+            fmt::format("--cells = {} {} {}: each must be at least 1", (*a.cells)[0], (*a.cells)[1], (*a.cells)[2]));
+  if (a.width && (!(*a.width > 0) || !std::isfinite(*a.width)))
+    throw InputError(fmt::format("--width = {}: must be positive", *a.width));
+  if (!(a.strong_ratio > 0)) throw InputError(fmt::format("--strong-ratio = {}: must be positive", a.strong_ratio));
+
+  // Which snapshots (as `fabrica fabric`); every rank reads run.h5 itself and the ranks agree on
+  // the outcome of each read (parallel/guard.hpp).
+  std::map<std::string, std::vector<SnapshotInfo>> listed, chosen;
+  std::vector<SnapshotInfo> all;
+  agree(mpi.comm(), [&] { all = list_snapshots(a.file); });
+  for (const SnapshotInfo& s : all)
+    if (a.case_name.empty() || s.case_name == a.case_name) listed[s.case_name].push_back(s);
+  if (listed.empty())
+    throw InputError(a.case_name.empty() ? fmt::format("{}: no snapshots in the file", a.file)
+                                         : fmt::format("{}: no snapshots of case \"{}\"", a.file, a.case_name));
+  for (const auto& [name, list] : listed) {
+    if (a.step) {
+      for (const SnapshotInfo& s : list)
+        if (s.step == *a.step) chosen[name].push_back(s);
+      if (!chosen.count(name) && !a.case_name.empty())
+        throw InputError(fmt::format("{}: case \"{}\" has no snapshot at step {}", a.file, name, *a.step));
+    } else if (a.all) {
+      chosen[name] = list;
+    } else {
+      chosen[name] = {list.back()};
+    }
+  }
+  if (chosen.empty()) throw InputError(fmt::format("{}: no case has a snapshot at step {}", a.file, *a.step));
+
+  // The radii (the same in every snapshot of a run) set the default width and the smallest
+  // width allowed; every grid is checked before any field is computed.
+  ParticleSnapshot first;
+  agree(mpi.comm(), [&] {
+    const SnapshotInfo& s = chosen.begin()->second.front();
+    first = read_particle_snapshot(a.file, s.case_name, s.step);
+  });
+  if (first.radius.empty()) throw InputError(fmt::format("{}: the snapshots hold no particles", a.file));
+  const double rmin = *std::min_element(first.radius.begin(), first.radius.end());
+  double dmean = 0;
+  for (double r : first.radius) dmean += 2 * r;
+  dmean /= double(first.radius.size());
+  kernel.width = a.width ? *a.width : (kernel.type == KernelType::Gaussian ? dmean : 3 * dmean);
+  const double spacing = a.spacing ? *a.spacing : dmean;
+  const double memory = machine_memory_bytes();
+  for (const auto& [name, list] : chosen)
+    for (const SnapshotInfo& s : list) {
+      const FieldGrid g = grid_of(a, s.cell_lengths, spacing);
+      const std::string why = check_field_grid(g, kernel, rmin);
+      if (!why.empty())
+        throw InputError(fmt::format("fields of case \"{}\" at step {} (grid {} x {} x {} nodes, {}): {}", name, s.step,
+                                     g.n[0], g.n[1], g.n[2], kernel_text(kernel), why));
+      const double bytes = field_bytes(g);
+      if (memory > 0 && bytes > 0.5 * memory)
+        throw InputError(fmt::format(
+            "fields of case \"{}\" at step {}: a grid of {} x {} x {} = {} nodes needs {:.3g} B of memory on every "
+            "rank, more than half of the machine's {:.3g} B: give fewer cells (--cells) or a larger --spacing",
+            name, s.step, g.n[0], g.n[1], g.n[2], g.nodes(), bytes, memory));
+    }
+  const Masses masses = masses_of(mpi, a);
+
+  const fs::path out = a.output.empty() ? fs::path(a.file).parent_path() / "fields.h5" : fs::path(a.output);
+  const std::string tmp = out.string() + ".tmp";
+  fs::path xmf = out;
+  xmf.replace_extension(".xmf");
+  std::unique_ptr<Domain> domain;
+  if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(mpi.comm());
+  else domain = std::make_unique<SerialDomain>();
+  const std::size_t P = std::size_t(mpi.size()), me = std::size_t(mpi.rank());
+
+  // Rank 0 writes the file, serially (its own communicator), to FILE.tmp renamed at the end.
+  h5::File file;
+  agree(mpi.comm(), [&] {
+    if (!root) return;
+    if (!out.parent_path().empty()) make_output_directory(out.parent_path().string());
+    try {
+      file = h5::File::create_parallel(tmp, MPI_COMM_SELF, true);
+      file.set_attr(layout::kVersionAttr, std::string(kFabricaVersion));
+      file.set_attr("format", std::string("fabrica-fields-1"));
+      file.set_attr("source", a.file);
+      file.create_group("fields");
+    } catch (const h5::Error& e) { throw InputError(e.what()); }
+  });
+  std::vector<FieldsXdmfEntry> entries;
+  std::size_t done = 0;
+  for (const auto& [name, list] : chosen) {
+    for (const SnapshotInfo& info : list) {
+      ParticleSnapshot ps;
+      ContactSnapshot cs;
+      agree(mpi.comm(), [&] {
+        ps = read_particle_snapshot(a.file, name, info.step);
+        cs = read_contact_snapshot(a.file, name, info.step);
+      });
+      const FieldGrid grid = grid_of(a, info.cell_lengths, spacing);
+      std::vector<CgParticle> parts;
+      for (std::size_t i = me; i < ps.id.size(); i += P) {
+        CgParticle q;
+        q.x = ps.position[i], q.v = ps.velocity[i], q.w = ps.spin[i], q.radius = ps.radius[i];
+        q.mass = masses.of(ps.material[i], ps.radius[i]);
+        parts.push_back(q);
+      }
+      // Particle-particle contacts only (a wall contact has id2 < 0), with body 1's centre.
+      std::vector<CgContact> conts;
+      Mat3 love_weber = Mat3::Zero();  // every rank holds every contact: the check below
+      std::size_t k = 0;
+      for (const ContactRecord& c : cs.contacts) {
+        if (c.id2 < 0) continue;
+        love_weber += c.force() * c.branch.transpose();
+        if (k++ % P != me) continue;
+        const auto it = std::lower_bound(ps.id.begin(), ps.id.end(), c.id1);
+        if (it == ps.id.end() || *it != c.id1)
+          throw InputError(fmt::format("{}: case \"{}\" step {}: contact ({}, {}) names a particle not in the snapshot",
+                                       a.file, name, info.step, c.id1, c.id2));
+        const std::size_t i = std::size_t(it - ps.id.begin());
+        conts.push_back({c, ps.position[i], ps.radius[i]});
+      }
+      FieldOptions opt;
+      opt.strong_ratio = a.strong_ratio;
+      FieldsResult res = coarse_grain(grid, kernel, parts, conts, opt, *domain);
+      // The displacement fields from the case's previous snapshot, if any.
+      const std::vector<SnapshotInfo>& every = listed.at(name);
+      std::optional<SnapshotInfo> prev;
+      for (const SnapshotInfo& s : every)
+        if (s.step < info.step) prev = s;
+      if (prev) {
+        ParticleSnapshot p0;
+        agree(mpi.comm(), [&] { p0 = read_particle_snapshot(a.file, name, prev->step); });
+        std::vector<CgMotion> motions;
+        for (std::size_t i = me; i < ps.id.size(); i += P) {
+          const auto it = std::lower_bound(p0.id.begin(), p0.id.end(), ps.id[i]);
+          if (it == p0.id.end() || *it != ps.id[i]) continue;  // not in both: no displacement
+          const std::size_t j = std::size_t(it - p0.id.begin());
+          motions.push_back({p0.position[j], ps.position[i], ps.radius[i]});
+        }
+        FieldGrid g0 = grid;
+        g0.lengths = prev->cell_lengths;
+        FieldsResult d = displacement_fields(g0, kernel, info.cell_lengths, motions, *domain);
+        for (Field& f : d.fields) res.fields.push_back(std::move(f));
+      }
+      // The check printed: the volume integral of the contact stress against the Love-Weber sum.
+      double err = 0;
+      {
+        const Field& s = res.field("contact_stress");
+        Mat3 integral = Mat3::Zero();
+        for (std::size_t g = 0; g < grid.nodes(); ++g)
+          for (int q = 0; q < 9; ++q) integral(q / 3, q % 3) += s.values[9 * g + std::size_t(q)];
+        integral *= grid.cell_volume();
+        if (love_weber.norm() > 0) err = (integral - love_weber).norm() / love_weber.norm();
+      }
+      double phi = 0;
+      for (double v : res.field("solid_fraction").values) phi += v;
+      phi /= double(grid.nodes());
+      agree(mpi.comm(), [&] {
+        if (!root) return;
+        const std::string path = "fields/" + name + "/" + layout::step_name(info.step);
+        try {
+          if (!file.exists("fields/" + name)) file.create_group("fields/" + name);
+          const h5::Group g = file.open_group("fields/" + name).create_group(layout::step_name(info.step));
+          g.set_attr("step", info.step);
+          g.set_attr("time", info.time);
+          const std::vector<double> L(info.cell_lengths.data(), info.cell_lengths.data() + 3);
+          const Vec3 h = grid.spacing();
+          const std::vector<double> cells{double(grid.n[0]), double(grid.n[1]), double(grid.n[2])},
+              sp{h[0], h[1], h[2]}, origin{0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+          g.set_attr("cell_lengths", std::span<const double>(L));
+          g.set_attr("cells", std::span<const double>(cells));
+          g.set_attr("spacing", std::span<const double>(sp));
+          g.set_attr("origin", std::span<const double>(origin));
+          g.set_attr("kernel", std::string(kernel.type == KernelType::Gaussian ? "gaussian" : "lucy"));
+          g.set_attr("width", kernel.width);
+          g.set_attr("cutoff", kernel.type == KernelType::Gaussian ? kernel.cutoff : 1.0);
+          g.set_attr("strong_ratio", a.strong_ratio);
+          g.set_attr("strong_threshold", res.strong_threshold);
+          g.set_attr("particles", res.particles);
+          g.set_attr("contacts", res.contacts);
+          if (prev) {
+            g.set_attr("displacement_from_step", prev->step);
+            const std::vector<double> L0(prev->cell_lengths.data(), prev->cell_lengths.data() + 3);
+            g.set_attr("displacement_reference_lengths", std::span<const double>(L0));
+          }
+          FieldsXdmfEntry e;
+          e.case_name = name, e.group = "/" + path, e.step = info.step, e.time = info.time, e.cells = grid.n;
+          e.spacing = {h[0], h[1], h[2]}, e.origin = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+          write_fields(g, res, e.quantities);
+          entries.push_back(e);
+        } catch (const h5::Error& e) { throw InputError(e.what()); }
+        fmt::print(
+            "{} step {}: eps1 {:.4f}, {} particles, {} contacts, grid {} x {} x {} ({}), mean solid fraction "
+            "{:.4f}, contact stress integral vs Love-Weber {:.1e}{}\n",
+            name, info.step, info.strain[0], res.particles, res.contacts, grid.n[0], grid.n[1], grid.n[2],
+            kernel_text(kernel), phi, err,
+            prev ? fmt::format(", displacement from step {}", prev->step) : std::string());
+      });
+      ++done;
+    }
+  }
+  agree(mpi.comm(), [&] {
+    if (!root) return;
+    try {
+      file.close();
+    } catch (const h5::Error& e) { throw InputError(e.what()); }
+    replace_file(tmp, out.string());
+    // As run.xmf and run_<case>.xmf: every case in one sidecar, and each case in its own (ParaView
+    // takes the union of the cases' times as one time axis).
+    write_fields_xdmf(xmf.string(), out.filename().string(), entries);
+    for (const auto& [name, list] : chosen) {
+      std::vector<FieldsXdmfEntry> mine;
+      for (const FieldsXdmfEntry& e : entries)
+        if (e.case_name == name) mine.push_back(e);
+      fs::path one = out;
+      one.replace_filename(out.stem().string() + "_" + name + ".xmf");
+      write_fields_xdmf(one.string(), out.filename().string(), mine);
+    }
+    fmt::print("{} instant(s) coarse-grained; fields written to {} ({}, and per case {}_<case>.xmf, for ParaView)\n",
+               done, out.string(), xmf.string(), (out.parent_path() / out.stem()).string());
+  });
+  return 0;
+}
+
+}  // namespace fabrica

@@ -1,0 +1,99 @@
+"""Checks the coarse-grained fields written by `fabrica fields` (docs/fields.md) against the
+snapshots they were computed from, through apps/fabrica_h5.py:
+
+    check_fields.py integrals RUN.h5 FIELDS.h5   at every instant of FIELDS.h5, the volume
+        integral (sum over the nodes x the cell volume of a node) of contact_stress equals the
+        Love-Weber sum f (x) b of the snapshot's particle contacts (relative to its norm, 1e-12),
+        of solid_fraction the solid volume (1e-12), of contact_density_all the number of
+        particle contacts (1e-12); every field has the grid's shape; the strain increment is the
+        symmetric part of the displacement gradient.
+    check_fields.py same A.h5 B.h5   every dataset of /fields and every attribute of its groups
+        identical in the two files, bit for bit (NaN included): the rank-count independence.
+Exits 0 if all hold, 1 with the reason, 77 if h5py or numpy is missing.
+"""
+import os
+import sys
+
+try:
+    import h5py
+    import numpy as np
+except ImportError as e:
+    print(f"check_fields.py: skipped: {e} (install python3-h5py and python3-numpy)")
+    sys.exit(77)
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "apps"))
+import fabrica_h5  # noqa: E402
+
+TOL = 1e-12
+
+
+def fail(msg):
+    print(f"check_fields.py: FAIL: {msg}")
+    sys.exit(1)
+
+
+def integrals(run_path, fields_path):
+    run, fl = fabrica_h5.RunFile(run_path), fabrica_h5.RunFile(fields_path)
+    instants = fl.field_instants()
+    if not instants:
+        fail(f"{fields_path}: no fields")
+    worst = [0.0, 0.0, 0.0]
+    for inst in instants:
+        f = fl.fields(inst.case, inst.step)
+        nx, ny, nz = inst.cells
+        dv = np.prod(inst.cell_lengths) / (nx * ny * nz)
+        for name, v in f.items():
+            if v.shape[:3] != (nx, ny, nz):
+                fail(f"{inst.case} step {inst.step}: {name} has shape {v.shape}, grid {nx} {ny} {nz}")
+        c = run.contacts(inst.case, inst.step)
+        pp = c.id2 >= 0
+        force = c.fn[pp, None] * c.normal[pp] + c.ft[pp]
+        lw = np.einsum("ci,cj->ij", force, c.branch[pp])
+        integral = f["contact_stress"].sum(axis=(0, 1, 2)) * dv
+        p = run.particles(inst.case, inst.step)
+        solid = (4.0 / 3.0 * np.pi * p.radius ** 3).sum()
+        errs = [np.linalg.norm(integral - lw) / np.linalg.norm(lw) if np.linalg.norm(lw) > 0 else 0.0,
+                abs(f["solid_fraction"].sum() * dv - solid) / solid,
+                abs(f["contact_density_all"].sum() * dv - pp.sum()) / max(pp.sum(), 1)]
+        for k, (e, what) in enumerate(zip(errs, ("contact stress vs Love-Weber", "solid fraction vs solid volume",
+                                                 "contact density vs contact count"))):
+            worst[k] = max(worst[k], e)
+            if not e <= TOL:
+                fail(f"{inst.case} step {inst.step}: {what}: relative error {e:.3e} > {TOL}")
+        if "displacement_gradient" in f:
+            g, e = f["displacement_gradient"], f["strain_increment"]
+            sym = 0.5 * (g + np.swapaxes(g, 3, 4))
+            ok = np.isfinite(g)
+            if not np.array_equal(np.isfinite(e), ok) or np.abs(e[ok] - sym[ok]).max(initial=0) > 1e-15:
+                fail(f"{inst.case} step {inst.step}: strain_increment is not the symmetric part of the gradient")
+    print(f"check_fields.py: {len(instants)} instants; largest relative errors: contact stress integral "
+          f"{worst[0]:.1e}, solid volume {worst[1]:.1e}, contact count {worst[2]:.1e} (tolerance {TOL})")
+
+
+def same(a_path, b_path):
+    with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
+        names = []
+        a["fields"].visit(names.append)
+        other = []
+        b["fields"].visit(other.append)
+        if sorted(names) != sorted(other):
+            fail(f"{a_path} and {b_path} hold different objects")
+        n = 0
+        for name in names:
+            x, y = a["fields"][name], b["fields"][name]
+            for k in x.attrs:
+                if not np.array_equal(np.asarray(x.attrs[k]), np.asarray(y.attrs[k])):
+                    fail(f"/fields/{name}: attribute {k} differs")
+            if isinstance(x, h5py.Dataset):
+                u, v = x[()], y[()]
+                if u.shape != v.shape or u.tobytes() != v.tobytes():
+                    fail(f"/fields/{name}: values differ")
+                n += u.size
+    print(f"check_fields.py: {len(names)} objects, {n} values identical, bit for bit")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 4 or sys.argv[1] not in ("integrals", "same"):
+        print(__doc__)
+        sys.exit(2)
+    (integrals if sys.argv[1] == "integrals" else same)(sys.argv[2], sys.argv[3])

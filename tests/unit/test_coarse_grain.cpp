@@ -1,0 +1,255 @@
+// Coarse-grained fields (core/coarse_grain.hpp, docs/fields.md, docs/verification.md
+// "Coarse-grained fields"):
+//  - the volume integral (sum over nodes x cell volume) of the contact stress equals the
+//    Love-Weber sum f (x) b (relative 1e-12), of the solid fraction the solid volume (1e-12), of
+//    each network's contact density its number of contacts (1e-12), with contacts across the
+//    periodic faces, for both kernels;
+//  - a simple cubic lattice (spacing a, radius a/2) gives the solid fraction pi/6 at every node
+//    (1e-6 with a Gaussian of width a cut at 6 widths), its uniform contact stress f a / a^3 per
+//    axis (1e-6) and the lattice's fabric (1/3 I, 1e-6); at 3 widths the errors are printed;
+//  - a uniform translation velocity gives that velocity (1e-12) and no kinetic stress;
+//  - a homogeneous (diagonal) deformation of the periodic cell, particles wrapped across the
+//    faces, gives the applied displacement gradient at every node (1e-10 absolute);
+//  - the fields do not depend on the order of the particles and contacts, to the bit;
+//  - unusable grids and kernels are refused with their numbers.
+// The rank-count independence is tested in tests/mpi/test_fields_ranks.cpp.
+#include "core/coarse_grain.hpp"
+#include "core/serial_domain.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <numbers>
+#include <random>
+
+namespace fabrica {
+namespace {
+
+// A random gas of spheres in a cell, with "contacts" between near pairs (branch to the nearest
+// image, so many cross the faces; about 3 a sphere) carrying random forces and flags.
+struct Sample {
+  Vec3 L{0.05, 0.04, 0.06};
+  std::vector<CgParticle> p;
+  std::vector<CgContact> c;
+};
+
+// Pairs closer than 'reach' (to the nearest image) are the contacts.
+Sample sample(std::size_t n, std::uint64_t seed, double reach = 0.0066) {
+  Sample s;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::normal_distribution<double> g;
+  for (std::size_t i = 0; i < n; ++i) {
+    CgParticle q;
+    q.x = Vec3(u(rng) * s.L[0], u(rng) * s.L[1], u(rng) * s.L[2]);
+    q.radius = 0.001 + 0.002 * u(rng);
+    q.mass = 2650 * 4.0 / 3.0 * std::numbers::pi * std::pow(q.radius, 3);
+    q.v = Vec3(g(rng), g(rng), g(rng)) * 0.01;
+    q.w = Vec3(g(rng), g(rng), g(rng));
+    s.p.push_back(q);
+  }
+  PeriodicCell cell(s.L);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      CgContact c;
+      c.rec.id1 = GlobalId(i), c.rec.id2 = GlobalId(j);
+      const CgParticle& a = s.p[i];
+      c.rec.branch = cell.minimum_image(s.p[j].x - a.x);
+      if (c.rec.branch.norm() > reach) continue;
+      c.rec.normal = c.rec.branch.normalized();
+      c.rec.overlap = 1e-5;
+      c.rec.fn = 10 * u(rng);
+      Vec3 tt(g(rng), g(rng), g(rng));
+      tt -= tt.dot(c.rec.normal) * c.rec.normal;
+      c.rec.ft = 0.4 * c.rec.fn * u(rng) * tt.normalized();
+      c.rec.sliding = u(rng) < 0.3, c.rec.rolling = u(rng) < 0.5;
+      c.x1 = a.x, c.r1 = a.radius;
+      s.c.push_back(c);
+    }
+  return s;
+}
+
+double volume_integral(const FieldsResult& r, const std::string& name, int comp) {
+  const Field& f = r.field(name);
+  double s = 0;
+  for (std::size_t g = 0; g < r.grid.nodes(); ++g) s += f.values[g * std::size_t(f.components) + std::size_t(comp)];
+  return s * r.grid.cell_volume();
+}
+
+TEST(CoarseGrain, VolumeIntegralsAreLoveWeberAndSolidVolume) {
+  const Sample s = sample(600, 5);
+  Mat3 lw = Mat3::Zero();
+  double solid = 0;
+  for (const CgContact& c : s.c) lw += c.rec.force() * c.rec.branch.transpose();
+  for (const CgParticle& p : s.p) solid += 4.0 / 3.0 * std::numbers::pi * std::pow(p.radius, 3);
+  for (KernelType type : {KernelType::Gaussian, KernelType::Lucy}) {
+    FieldGrid grid{{10, 8, 13}, s.L};
+    FieldKernel k{type, type == KernelType::Gaussian ? 0.004 : 0.009, 3};
+    ASSERT_EQ(check_field_grid(grid, k, 0.001), "");
+    SerialDomain d;
+    const FieldsResult r = coarse_grain(grid, k, s.p, s.c, {}, d);
+    double worst = 0;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const double e = std::abs(volume_integral(r, "contact_stress", 3 * i + j) - lw(i, j)) / lw.norm();
+        worst = std::max(worst, e);
+        EXPECT_LT(e, 1e-12) << i << j;
+      }
+    const double es = std::abs(volume_integral(r, "solid_fraction", 0) - solid) / solid;
+    EXPECT_LT(es, 1e-12);
+    const double en = std::abs(volume_integral(r, "contact_density_all", 0) - double(s.c.size())) / double(s.c.size());
+    EXPECT_LT(en, 1e-12);
+    double mass = 0;
+    for (const CgParticle& p : s.p) mass += p.mass;
+    EXPECT_LT(std::abs(volume_integral(r, "density", 0) - mass) / mass, 1e-12);
+    std::printf("%zu spheres, %zu contacts, ", s.p.size(), s.c.size());
+    std::printf("%s: contact stress integral %.2e, solid volume %.2e, contact count %.2e (relative errors)\n",
+                type == KernelType::Gaussian ? "gaussian" : "lucy", worst, es, en);
+  }
+}
+
+// The simple cubic lattice of m^3 spheres of radius a/2, touching along the axes, with normal
+// forces f_a along axis a.
+struct Lattice {
+  std::vector<CgParticle> p;
+  std::vector<CgContact> c;
+  Vec3 L;
+};
+Lattice lattice(int m, double a, const Vec3& f, const Vec3& v0) {
+  Lattice l;
+  l.L = Vec3::Constant(m * a);
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < m; ++i) {
+        CgParticle q;
+        q.x = Vec3((i + 0.3) * a, (j + 0.3) * a, (k + 0.3) * a);  // off the grid's nodes
+        q.radius = 0.5 * a;
+        q.mass = 1.5;
+        q.v = v0;
+        l.p.push_back(q);
+        for (int ax = 0; ax < 3; ++ax) {
+          CgContact c;
+          c.rec.id1 = GlobalId(l.p.size() - 1), c.rec.id2 = c.rec.id1 + 1;
+          c.rec.normal = Vec3::Unit(ax);
+          c.rec.branch = a * Vec3::Unit(ax);
+          c.rec.fn = f[ax];
+          c.x1 = q.x, c.r1 = q.radius;
+          l.c.push_back(c);
+        }
+      }
+  return l;
+}
+
+TEST(CoarseGrain, SimpleCubicLattice) {
+  const double a = 0.002;
+  const Vec3 f(3, 2, 1), v0(0.1, -0.2, 0.05);
+  const Lattice l = lattice(6, a, f, v0);
+  for (double cutoff : {3.0, 6.0}) {
+    FieldGrid grid{{13, 13, 13}, l.L};  // h = 0.92 a: incommensurate with the lattice
+    FieldKernel k{KernelType::Gaussian, a, cutoff};
+    ASSERT_EQ(check_field_grid(grid, k, 0.5 * a), "");
+    SerialDomain d;
+    const FieldsResult r = coarse_grain(grid, k, l.p, l.c, {}, d);
+    double ephi = 0, esig = 0, efab = 0, evel = 0, ekin = 0;
+    const Field &phi = r.field("solid_fraction"), &sig = r.field("contact_stress"), &fab = r.field("fabric_all"),
+                &vel = r.field("velocity"), &kin = r.field("kinetic_stress");
+    for (std::size_t g = 0; g < grid.nodes(); ++g) {
+      ephi = std::max(ephi, std::abs(phi.values[g] / (std::numbers::pi / 6) - 1));
+      for (int i = 0; i < 3; ++i) {
+        esig = std::max(esig, std::abs(sig.values[9 * g + 4 * i] / (f[i] / (a * a)) - 1));
+        efab = std::max(efab, std::abs(fab.values[9 * g + 4 * i] - 1.0 / 3));
+        evel = std::max(evel, std::abs(vel.values[3 * g + i] - v0[i]) / v0.norm());
+      }
+      for (int k2 = 0; k2 < 9; ++k2) ekin = std::max(ekin, std::abs(kin.values[9 * g + k2]));
+    }
+    std::printf(
+        "cut-off %.0f widths: solid fraction %.2e, contact stress %.2e, fabric %.2e, velocity %.2e "
+        "(relative), kinetic stress %.2e Pa\n",
+        cutoff, ephi, esig, efab, evel, ekin);
+    if (cutoff == 6.0) {
+      EXPECT_LT(ephi, 1e-6);
+      EXPECT_LT(esig, 1e-6);
+      EXPECT_LT(efab, 1e-6);
+    }
+    EXPECT_LT(evel, 1e-12);
+    EXPECT_LT(ekin, 1e-10 * 1.5 * v0.squaredNorm() / (a * a * a));
+  }
+}
+
+TEST(CoarseGrain, AffineDeformationGivesItsDisplacementGradient) {
+  const Vec3 L0(0.05, 0.04, 0.06), eps(-0.01, 0.004, 0.006);
+  const Vec3 L1 = L0.cwiseProduct(Vec3::Ones() + eps);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<CgMotion> m(1500);
+  for (CgMotion& q : m) {
+    q.x0 = Vec3(u(rng) * L0[0], u(rng) * L0[1], u(rng) * L0[2]);
+    q.radius = 0.001;
+    const Vec3 s = q.x0.cwiseQuotient(L0);
+    // The same scaled position in the deformed cell, at a random image, then wrapped back.
+    Vec3 x1 = s.cwiseProduct(L1);
+    for (int a = 0; a < 3; ++a) {
+      x1[a] += std::floor(3 * u(rng) - 1) * L1[a];
+      x1[a] -= L1[a] * std::floor(x1[a] / L1[a]);
+    }
+    q.x1 = x1;
+  }
+  for (KernelType type : {KernelType::Gaussian, KernelType::Lucy}) {
+    FieldGrid grid{{9, 7, 11}, L0};
+    FieldKernel k{type, type == KernelType::Gaussian ? 0.005 : 0.012, 3};
+    ASSERT_EQ(check_field_grid(grid, k, 0.001), "");
+    SerialDomain d;
+    const FieldsResult r = displacement_fields(grid, k, L1, m, d);
+    const Field& G = r.field("displacement_gradient");
+    const Field& E = r.field("strain_increment");
+    double worst = 0;
+    for (std::size_t g = 0; g < grid.nodes(); ++g)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          const double want = i == j ? eps[i] : 0.0;
+          worst = std::max(worst, std::abs(G.values[9 * g + 3 * i + j] - want));
+          worst = std::max(worst, std::abs(E.values[9 * g + 3 * i + j] - want));
+        }
+    std::printf("%s: displacement gradient of a homogeneous deformation, largest error %.2e\n",
+                type == KernelType::Gaussian ? "gaussian" : "lucy", worst);
+    EXPECT_LT(worst, 1e-10);
+  }
+}
+
+TEST(CoarseGrain, IndependentOfTheOrderToTheBit) {
+  Sample s = sample(400, 9);
+  FieldGrid grid{{7, 6, 9}, s.L};
+  FieldKernel k{KernelType::Gaussian, 0.004, 3};
+  SerialDomain d;
+  const FieldsResult r1 = coarse_grain(grid, k, s.p, s.c, {}, d);
+  std::mt19937_64 rng(1);
+  std::shuffle(s.p.begin(), s.p.end(), rng);
+  std::shuffle(s.c.begin(), s.c.end(), rng);
+  const FieldsResult r2 = coarse_grain(grid, k, s.p, s.c, {}, d);
+  ASSERT_EQ(r1.fields.size(), r2.fields.size());
+  for (std::size_t f = 0; f < r1.fields.size(); ++f)
+    for (std::size_t i = 0; i < r1.fields[f].values.size(); ++i) {
+      const double a = r1.fields[f].values[i], b = r2.fields[f].values[i];
+      ASSERT_TRUE(std::memcmp(&a, &b, sizeof a) == 0) << r1.fields[f].name << " " << i << ": " << a << " " << b;
+    }
+}
+
+TEST(CoarseGrain, UnusableGridsAreRefused) {
+  const Vec3 L(0.05, 0.04, 0.06);
+  EXPECT_NE(check_field_grid({{0, 4, 4}, L}, {KernelType::Gaussian, 0.01, 3}, 0.001).find("at least 1 node"),
+            std::string::npos);
+  EXPECT_NE(check_field_grid({{8, 8, 8}, L}, {KernelType::Gaussian, 0.0005, 3}, 0.001)
+                .find("kernel width 0.0005 m is below the smallest sphere radius 0.001 m"),
+            std::string::npos);
+  EXPECT_NE(check_field_grid({{2, 2, 2}, L}, {KernelType::Lucy, 0.002, 3}, 0.001).find("support radius 0.002 m"),
+            std::string::npos);
+  EXPECT_NE(check_field_grid({{8, 8, 8}, L}, {KernelType::Gaussian, 0.01, 0.5}, 0.001).find("cut-off 0.5"),
+            std::string::npos);
+  EXPECT_EQ(check_field_grid({{8, 8, 8}, L}, {KernelType::Gaussian, 0.005, 3}, 0.001), "");
+}
+
+}  // namespace
+}  // namespace fabrica
