@@ -6,6 +6,7 @@
 //   fabrica fields OUT/run.h5 [--case C] [--step S | --all] [--spacing H | --cells NX NY NZ]
 //                  [--kernel gaussian|lucy] [--width W] [--cutoff C] [--density RHO] [-o FILE]
 //   fabrica checkpoint-info CKPT
+#include "apps/ensemble.hpp"
 #include "apps/app_checkpoint.hpp"
 #include "apps/fabric_offline.hpp"
 #include "apps/fields_offline.hpp"
@@ -141,13 +142,32 @@ struct Cursor {
 int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outdir, RunOutput* out,
               const Checkpoint* ckpt, const std::string& restart, Setup* setup);
 
+int run_scene(const MpiContext& mpi, const Scene& scene, const std::string& outdir, bool overwrite,
+              const std::string& restart);
+
 int run(const MpiContext& mpi, const std::string& scene_path, const std::string& outdir, bool overwrite,
         const std::string& restart) {
-  const auto t0 = std::chrono::steady_clock::now();
   // Every rank reads the scene (and below the data file) itself: the ranks agree on the outcome,
   // so that a read that fails on one rank ends all of them with its message (parallel/guard.hpp).
   Scene scene;
   agree(mpi.comm(), [&] { scene = scene_path.empty() ? default_scene() : load_scene(scene_path); });
+  if (scene.triaxial.seeds.size() > 1) {  // realisations (apps/ensemble.hpp)
+    agree(mpi.comm(), [&] {
+      if (!restart.empty())
+        throw InputError("--restart " + restart + ": " + scene.path +
+                         " runs several realisations ([triaxial] realisations / seeds); restart one with its own "
+                         "scene (seeds = [<its seed>]) and output directory OUT/seed_<seed>");
+    });
+    return run_ensemble(mpi, scene, outdir, [&](const MpiContext& group, const Scene& one, const std::string& dir) {
+      return run_scene(group, one, dir, overwrite, "");
+    });
+  }
+  return run_scene(mpi, scene, outdir, overwrite, restart);
+}
+
+int run_scene(const MpiContext& mpi, const Scene& scene, const std::string& outdir, bool overwrite,
+              const std::string& restart) {
+  const auto t0 = std::chrono::steady_clock::now();
   // A restart reads and checks the whole checkpoint before anything is written.
   std::optional<Checkpoint> ckpt;
   if (!restart.empty()) {

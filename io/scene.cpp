@@ -752,6 +752,32 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     }
   }
   T.mark_used("rolling_friction_cases");
+  if (T.has("realisations") && T.has("seeds"))
+    T.fail("seeds", Section::node_text(*table("triaxial")->get("seeds")), "give realisations or seeds, not both");
+  if (const auto n = T.integer("realisations")) {
+    if (*n < 1) T.fail("realisations", std::to_string(*n), "must be at least 1");
+    if (*n > 100000) T.fail("realisations", std::to_string(*n), "must be at most 100000");
+    if (*n > 1)
+      for (std::int64_t k = 0; k < *n; ++k) tx.seeds.push_back(g.seed + std::uint64_t(k));
+  }
+  T.mark_used("seeds");
+  if (const toml::node* n = table("triaxial") ? table("triaxial")->get("seeds") : nullptr) {
+    const toml::array* a = n->as_array();
+    if (!a || a->empty()) T.fail("seeds", Section::node_text(*n), "must be a non-empty array of seeds (integers >= 0)");
+    for (const toml::node& e : *a) {
+      if (!e.is_integer() || *e.value<std::int64_t>() < 0)
+        T.fail("seeds", Section::node_text(*n), "must hold seeds (integers >= 0)");
+      const auto v = std::uint64_t(*e.value<std::int64_t>());
+      if (std::find(tx.seeds.begin(), tx.seeds.end(), v) != tx.seeds.end())
+        T.fail("seeds", Section::node_text(*n), "names seed " + std::to_string(v) + " twice");
+      tx.seeds.push_back(v);
+    }
+    if (tx.seeds.size() == 1) g.seed = tx.seeds[0], tx.seeds.clear();
+  }
+  if (!tx.seeds.empty() && sc.source == ParticleSource::File)
+    T.fail(T.has("seeds") ? "seeds" : "realisations",
+           Section::node_text(*table("triaxial")->get(T.has("seeds") ? "seeds" : "realisations")),
+           "realisations are generated specimens: [particles] source = \"file\" has one");
   T.reject_unknown();
   if (tx.enabled && R.has("steps"))
     throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
@@ -787,6 +813,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (ps.rebalance_interval <= 0)
     M.fail("rebalance_interval", std::to_string(ps.rebalance_interval), "must be positive");
   ps.cut = M.string("cut").value_or(ps.cut);
+  if (const toml::node* n = table("parallel") ? table("parallel")->get("groups") : nullptr) {
+    M.mark_used("groups");
+    if (n->is_string() && *n->value<std::string>() == "auto") ps.groups = 0;
+    else if (n->is_integer() && *n->value<std::int64_t>() >= 1) ps.groups = *n->value<std::int64_t>();
+    else M.fail("groups", Section::node_text(*n), "must be a positive integer or \"auto\"");
+  }
   if (ps.cut != "work" && ps.cut != "even") M.fail("cut", "\"" + ps.cut + "\"", "must be \"work\" or \"even\"");
   M.reject_unknown();
 

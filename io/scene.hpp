@@ -87,7 +87,11 @@ struct TriaxialSpec {
   real_t shear_damping = 0.0;                  // alpha during shear
   std::int64_t max_stage_steps = 2000000;      // a stage that does not converge ends the run
   std::vector<real_t> rolling_friction_cases;  // a sweep over mu_r (empty: [contact] value)
-  real_t progress_seconds = 5.0;               // a progress line at most this often
+  // Realisations: the whole test on each of these generated specimens ([particles] seed of
+  // each; empty: the one of [particles] seed). From realisations = N (seeds seed, seed + 1, ...)
+  // or seeds = [...]; run by apps/ensemble.cpp, each into OUT/seed_<s>/.
+  std::vector<std::uint64_t> seeds;
+  real_t progress_seconds = 5.0;  // a progress line at most this often
   // The servo keys above as the stages take them (apps/triaxial_stages.hpp).
   ServoSettings servo_settings() const {
     return {servo,           servo_relaxation, servo_integral_relaxation, servo_gain,          servo_integral_gain,
@@ -101,6 +105,9 @@ struct ParallelSpec {
   double rebalance_threshold = 1.10;        // max/mean owned particles that triggers METIS
   std::int64_t rebalance_interval = 10;     // neighbour rebuilds between imbalance checks
   std::string cut = "work";                 // Cartesian runs of bins: "work" or "even"
+  // Groups of ranks that run different realisations at once (0: "auto", the most groups that
+  // divide the ranks and have a realisation each); 1: every realisation on all ranks in turn.
+  std::int64_t groups = 1;
 };
 
 // Fabric analysis of the contact sub-networks (core/fabric.hpp, docs/fabric.md) at the output

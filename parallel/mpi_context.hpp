@@ -30,18 +30,25 @@ class MpiContext {
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
   }
+  // The ranks of 'comm' (a group of the run's ranks, apps/ensemble.hpp), MPI already running:
+  // neither initialises nor finalises it, nor frees 'comm'.
+  explicit MpiContext(MPI_Comm comm) : comm_(comm) {
+    MPI_Comm_rank(comm_, &rank_);
+    MPI_Comm_size(comm_, &size_);
+  }
   ~MpiContext() {
     if (owner_) MPI_Finalize();
   }
   MpiContext(const MpiContext&) = delete;
   MpiContext& operator=(const MpiContext&) = delete;
 
-  MPI_Comm comm() const { return MPI_COMM_WORLD; }
+  MPI_Comm comm() const { return comm_; }
   int rank() const { return rank_; }
   int size() const { return size_; }
 
  private:
   bool owner_ = false;
+  MPI_Comm comm_ = MPI_COMM_WORLD;
   int rank_ = 0, size_ = 1;
 };
 

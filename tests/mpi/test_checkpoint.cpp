@@ -20,6 +20,7 @@
 #include "parallel/mpi_domain.hpp"
 
 #include "core/timestep.hpp"
+#include "tests/mpi/two_materials.hpp"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
@@ -56,22 +57,6 @@ std::string dense_text() {
 }
 
 Setup dense_setup() { return make_setup(load_scene(std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml")); }
-
-// Two materials on the dense specimen: every third sphere (by id) of material 1, twice as dense,
-// three times as stiff, of another friction and rolling friction than material 0 (the scene's).
-void two_materials(Setup& s) {
-  ContactLawParams b = s.params.law;
-  b.youngs_modulus *= 3;
-  b.friction = 0.5;
-  b.rolling_friction = b.rolling_friction > 0 ? 2 * b.rolling_friction : 0.2;
-  s.params.materials.names = {"a", "b"};
-  s.params.materials.laws = {s.params.law, b};
-  s.params.materials.mix_pairs();
-  Particles& p = s.particles;
-  for (std::size_t a = 0; a < p.n_owned(); ++a)
-    if (p.id[a] % 3 == 0) p.material[a] = 1, p.mass[a] *= 2;
-  s.params.dt = 0.25 * critical_time_step(p, s.params.law, false, &s.params.materials);
-}
 
 // The cell deforms (shear-like: axis 1 shortens, 2 and 3 lengthen) so that the saved strain
 // rates and the rebuild criterion's reference lengths matter.
@@ -228,7 +213,7 @@ void continues_bitwise(const ContactLawParams& law, const std::string& name, boo
   fabrica::Setup s = dense_setup();
   s.params.law = law;
   s.params.dt = 0.25 * critical_time_step(s.particles, law, false);
-  if (materials) two_materials(s);
+  if (materials) test::two_materials(s);
   const std::string text = dense_text();
   Simulation ref(s.particles, s.cell, s.params);
   deform(ref);

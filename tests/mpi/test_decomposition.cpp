@@ -4,6 +4,7 @@
 #include "core/generate.hpp"
 #include "core/simulation.hpp"
 #include "core/timestep.hpp"
+#include "tests/mpi/two_materials.hpp"
 #include "io/scene.hpp"
 #include "io/setup.hpp"
 #include "parallel/mpi_domain.hpp"
@@ -33,22 +34,6 @@ using test::sum_all;
 fabrica::Setup dense_setup() {
   const std::string path = std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
   return make_setup(load_scene(path));
-}
-
-// Two materials on the dense specimen: every third sphere (by id) of material 1, twice as dense,
-// three times as stiff, of another friction and rolling friction than material 0 (the scene's).
-void two_materials(fabrica::Setup& s) {
-  ContactLawParams b = s.params.law;
-  b.youngs_modulus *= 3;
-  b.friction = 0.5;
-  b.rolling_friction = b.rolling_friction > 0 ? 2 * b.rolling_friction : 0.2;
-  s.params.materials.names = {"a", "b"};
-  s.params.materials.laws = {s.params.law, b};
-  s.params.materials.mix_pairs();
-  Particles& p = s.particles;
-  for (std::size_t a = 0; a < p.n_owned(); ++a)
-    if (p.id[a] % 3 == 0) p.material[a] = 1, p.mass[a] *= 2;
-  s.params.dt = 0.25 * critical_time_step(p, s.params.law, false, &s.params.materials);
 }
 
 // Largest difference of x, v, w between the parallel owners and the serial run, over all ranks.
@@ -237,7 +222,7 @@ TEST(ModelRun, TwoMaterialsSameTrajectoryOnEveryRankCount) {
     s.params.law.poisson_ratio = 0.25;
     s.params.law.damping_ratio_n = 0.1;
     s.params.law.damping_rate_n = s.params.law.damping_rate_s = 0;
-    two_materials(s);
+    test::two_materials(s);
     SCOPED_TRACE(model_name(model));
     MpiDomain domain(MPI_COMM_WORLD, options_of(DecompositionKind::Metis));
     Simulation serial(s.particles, s.cell, s.params), par(s.particles, s.cell, s.params, &domain);

@@ -1,0 +1,25 @@
+// Realisations of a triaxial test ([triaxial] realisations / seeds, docs/triaxial.md
+// "Realisations"): the scene's whole test on each generated specimen, each into OUT/seed_<s>/
+// as a run of its own (its series, fabric files, summary.csv, run.h5 and checkpoints), and
+// OUT/summary.csv with every realisation's cases. [parallel] groups splits the ranks into groups
+// that run different realisations at once (MPI_Comm_split): a realisation's results are bit for
+// bit those of running the scene with its seed alone on a group's number of ranks.
+#pragma once
+#include "io/scene.hpp"
+#include "parallel/mpi_context.hpp"
+
+#include <functional>
+#include <string>
+
+namespace fabrica {
+
+// One run of a scene on the ranks of 'mpi' into 'outdir' (apps/fabrica.cpp run_scene).
+using RunScene = std::function<int(const MpiContext& mpi, const Scene& scene, const std::string& outdir)>;
+
+// The groups 'groups' ([parallel] groups; 0: "auto") makes of 'ranks' ranks for 'realisations'
+// realisations; throws InputError naming the key and value if they cannot be made.
+int ensemble_groups(const Scene& scene, int ranks);
+
+int run_ensemble(const MpiContext& mpi, const Scene& scene, const std::string& outdir, const RunScene& run_scene);
+
+}  // namespace fabrica
