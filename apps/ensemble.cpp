@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -17,8 +18,53 @@ namespace fabrica {
 
 namespace fs = std::filesystem;
 
+namespace {
+// One run of the ensemble: a realisation's test, or one of its extra consolidations.
+struct Job {
+  std::uint64_t seed;
+  bool consolidation_only;
+  real_t consolidation_friction;
+  std::string dir;
+};
+
+std::vector<Job> jobs_of(const Scene& scene, const fs::path& out) {
+  const TriaxialSpec& tx = scene.triaxial;
+  std::vector<std::uint64_t> seeds = tx.seeds;
+  if (seeds.empty()) seeds.push_back(scene.generate.seed);
+  std::vector<Job> jobs;
+  for (std::uint64_t s : seeds) {
+    const std::string base = "seed_" + std::to_string(s);
+    jobs.push_back({s, false, tx.consolidation_friction, (out / base).string()});
+    for (real_t c : tx.consolidation_friction_cases)
+      if (c != tx.consolidation_friction)
+        jobs.push_back({s, true, c, (out / fmt::format("{}_consolidation_{}", base, c)).string()});
+  }
+  return jobs;
+}
+
+// The last row of a CSV file as name -> text.
+std::map<std::string, std::string> last_row(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path.string() + ": cannot read it");
+  std::string header, line, last;
+  std::getline(in, header);
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  std::map<std::string, std::string> row;
+  std::istringstream h(header), v(last);
+  std::string name, value;
+  while (std::getline(h, name, ',') && std::getline(v, value, ',')) row[name] = value;
+  return row;
+}
+}  // namespace
+
+bool is_ensemble(const Scene& scene) {
+  return scene.triaxial.enabled &&
+      (scene.triaxial.seeds.size() > 1 || !scene.triaxial.consolidation_friction_cases.empty());
+}
+
 int ensemble_groups(const Scene& scene, int ranks) {
-  const auto n = std::int64_t(scene.triaxial.seeds.size());
+  const auto n = std::int64_t(jobs_of(scene, ".").size());
   const std::int64_t g = scene.parallel.groups;
   if (g == 0) {  // "auto": the most groups that divide the ranks, one realisation each at least
     std::int64_t best = 1;
@@ -33,14 +79,8 @@ int ensemble_groups(const Scene& scene, int ranks) {
   return int(g);
 }
 
-namespace {
-std::string seed_dir(const fs::path& out, std::uint64_t seed) {
-  return (out / ("seed_" + std::to_string(seed))).string();
-}
-}  // namespace
-
 int run_ensemble(const MpiContext& mpi, const Scene& scene, const std::string& outdir, const RunScene& run_scene) {
-  const std::vector<std::uint64_t>& seeds = scene.triaxial.seeds;
+  const std::vector<Job> jobs = jobs_of(scene, outdir);
   int groups = 1;
   agree(mpi.comm(), [&] { groups = ensemble_groups(scene, mpi.size()); });
   const int per = mpi.size() / groups, group = mpi.rank() / per;
@@ -48,38 +88,67 @@ int run_ensemble(const MpiContext& mpi, const Scene& scene, const std::string& o
   MPI_Comm_split(mpi.comm(), group, mpi.rank(), &comm);
   const MpiContext mine(comm);
   if (mpi.rank() == 0) {
-    fmt::print("-- {} realisation(s) (seeds", seeds.size());
-    for (std::uint64_t s : seeds) fmt::print(" {}", s);
-    fmt::print(") in {} group(s) of {} rank(s), each into {}/seed_<seed>/\n", groups, per, outdir);
+    fmt::print("-- {} run(s) (seeds", jobs.size());
+    std::uint64_t prev = ~std::uint64_t(0);
+    for (const Job& j : jobs)
+      if (j.seed != prev) fmt::print(" {}", j.seed), prev = j.seed;
+    fmt::print(") in {} group(s) of {} rank(s), each into {}/seed_<seed>[_consolidation_<mu_s>]/\n", groups, per,
+               outdir);
     std::fflush(stdout);
   }
   // The first rank of each group but the run's first writes its realisations' log into their
   // directories (the terminal is the run's first rank's).
   int rc = 0;
-  for (std::size_t k = std::size_t(group); k < seeds.size(); k += std::size_t(groups)) {
+  for (std::size_t k = std::size_t(group); k < jobs.size(); k += std::size_t(groups)) {
+    const Job& job = jobs[k];
     Scene one = scene;
-    one.generate.seed = seeds[k];
+    one.generate.seed = job.seed;
     one.triaxial.seeds.clear();
-    const std::string dir = seed_dir(outdir, seeds[k]);
+    one.triaxial.consolidation_friction_cases.clear();
+    one.triaxial.consolidation_friction = job.consolidation_friction;
+    one.triaxial.consolidation_only = job.consolidation_only;
+    const std::string& dir = job.dir;
     if (mine.rank() == 0 && mpi.rank() != 0) {
       std::error_code ec;
       fs::create_directories(dir, ec);
       if (!std::freopen((fs::path(dir) / "run.log").c_str(), "w", stdout))
         throw std::runtime_error(dir + "/run.log: cannot write the realisation's log there: " + std::strerror(errno));
     }
-    if (mpi.rank() == 0) fmt::print("-- realisation {} of {}: seed {}, into {}\n", k + 1, seeds.size(), seeds[k], dir);
+    if (mpi.rank() == 0)
+      fmt::print("-- run {} of {}: seed {}, {}consolidation mu_s = {}, into {}\n", k + 1, jobs.size(), job.seed,
+                 job.consolidation_only ? "only the " : "", job.consolidation_friction, dir);
     rc = std::max(rc, run_scene(mine, one, dir));
   }
   MPI_Comm_free(&comm);
   MPI_Allreduce(MPI_IN_PLACE, &rc, 1, MPI_INT, MPI_MAX, mpi.comm());
-  // OUT/summary.csv: every realisation's rows, with its seed first.
+  // OUT/summary.csv: every realisation's rows, with its seed first; OUT/consolidations.csv: the
+  // consolidated state of every consolidation.
   agree(mpi.comm(), [&] {
     if (mpi.rank() != 0) return;
+    std::ostringstream cons;
+    cons << "seed,consolidation_friction,step,p,void_ratio,Z,Z_m\n";
+    for (const Job& j : jobs) {
+      const auto r = last_row(fs::path(j.dir) / "consolidation.csv");
+      cons << j.seed << ',' << j.consolidation_friction;
+      for (const char* c : {"step", "p", "void_ratio", "Z", "Z_m"}) {
+        const auto it = r.find(c);
+        if (it == r.end()) throw std::runtime_error(j.dir + "/consolidation.csv: no column " + c);
+        cons << ',' << it->second;
+      }
+      cons << '\n';
+    }
+    const fs::path cpath = fs::path(outdir) / "consolidations.csv";
+    std::ofstream cfile(cpath);
+    cfile << cons.str();
+    cfile.flush();
+    if (!cfile) throw std::runtime_error(cpath.string() + ": cannot write the ensemble's consolidations");
     const fs::path path = fs::path(outdir) / "summary.csv";
     std::ostringstream all;
     bool header = false;
-    for (std::uint64_t s : seeds) {
-      const fs::path one = fs::path(seed_dir(outdir, s)) / "summary.csv";
+    for (const Job& j : jobs) {
+      if (j.consolidation_only) continue;
+      const std::uint64_t s = j.seed;
+      const fs::path one = fs::path(j.dir) / "summary.csv";
       std::ifstream in(one);
       if (!in) throw std::runtime_error(one.string() + ": cannot read the realisation's summary");
       std::string line;
@@ -97,7 +166,7 @@ int run_ensemble(const MpiContext& mpi, const Scene& scene, const std::string& o
     out << all.str();
     out.flush();
     if (!out) throw std::runtime_error(path.string() + ": cannot write the ensemble's summary");
-    fmt::print("ensemble summary written to {}\n", path.string());
+    fmt::print("ensemble summary written to {} and {}\n", path.string(), cpath.string());
   });
   return rc;
 }

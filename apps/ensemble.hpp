@@ -1,7 +1,9 @@
 // Realisations of a triaxial test ([triaxial] realisations / seeds, docs/triaxial.md
 // "Realisations"): the scene's whole test on each generated specimen, each into OUT/seed_<s>/
 // as a run of its own (its series, fabric files, summary.csv, run.h5 and checkpoints), and
-// OUT/summary.csv with every realisation's cases. [parallel] groups splits the ranks into groups
+// OUT/summary.csv with every realisation's cases; with consolidation_friction_cases, for each
+// realisation also a consolidation at each of those mu_s (OUT/seed_<s>_consolidation_<mu>/),
+// and OUT/consolidations.csv: the void ratio and Z of every consolidation. [parallel] groups splits the ranks into groups
 // that run different realisations at once (MPI_Comm_split): a realisation's results are bit for
 // bit those of running the scene with its seed alone on a group's number of ranks.
 #pragma once
@@ -15,6 +17,9 @@ namespace fabrica {
 
 // One run of a scene on the ranks of 'mpi' into 'outdir' (apps/fabrica.cpp run_scene).
 using RunScene = std::function<int(const MpiContext& mpi, const Scene& scene, const std::string& outdir)>;
+
+// Whether the scene is an ensemble (several realisations, or consolidation frictions).
+bool is_ensemble(const Scene& scene);
 
 // The groups 'groups' ([parallel] groups; 0: "auto") makes of 'ranks' ranks for 'realisations'
 // realisations; throws InputError naming the key and value if they cannot be made.

@@ -151,12 +151,13 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   // so that a read that fails on one rank ends all of them with its message (parallel/guard.hpp).
   Scene scene;
   agree(mpi.comm(), [&] { scene = scene_path.empty() ? default_scene() : load_scene(scene_path); });
-  if (scene.triaxial.seeds.size() > 1) {  // realisations (apps/ensemble.hpp)
+  if (is_ensemble(scene)) {  // realisations, consolidation frictions (apps/ensemble.hpp)
     agree(mpi.comm(), [&] {
       if (!restart.empty())
         throw InputError("--restart " + restart + ": " + scene.path +
-                         " runs several realisations ([triaxial] realisations / seeds); restart one with its own "
-                         "scene (seeds = [<its seed>]) and output directory OUT/seed_<seed>");
+                         " runs an ensemble ([triaxial] realisations, seeds or consolidation_friction_cases); restart "
+                         "one of its runs with its own scene (one seed, no consolidation_friction_cases) and output "
+                         "directory OUT/seed_<seed>");
     });
     return run_ensemble(mpi, scene, outdir, [&](const MpiContext& group, const Scene& one, const std::string& dir) {
       return run_scene(group, one, dir, overwrite, "");

@@ -315,7 +315,8 @@ int TriaxialSweep::run() {
           cons_.state.p / 1e3, cons_.steps, t_cons_, cons_.state.void_ratio, cons_.state.coordination,
           100 * cons_.state.mean_overlap / d_mean_);
     write_summary();
-    for (std::size_t i = std::size_t(std::max(0, start_case_)); i < cases_.size(); ++i) run_case(i, prep);
+    if (!scene_.triaxial.consolidation_only)
+      for (std::size_t i = std::size_t(std::max(0, start_case_)); i < cases_.size(); ++i) run_case(i, prep);
   } catch (const BlowUpError& err) {  // in the consolidation: every rank is here
     blowup(err);
   }

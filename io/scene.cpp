@@ -752,6 +752,22 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     }
   }
   T.mark_used("rolling_friction_cases");
+  T.mark_used("consolidation_friction_cases");
+  if (const toml::node* n = table("triaxial") ? table("triaxial")->get("consolidation_friction_cases") : nullptr) {
+    const toml::array* a = n->as_array();
+    if (!a || a->empty())
+      T.fail("consolidation_friction_cases", Section::node_text(*n), "must be a non-empty array of numbers");
+    for (const toml::node& e : *a) {
+      const std::optional<double> v = e.value<double>();
+      if (!v || e.is_boolean() || !std::isfinite(*v) || *v < 0)
+        T.fail("consolidation_friction_cases", Section::node_text(*n), "must hold finite numbers >= 0");
+      if (std::find(tx.consolidation_friction_cases.begin(), tx.consolidation_friction_cases.end(), *v) !=
+          tx.consolidation_friction_cases.end())
+        T.fail("consolidation_friction_cases", Section::node_text(*n),
+               "names mu_s = " + number_text(*v, 10) + " twice");
+      tx.consolidation_friction_cases.push_back(*v);
+    }
+  }
   if (T.has("realisations") && T.has("seeds"))
     T.fail("seeds", Section::node_text(*table("triaxial")->get("seeds")), "give realisations or seeds, not both");
   if (const auto n = T.integer("realisations")) {

@@ -91,7 +91,12 @@ struct TriaxialSpec {
   // each; empty: the one of [particles] seed). From realisations = N (seeds seed, seed + 1, ...)
   // or seeds = [...]; run by apps/ensemble.cpp, each into OUT/seed_<s>/.
   std::vector<std::uint64_t> seeds;
-  real_t progress_seconds = 5.0;  // a progress line at most this often
+  // Consolidations at these mu_s besides consolidation_friction's (the study's figure 2(b): void
+  // ratio and Z against the consolidation friction), each into OUT/seed_<s>_consolidation_<mu>/;
+  // the cases shear the one of consolidation_friction. apps/ensemble.cpp.
+  std::vector<real_t> consolidation_friction_cases;
+  bool consolidation_only = false;  // set by apps/ensemble.cpp for those: no case is run
+  real_t progress_seconds = 5.0;    // a progress line at most this often
   // The servo keys above as the stages take them (apps/triaxial_stages.hpp).
   ServoSettings servo_settings() const {
     return {servo,           servo_relaxation, servo_integral_relaxation, servo_gain,          servo_integral_gain,

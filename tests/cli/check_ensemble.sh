@@ -13,7 +13,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 work=$1 scene=$2 fabrica=$3 mpiexec=$4
 rm -rf "$work"; mkdir -p "$work"
 "$mpiexec" --oversubscribe -np 2 "$fabrica" run "$scene" -o "$work/np2" > "$work/np2.log" 2>&1 || { cat "$work/np2.log"; exit 1; }
-grep -q "2 realisation(s) (seeds 3 4) in 2 group(s) of 1 rank(s)" "$work/np2.log" || { echo "not two groups"; cat "$work/np2.log"; exit 1; }
+grep -q "2 run(s) (seeds 3 4) in 2 group(s) of 1 rank(s)" "$work/np2.log" || { echo "not two groups"; cat "$work/np2.log"; exit 1; }
 "$fabrica" run "$scene" -o "$work/np1" > "$work/np1.log" 2>&1 || { cat "$work/np1.log"; exit 1; }
 sed 's/^realisations = 2.*/seeds = [4]/' "$scene" > "$work/alone.toml"
 "$fabrica" run "$work/alone.toml" -o "$work/alone" > "$work/alone.log" 2>&1 || { cat "$work/alone.log"; exit 1; }
