@@ -16,6 +16,7 @@
 #include "core/simulation.hpp"
 #include "io/checkpoint.hpp"
 #include "io/run_output.hpp"
+#include "io/run_fields.hpp"
 #include "io/snapshot.hpp"
 #include "io/verify.hpp"
 #include "io/write_check.hpp"
@@ -191,6 +192,8 @@ int run_scene(const MpiContext& mpi, const Scene& scene, const std::string& outd
   if (!ckpt)
     setup = make_run_setup(scene.triaxial.enabled || !scene.stages.empty() ? triaxial_setup_scene(scene) : scene,
                            mpi.comm(), domain_options(scene));
+  // [fields]: the grid and kernel against the specimen, before the run (every rank the message).
+  if (setup) check_run_fields(scene, setup->particles, setup->cell, mpi.comm());
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});
@@ -223,6 +226,10 @@ int run_scene(const MpiContext& mpi, const Scene& scene, const std::string& outd
         "output: {} snapshot(s), {:.1f} MB in {} and run.xmf, {:.2f} s writing ({:.2f} % of "
         "{:.1f} s wall time)\n",
         out->snapshots(), out->bytes() / 1e6, out->path(), out->seconds(), 100 * out->seconds() / wall, wall);
+    if (scene.fields.enabled)
+      fmt::print(
+          "fields: {} instant(s) in {} (run_fields.xmf), {:.2f} s computing and writing ({:.2f} % of {:.1f} s)\n",
+          out->field_instants(), out->path(), out->fields_seconds(), 100 * out->fields_seconds() / wall, wall);
   }
   const PeakMemory mem = peak_memory(mpi.comm());
   fmt::print(
@@ -350,6 +357,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
         print_row(sim, m, csv.stream(), out);
         csv.check();
       }
+      if (out && out->fields_due(k)) out->fields("run", sim);  // [fields]: every 'every' rows
       if (k < scene.steps && checkpoints.due(sim)) save(1, k);
     }
     snapshot(true);

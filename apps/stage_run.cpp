@@ -248,6 +248,7 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
       }
       if (out) row(st, m, eps);
       if (out && st.fabric == StageFabric::AtRows) fabric_row(st, eps);
+      if (out && output_ && output_->fields_due(k)) output_->fields(case_, sim_);  // [fields]
       if (out && row_check_) row_check_();
       const Vec3 rates = update(control, st, m, eps_stage, sim_.time() - last_servo);
       sim_.cell().set_strain_rate(rates);

@@ -11,6 +11,7 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 namespace fabrica {
 namespace {
@@ -232,6 +233,15 @@ std::string check_field_grid(const FieldGrid& grid, const FieldKernel& kernel, r
         " m does not reach the nearest node from every point (half the diagonal of a grid cell is " +
         num(half_diagonal) + " m): give more cells or a wider kernel";
   return {};
+}
+
+bool field_quantity_known(const std::string& name) {
+  static const std::array<std::string_view, 8> plain = {"solid_fraction", "density", "velocity", "kinetic_stress",
+                                                        "contact_stress", "stress",  "spin",     "networks"};
+  if (std::find(plain.begin(), plain.end(), name) != plain.end()) return true;
+  for (std::string_view k : kNetworkNames)
+    if (name == "contact_density_" + std::string(k) || name == "fabric_" + std::string(k)) return true;
+  return false;
 }
 
 double field_bytes(const FieldGrid& grid) {

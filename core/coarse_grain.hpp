@@ -56,6 +56,10 @@ struct FieldGrid {
 // a sphere), fewer than 1 node along an axis, or a bad cut-off.
 std::string check_field_grid(const FieldGrid& grid, const FieldKernel& kernel, real_t min_radius);
 
+// Whether 'name' is a field coarse_grain() computes (solid_fraction, ..., contact_density_<k>,
+// fabric_<k> for a network k of kNetworkNames), or "networks" (every network's two fields).
+bool field_quantity_known(const std::string& name);
+
 // Bytes of one rank's memory for the fields of 'grid' (the fixed-point sums and the result).
 double field_bytes(const FieldGrid& grid);
 

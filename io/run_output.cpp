@@ -1,6 +1,7 @@
 #include "io/run_output.hpp"
 
 #include "io/layout.hpp"
+#include "io/run_fields.hpp"
 #include "io/snapshot.hpp"
 #include "io/snapshot_writer.hpp"
 #include "io/verify.hpp"
@@ -62,7 +63,9 @@ std::string RunOutput::file_name(const std::string& outdir) {
 
 RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, bool overwrite)
     : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every),
-      strong_ratio_(scene.fabric.strong_ratio) {
+      strong_ratio_(scene.fabric.strong_ratio), fields_spec_(scene.fields),
+      fields_strong_ratio_(scene.fabric.strong_ratio), scene_path_(scene.path),
+      fields_steps_(scene.fields.enabled ? scene.fields.every * scene.output_every : 0) {
   const auto t0 = clock_type::now();
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
@@ -89,7 +92,9 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
 
 RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdir, Restart)
     : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every),
-      strong_ratio_(scene.fabric.strong_ratio) {
+      strong_ratio_(scene.fabric.strong_ratio), fields_spec_(scene.fields),
+      fields_strong_ratio_(scene.fabric.strong_ratio), scene_path_(scene.path),
+      fields_steps_(scene.fields.enabled ? scene.fields.every * scene.output_every : 0) {
   const auto t0 = clock_type::now();
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
@@ -207,6 +212,46 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
     }
     std::sort(entries.begin(), entries.end(), [](const XmfEntry& a, const XmfEntry& b) { return a.step < b.step; });
     xmf_.insert(xmf_.end(), entries.begin(), entries.end());
+  }
+  // The field instants (/fields/<case>/<step>) as the snapshots: those after the checkpoint's
+  // step of the current case go, and every later case's; the sidecar is rebuilt from the rest.
+  fields_xmf_.clear();
+  if (file_.exists("fields")) {
+    h5::Group fg = file_.open_group("fields");
+    std::vector<std::string> fcases = cases;
+    for (const std::string& c : fg.children())
+      if (std::find(fcases.begin(), fcases.end(), c) == fcases.end()) fcases.push_back(c);
+    for (const std::string& c : fcases) {
+      if (!fg.exists(c)) continue;
+      const int o = order(c);
+      if (o > 0) {
+        fg.remove(c);
+        continue;
+      }
+      h5::Group cg = fg.open_group(c);
+      std::vector<FieldsXdmfEntry> entries;
+      for (const std::string& sn : cg.children()) {
+        h5::Group ig = cg.open_group(sn);
+        FieldsXdmfEntry e;
+        e.step = ig.attr_int("step");
+        if (o == 0 && e.step > step) {
+          cg.remove(sn);
+          continue;
+        }
+        e.case_name = c, e.group = "/fields/" + c + "/" + sn, e.time = ig.attr_double("time");
+        const std::vector<double> n = ig.attr_doubles("cells"), h = ig.attr_doubles("spacing"),
+                                  x0 = ig.attr_doubles("origin");
+        for (int a = 0; a < 3; ++a) e.cells[a] = int(n.at(a)), e.spacing[a] = h.at(a), e.origin[a] = x0.at(a);
+        for (const std::string& d : ig.children()) {
+          const std::vector<hsize_t> shape = ig.open_dataset(d).shape();
+          e.quantities.emplace_back(d, shape.size() > 3 ? int(shape[3]) : 1);
+        }
+        entries.push_back(e);
+      }
+      std::sort(entries.begin(), entries.end(),
+                [](const FieldsXdmfEntry& a, const FieldsXdmfEntry& b) { return a.step < b.step; });
+      fields_xmf_.insert(fields_xmf_.end(), entries.begin(), entries.end());
+    }
   }
   if (file_.exists(layout::kVertexIndex)) vertices_ = std::int64_t(file_.open_dataset(layout::kVertexIndex).shape()[0]);
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
@@ -398,6 +443,63 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   flush();
 }
 
+void RunOutput::fields(const std::string& case_name, Simulation& sim) {
+  mark_failure([&] { write_fields(case_name, sim); });
+}
+
+void RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
+  const auto t0 = clock_type::now();
+  const std::string name = layout::step_name(sim.step_count());
+  const std::string gp = "fields/" + case_name + "/" + name;
+  if (file_.exists(gp)) return;  // same answer on every rank
+  const FieldsResult r = run_fields(fields_spec_, fields_strong_ratio_, scene_path_, sim);
+  const FieldGrid& grid = r.grid;
+  double values = 0;
+  for (const Field& f : r.fields) values += double(f.values.size());
+  agree(comm_, [&] {  // room first, as for a snapshot (chunking and checksums: a quarter more)
+    if (rank_ == 0) check_room(path_, 1.25 * 8 * values + 16384);
+  });
+  h5::Group g = file_.create_group(gp);
+  const Vec3 L = grid.lengths, h = grid.spacing();
+  const double Ld[3] = {L[0], L[1], L[2]}, cells[3] = {double(grid.n[0]), double(grid.n[1]), double(grid.n[2])},
+               sp[3] = {h[0], h[1], h[2]}, origin[3] = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+  // The attributes of `fabrica fields` (docs/fields.md, "Layout of the fields file").
+  g.set_attr("step", std::int64_t(sim.step_count()));
+  g.set_attr("time", double(sim.time()));
+  g.set_attr("cell_lengths", std::span<const double>(Ld, 3));
+  g.set_attr("cells", std::span<const double>(cells, 3));
+  g.set_attr("spacing", std::span<const double>(sp, 3));
+  g.set_attr("origin", std::span<const double>(origin, 3));
+  g.set_attr("kernel", std::string(r.kernel.type == KernelType::Gaussian ? "gaussian" : "lucy"));
+  g.set_attr("width", double(r.kernel.width));
+  g.set_attr("cutoff", r.kernel.type == KernelType::Gaussian ? double(r.kernel.cutoff) : 1.0);
+  g.set_attr("strong_ratio", fields_strong_ratio_);
+  g.set_attr("strong_threshold", double(r.strong_threshold));
+  g.set_attr("particles", r.particles);
+  g.set_attr("contacts", r.contacts);
+  FieldsXdmfEntry e;
+  e.case_name = case_name, e.group = "/" + gp, e.step = sim.step_count(), e.time = double(sim.time());
+  e.cells = grid.n, e.spacing = {sp[0], sp[1], sp[2]}, e.origin = {origin[0], origin[1], origin[2]};
+  // Every rank holds the whole grid: rank k writes its share of the z-layers (one collective
+  // write per dataset, every rank taking part).
+  const hsize_t nz = hsize_t(grid.n[2]), layer = hsize_t(grid.n[0]) * hsize_t(grid.n[1]);
+  const hsize_t z0 = nz * hsize_t(rank_) / hsize_t(size_), z1 = nz * hsize_t(rank_ + 1) / hsize_t(size_);
+  for (const Field& f : r.fields) {
+    std::vector<hsize_t> dims{nz, hsize_t(grid.n[1]), hsize_t(grid.n[0])};
+    if (f.components > 1) dims.push_back(hsize_t(f.components));
+    const h5::Dataset d = g.create_dataset(f.name, h5::Type::F64, dims);
+    d.set_attr("unit", f.unit);
+    d.write_rows(h5::Type::F64, z0, z1 - z0, f.values.data() + z0 * layer * hsize_t(f.components), true);
+    e.quantities.emplace_back(f.name, f.components);
+  }
+  // In name order, as a restart lists them back from the file (resume_after): the same sidecar.
+  std::sort(e.quantities.begin(), e.quantities.end());
+  bytes_ += 8 * values;
+  fields_xmf_.push_back(e);
+  fields_seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+  flush();
+}
+
 void RunOutput::link_snapshots(const std::string& source_case, const std::string& case_name, std::int64_t first_step,
                                std::int64_t last_step) {
   const auto t0 = clock_type::now();
@@ -469,6 +571,21 @@ void RunOutput::write_xmf() const {
   const std::filesystem::path dir(outdir_);
   write_xdmf((dir / "run.xmf").string(), "run.h5", e, vertices_);
   write_contacts_xdmf((dir / "run_contacts.xmf").string(), "run.h5", ce, vertices_);
+  // The fields' sidecar (docs/fields.md): every case in run_fields.xmf, and with several cases
+  // each in run_fields_<case>.xmf (ParaView merges the time axes of the cases of one file).
+  if (!fields_xmf_.empty()) {
+    write_fields_xdmf((dir / "run_fields.xmf").string(), "run.h5", fields_xmf_);
+    std::vector<std::string> fcases;
+    for (const FieldsXdmfEntry& x : fields_xmf_)
+      if (std::find(fcases.begin(), fcases.end(), x.case_name) == fcases.end()) fcases.push_back(x.case_name);
+    if (fcases.size() > 1)
+      for (const std::string& c : fcases) {
+        std::vector<FieldsXdmfEntry> one;
+        for (const FieldsXdmfEntry& x : fields_xmf_)
+          if (x.case_name == c) one.push_back(x);
+        write_fields_xdmf((dir / ("run_fields_" + c + ".xmf")).string(), "run.h5", one);
+      }
+  }
   // The cases of a triaxial test overlap in time (every case of the sweep starts from the end of
   // the consolidation): in run.xmf ParaView shows them superimposed and merges their time steps,
   // so each case gets its own file as well.

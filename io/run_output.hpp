@@ -12,6 +12,7 @@
 #include "core/simulation.hpp"
 #include "io/h5.hpp"
 #include "io/scene.hpp"
+#include "io/xdmf.hpp"
 
 #include <mpi.h>
 
@@ -58,6 +59,16 @@ class RunOutput {
   // The particles and contacts of 'sim' now, with the strain eps_i = ln(l_i0 / l_i). A second
   // snapshot of the same case and step is skipped (e.g. the end of a stage on a cadence step).
   void snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
+  // [fields] (docs/fields.md, "Fields during a run"): whether the output row at 'k' steps (the
+  // counter of the caller's loop: of the run, or of the stage) is a field instant, k a multiple of
+  // [fields] every x [run] output_every; always false without [fields] (nothing else is done).
+  bool fields_due(std::int64_t k) const { return fields_steps_ > 0 && k % fields_steps_ == 0; }
+  // The coarse-grained fields of 'sim' now (io/run_fields.hpp), into /fields/<case>/<step>; a
+  // second instant of the same case and step is skipped. Collective.
+  void fields(const std::string& case_name, Simulation& sim);
+  double fields_seconds() const { return fields_seconds_; }  // wall time computing and writing them
+  std::int64_t field_instants() const { return std::int64_t(fields_xmf_.size()); }
+
   // The snapshots of 'source_case' with a step in (first_step, last_step] also become snapshots
   // of 'case_name' (the same steps), as HDF5 hard links: stored once, read through either path.
   // For a stage that two cases share (apps/stage_record.hpp).
@@ -111,6 +122,7 @@ class RunOutput {
       const std::function<void()>& f);  // failed_ = true if f throws  // version attributes, /scene, empty groups
   void flush_series();
   void write_xmf() const;
+  void write_fields(const std::string& case_name, Simulation& sim);
 
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
@@ -122,6 +134,13 @@ class RunOutput {
   std::vector<XmfEntry> xmf_;
   double seconds_ = 0, bytes_ = 0;
   std::int64_t vertices_ = 0;  // length of /xdmf/vertices
+  // [fields]: the scene's table, its strong ratio and path; the steps between instants (0: none).
+  FieldsSpec fields_spec_;
+  double fields_strong_ratio_ = 1;
+  std::string scene_path_;
+  std::int64_t fields_steps_ = 0;
+  double fields_seconds_ = 0;
+  std::vector<FieldsXdmfEntry> fields_xmf_;
   bool created_anew_ = false;
   bool failed_ = false;  // a write of this file failed: it is not flushed again
 };

@@ -2,8 +2,10 @@
 
 #include "io/errors.hpp"
 #include "io/fault.hpp"
+#include "io/memory_check.hpp"
 #include "io/stage_parse.hpp"
 
+#include "core/coarse_grain.hpp"
 #include "core/restitution.hpp"
 
 #include <toml++/toml.h>
@@ -510,6 +512,83 @@ void parse_driven(const toml::node* node, const std::string& path, Scene& sc) {
 
 // ---- end of restitution and walls ----------------------------------------------------------
 
+// [fields] (docs/fields.md, "Fields during a run"): what can be checked from the scene alone.
+// The grid against the specimen (the kernel's reach, the memory, the radii of a data file) is
+// checked once the specimen is made (check_run_fields, io/run_fields.hpp).
+void parse_fields(const toml::table* t, const std::string& path, Scene& sc) {
+  if (!t) return;
+  Section S(t, path, "fields");
+  FieldsSpec& f = sc.fields;
+  f.enabled = true;
+  if (S.has("cells") && S.has("spacing"))
+    S.fail("spacing", Section::node_text(*t->get("spacing")), "give either cells or spacing, not both");
+  S.mark_used("cells");
+  if (const toml::node* n = t->get("cells")) {
+    const toml::array* a = n->as_array();
+    bool ok = a && a->size() == 3;
+    std::array<int, 3> c{};
+    for (std::size_t k = 0; ok && k < 3; ++k) {
+      const std::optional<std::int64_t> v = a->get(k)->is_integer() ? a->get(k)->value<std::int64_t>() : std::nullopt;
+      ok = v && *v >= 1 && *v <= 1000000;
+      if (ok) c[k] = int(*v);
+    }
+    if (!ok) S.fail("cells", Section::node_text(*n), "must be three integers from 1 to 1000000 (nx, ny, nz)");
+    f.cells = c;
+  }
+  if (auto h = S.number("spacing")) {
+    require(S, "spacing", *h, *h > 0, "must be positive (m)");
+    f.spacing = *h;
+  }
+  const std::string kernel = S.string("kernel").value_or("gaussian");
+  if (kernel != "gaussian" && kernel != "lucy")
+    S.fail("kernel", "\"" + kernel + "\"", "must be \"gaussian\" or \"lucy\"");
+  f.lucy = kernel == "lucy";
+  const std::optional<real_t> w = S.number("width");
+  if (!w)
+    S.fail("width", "(missing)",
+           "the kernel width is needed (m: the Gaussian's standard deviation, Lucy's support radius)");
+  f.width = *w;
+  require(S, "width", f.width, f.width > 0, "must be positive (m)");
+  if (sc.source == ParticleSource::Generate && f.width < 0.5 * sc.generate.d_min)
+    S.fail("width", number_text(f.width, 10),
+           "is below the smallest sphere radius " + number_text(0.5 * sc.generate.d_min, 10) +
+               " m ([particles] d_min / 2): the fields would resolve the inside of the spheres");
+  if (auto c = S.number("cutoff")) {
+    if (f.lucy) S.fail("cutoff", number_text(*c, 10), "is for the Gaussian kernel only (Lucy's support is its width)");
+    f.cutoff = *c;
+  }
+  require(S, "cutoff", f.cutoff, f.cutoff >= 1, "must be at least 1 (widths)");
+  if (auto e = S.integer("every")) f.every = *e;
+  if (f.every < 1) S.fail("every", std::to_string(f.every), "must be at least 1 (output rows between field instants)");
+  S.mark_used("quantities");
+  if (const toml::node* n = t->get("quantities")) {
+    const toml::array* a = n->as_array();
+    if (!a || a->empty()) S.fail("quantities", Section::node_text(*n), "must be a non-empty array of names");
+    for (const toml::node& e : *a) {
+      const std::optional<std::string> q = e.value<std::string>();
+      if (!q || !e.is_string()) S.fail("quantities", Section::node_text(*n), "must hold names (strings)");
+      if (!field_quantity_known(*q))
+        S.fail("quantities", "\"" + *q + "\"",
+               "unknown quantity (solid_fraction, density, velocity, kinetic_stress, contact_stress, stress, "
+               "spin, contact_density_<network>, fabric_<network>, or \"networks\" for every network's two)");
+      f.quantities.push_back(*q);
+    }
+  }
+  S.reject_unknown();
+  if (!sc.hdf5)
+    throw InputError(path + ": [fields] with [run] hdf5 = false: the fields are written into run.h5; remove one");
+  if (f.cells) {
+    FieldGrid g;
+    g.n = *f.cells;
+    const double bytes = field_bytes(g), memory = machine_memory_bytes();
+    if (memory > 0 && bytes > 0.5 * memory)
+      S.fail("cells", Section::node_text(*t->get("cells")),
+             "a grid of " + std::to_string(g.nodes()) + " nodes needs " + number_text(bytes, 3) +
+                 " B of memory on every rank, more than half of the machine's " + number_text(memory, 3) +
+                 " B: give fewer cells");
+  }
+}
+
 }  // namespace
 
 Scene parse_scene(const std::string& text, const std::string& path) {
@@ -522,8 +601,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       << ": TOML syntax error: " << e.description();
     throw InputError(m.str());
   }
-  static const std::set<std::string> tables = {"particles", "cell",     "contact",  "compress",
-                                               "run",       "triaxial", "parallel", "fabric"};
+  static const std::set<std::string> tables = {"particles", "cell",     "contact", "compress", "run",
+                                               "triaxial",  "parallel", "fabric",  "fields"};
   for (auto&& [k, v] : root) {
     const std::string key(k.str());
     if (key == "stage") continue;                               // [[stage]]: io/stage_parse.cpp, below
@@ -532,7 +611,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     if (!tables.count(key) || !v.is_table())
       throw InputError(path + ": " + key + " = " + Section::node_text(v) +
                        ": unknown top-level entry (expected one of the tables [particles], "
-                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], "
+                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], [fields], "
                        "[[stage]], [[wall]], [[driven]], [[material]], [[material_pair]])");
   }
   auto table = [&](const char* name) { return root[name].as_table(); };
@@ -847,6 +926,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (fs.rose_bins < 1 || fs.rose_bins > 3600)
     F.fail("rose_bins", std::to_string(fs.rose_bins), "must lie in [1, 3600]");
   F.reject_unknown();
+  parse_fields(table("fields"), path, sc);
   parse_walls(root.get("wall"), path, sc);
   parse_driven(root.get("driven"), path, sc);
   // The stages strain the cell, which walls and driven particles do not follow (as [triaxial]).

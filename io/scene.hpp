@@ -8,6 +8,7 @@
 #include "io/errors.hpp"
 #include "io/stage_spec.hpp"
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -123,6 +124,20 @@ struct FabricSpec {
   std::int64_t rose_bins = 36;  // rose diagram bins over [0, pi) (1 .. 3600)
 };
 
+// [fields] (docs/fields.md, "Fields during a run"): the coarse-grained fields computed during the
+// run every 'every' output rows and written into run.h5. Absent (enabled = false): nothing is
+// computed nor allocated.
+struct FieldsSpec {
+  bool enabled = false;
+  std::optional<std::array<int, 3>> cells;  // nodes along x, y, z; or
+  std::optional<real_t> spacing;            // m: round(L_a / spacing) nodes along axis a (default: width)
+  bool lucy = false;                        // kernel = "lucy" (else "gaussian")
+  real_t width = 0;                         // m: the Gaussian's standard deviation, Lucy's support radius
+  real_t cutoff = 3;                        // Gaussian: support radius in widths (>= 1)
+  std::int64_t every = 1;                   // output rows between field instants (>= 1)
+  std::vector<std::string> quantities;      // empty: every quantity of coarse_grain()
+};
+
 // [[wall]]: a plane inside the periodic cell (docs/scene.md, "Walls"). The contact law is the
 // scene's [contact] with the keys given in the wall's table replaced.
 struct WallSpec {
@@ -178,6 +193,7 @@ struct Scene {
   TriaxialSpec triaxial;
   ParallelSpec parallel;
   FabricSpec fabric;
+  FieldsSpec fields;
   // The [[stage]] tables, in order (io/stage_spec.hpp; empty: none). A scene gives them, or
   // [triaxial], or neither (a plain run).
   std::vector<StageSpec> stages;

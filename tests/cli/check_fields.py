@@ -9,6 +9,12 @@ snapshots they were computed from, through apps/fabrica_h5.py:
         symmetric part of the displacement gradient.
     check_fields.py same A.h5 B.h5   every dataset of /fields and every attribute of its groups
         identical in the two files, bit for bit (NaN included): the rank-count independence.
+        Either may be a run's run.h5 (its /fields group: the fields of [fields] in the run).
+    check_fields.py inrun RUN.h5 FIELDS.h5 CASE STEPS   the fields computed during the run
+        ([fields], /fields/CASE/<step> of RUN.h5) are at the steps STEPS (comma-separated) and
+        equal, bit for bit, those `fabrica fields RUN.h5 --all` wrote to FIELDS.h5 from the
+        run's snapshots at the same steps: every dataset of the run's instants, and every
+        attribute of their groups.
 Exits 0 if all hold, 1 with the reason, 77 if h5py or numpy is missing.
 """
 import os
@@ -92,7 +98,43 @@ def same(a_path, b_path):
     print(f"check_fields.py: {len(names)} objects, {n} values identical, bit for bit")
 
 
+def inrun(run_path, fields_path, case, steps):
+    want = sorted(int(x) for x in steps.split(","))
+    with h5py.File(run_path, "r") as a, h5py.File(fields_path, "r") as b:
+        if "fields" not in a or case not in a["fields"]:
+            fail(f"{run_path}: no /fields/{case}")
+        ga = a["fields"][case]
+        got = sorted(int(ga[s].attrs["step"]) for s in ga)
+        if got != want:
+            fail(f"{run_path}: field instants at steps {got}, expected {want}")
+        n = 0
+        for s in ga:
+            x = ga[s]
+            if s not in b["fields"][case]:
+                fail(f"{fields_path}: no /fields/{case}/{s} (a snapshot at step {int(x.attrs['step'])}?)")
+            y = b["fields"][case][s]
+            for k in x.attrs:
+                if k not in y.attrs or not np.array_equal(np.asarray(x.attrs[k]), np.asarray(y.attrs[k])):
+                    fail(f"/fields/{case}/{s}: attribute {k}: {x.attrs[k]} in the run, "
+                         f"{y.attrs.get(k)} offline")
+            for d in x:
+                if d not in y:
+                    fail(f"/fields/{case}/{s}/{d}: not computed offline")
+                u, v = x[d][()], y[d][()]
+                if u.shape != v.shape or u.tobytes() != v.tobytes():
+                    bad = int(np.sum(~((u == v) | (np.isnan(u) & np.isnan(v))))) if u.shape == v.shape else -1
+                    fail(f"/fields/{case}/{s}/{d}: the run's values differ from the offline ones ({bad} values)")
+                if x[d].attrs["unit"] != y[d].attrs["unit"]:
+                    fail(f"/fields/{case}/{s}/{d}: unit {x[d].attrs['unit']} vs {y[d].attrs['unit']}")
+                n += u.size
+    print(f"check_fields.py: {len(got)} field instants of the run at steps {got}: {n} values identical "
+          f"to `fabrica fields`, bit for bit")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 6 and sys.argv[1] == "inrun":
+        inrun(*sys.argv[2:])
+        sys.exit(0)
     if len(sys.argv) != 4 or sys.argv[1] not in ("integrals", "same"):
         print(__doc__)
         sys.exit(2)

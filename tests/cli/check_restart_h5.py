@@ -7,7 +7,9 @@
   - the same snapshots (case and step), every dataset and attribute of each equal bit for bit
     (the particle positions of the last snapshot are named in the report);
   - the same series cases, columns and rows; step and stage equal, the values bit for bit;
-  - run.xmf (and run_<case>.xmf) the same text.
+  - the field instants of [fields] (/fields/<case>/<step>), every dataset and attribute equal
+    bit for bit;
+  - run.xmf (and run_<case>.xmf, run_fields.xmf) the same text.
 With --rounding (a restart on another number of ranks): the series values (sums over ranks in
 another order) within a relative 1e-8 of the column's largest magnitude; the snapshots must still
 be equal bit for bit (the trajectory does not depend on the number of ranks).
@@ -79,6 +81,26 @@ def main():
         c, s = sa[-1]
         n = a["snapshots"][c][s]["particles/position"].shape[0]
         print(f"  last snapshot {c}/{s}: {n} particle positions bit for bit equal")
+    # The field instants of [fields] (/fields/<case>/<step>): the same, bit for bit.
+    fa = []
+    if "fields" in a:
+        a["fields"].visit(fa.append)
+    fb = []
+    if "fields" in b:
+        b["fields"].visit(fb.append)
+    if sorted(fa) != sorted(fb):
+        fail(f"field instants differ:\n  uninterrupted {sorted(fa)}\n  restarted     {sorted(fb)}")
+    for name in fa:
+        x, y = a["fields"][name], b["fields"][name]
+        for k in x.attrs:
+            if k not in y.attrs or not np.array_equal(np.asarray(x.attrs[k]), np.asarray(y.attrs[k])):
+                fail(f"/fields/{name}: attribute {k} differs")
+        if isinstance(x, h5py.Dataset):
+            if x[()].tobytes() != y[()].tobytes():
+                fail(f"/fields/{name} differs")
+            values += x.size
+    if fa:
+        print(f"  {sum(1 for n in fa if n.count('/') == 1)} field instants bit for bit equal")
     ca = sorted(a["series"]) if "series" in a else []
     cb = sorted(b["series"]) if "series" in b else []
     if ca != cb:
