@@ -394,6 +394,11 @@ TEST(Scene, ExampleScenesAreValid) {
   EXPECT_EQ(paper.triaxial.rolling_friction_cases.size(), 6u);
   EXPECT_EQ(paper.time_step_fraction, 0.5);  // the time-to-solution settings (docs/triaxial.md)
   EXPECT_EQ(paper.skin, 0.003);
+  const Scene ensemble = load_scene(dir + "paper_ensemble.toml");
+  EXPECT_EQ(ensemble.triaxial.seeds, (std::vector<std::uint64_t>{13584, 13585, 13586, 13587, 13588}));
+  EXPECT_EQ(ensemble.triaxial.consolidation_friction_cases, (std::vector<real_t>{0.1, 0.3, 0.5, 0.7, 1.0}));
+  EXPECT_EQ(ensemble.parallel.groups, 0);  // "auto"
+  EXPECT_EQ(ensemble.generate.count, paper.generate.count);
   const Scene large = load_scene(dir + "large.toml");
   EXPECT_EQ(large.generate.count, 200000);
   EXPECT_EQ(large.generate.placement, GenerateSpec::Placement::Regions);
