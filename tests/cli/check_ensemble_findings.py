@@ -1,0 +1,69 @@
+#!/usr/bin/python3
+"""check_ensemble_findings.py OUT: apps/ensemble_findings.py on an ensemble's output (the
+consolidation-frictions test's: two realisations, two mu_r, two consolidation mu_s).
+  1. its least-squares slope and 95 % interval equal the textbook formulas written out here
+     (b = Sxy / Sxx, se = sqrt(SSE / (n - 2) / Sxx), t(0.975, 3) = 3.182) to 1e-12, on points of
+     known scatter; an exact line gives a zero interval; a parabola's quadratic coefficient;
+  2. OUT/findings.csv has the twelve findings, each verdict one of the three, the trends decided
+     over the 4 points (2 realisations x 2 mu_r) and finding 12 over the 4 consolidations."""
+import csv
+import math
+import os
+import subprocess
+import sys
+
+here = os.path.dirname(os.path.abspath(__file__))
+apps = os.path.join(here, "..", "..", "apps")
+sys.path.insert(0, apps)
+import ensemble_findings as ef  # noqa: E402
+
+bad = 0
+
+
+def check(name, got, want, tol=1e-12):
+    global bad
+    ok = abs(got - want) <= tol * max(1.0, abs(want))
+    bad += not ok
+    print(f"{name}: {got!r} (expected {want!r}): {'ok' if ok else 'WRONG'}")
+
+
+x = [0.0, 1.0, 2.0, 3.0, 4.0]
+y = [1.1, 2.9, 5.2, 7.1, 8.8]
+n = len(x)
+xm, ym = sum(x) / n, sum(y) / n
+sxx = sum((a - xm) ** 2 for a in x)
+sxy = sum((a - xm) * (b - ym) for a, b in zip(x, y))
+b = sxy / sxx
+sse = sum((bb - (ym + b * (a - xm))) ** 2 for a, bb in zip(x, y))
+se = math.sqrt(sse / (n - 2) / sxx)
+coef, hw = ef.fit(x, y)
+check("slope", coef[0], b)
+check("half-width", hw[0], 3.182 * se)
+coef, hw = ef.fit(x, [2 * a + 1 for a in x])
+check("exact line: slope", coef[0], 2.0)
+check("exact line: half-width", hw[0], 0.0, 1e-9)
+coef, _ = ef.fit(x, [0.5 * a * a - a + 3 for a in x], 2)
+check("parabola: quadratic coefficient", coef[0], 0.5)
+for lo, hi, want in ((0.1, 0.3, ef.HOLDS), (-0.3, -0.1, ef.FAILS), (-0.1, 0.1, ef.UNDECIDED)):
+    got = ef.sign_verdict(lo, hi)
+    bad += got != want
+    print(f"interval [{lo}, {hi}]: {got}")
+
+out = sys.argv[1]
+subprocess.run(["/usr/bin/python3", os.path.join(apps, "ensemble_findings.py"), out], check=True)
+with open(os.path.join(out, "findings.csv")) as fh:
+    rows = list(csv.DictReader(fh))
+if [int(r["finding"]) for r in rows] != list(range(1, 13)):
+    print("findings.csv does not list findings 1 to 12")
+    bad += 1
+for r in rows:
+    if r["verdict"] not in (ef.HOLDS, ef.FAILS, ef.UNDECIDED):
+        print(f"finding {r['finding']}: verdict '{r['verdict']}'")
+        bad += 1
+    if r["realisations"] != "2":
+        print(f"finding {r['finding']}: realisations '{r['realisations']}'")
+        bad += 1
+if "(4 points)" not in rows[9]["numbers"] or "(4 consolidations)" not in rows[11]["numbers"]:
+    print("the trends are not decided over the ensemble's points")
+    bad += 1
+sys.exit(1 if bad else 0)
