@@ -79,7 +79,8 @@ int ensemble_groups(const Scene& scene, int ranks) {
   return int(g);
 }
 
-int run_ensemble(const MpiContext& mpi, const Scene& scene, const std::string& outdir, const RunScene& run_scene) {
+int run_ensemble(const MpiContext& mpi, const Scene& scene, const std::string& outdir, bool overwrite, bool resume,
+                 const RunScene& run_scene) {
   const std::vector<Job> jobs = jobs_of(scene, outdir);
   int groups = 1;
   agree(mpi.comm(), [&] { groups = ensemble_groups(scene, mpi.size()); });
@@ -108,16 +109,33 @@ int run_ensemble(const MpiContext& mpi, const Scene& scene, const std::string& o
     one.triaxial.consolidation_friction = job.consolidation_friction;
     one.triaxial.consolidation_only = job.consolidation_only;
     const std::string& dir = job.dir;
-    if (mine.rank() == 0 && mpi.rank() != 0) {
+    const fs::path done = fs::path(dir) / "finished", ckpt = fs::path(dir) / "checkpoint.ckpt";
+    // Resuming: what this run left (the same on the group's ranks: one file system).
+    const bool finished = resume && fs::exists(done), from_ckpt = resume && !finished && fs::exists(ckpt);
+    if (mine.rank() == 0 && mpi.rank() != 0 && !finished) {
       std::error_code ec;
       fs::create_directories(dir, ec);
-      if (!std::freopen((fs::path(dir) / "run.log").c_str(), "w", stdout))
+      if (!std::freopen((fs::path(dir) / "run.log").c_str(), from_ckpt ? "a" : "w", stdout))
         throw std::runtime_error(dir + "/run.log: cannot write the realisation's log there: " + std::strerror(errno));
     }
     if (mpi.rank() == 0)
-      fmt::print("-- run {} of {}: seed {}, {}consolidation mu_s = {}, into {}\n", k + 1, jobs.size(), job.seed,
-                 job.consolidation_only ? "only the " : "", job.consolidation_friction, dir);
-    rc = std::max(rc, run_scene(mine, one, dir));
+      fmt::print("-- run {} of {}: seed {}, {}consolidation mu_s = {}, into {}{}\n", k + 1, jobs.size(), job.seed,
+                 job.consolidation_only ? "only the " : "", job.consolidation_friction, dir,
+                 finished        ? ": finished before, kept"
+                     : from_ckpt ? ": continued from its checkpoint"
+                     : resume    ? ": started anew"
+                                 : "");
+    if (finished) continue;
+    // Resumed without a checkpoint: its files from the interrupted start are replaced.
+    const int r = run_scene(mine, one, dir, from_ckpt ? ckpt.string() : std::string(), overwrite || resume);
+    rc = std::max(rc, r);
+    agree(mine.comm(), [&] {
+      if (mine.rank() != 0 || r != 0) return;
+      std::ofstream f(done);
+      f << "seed " << job.seed << ", consolidation mu_s " << job.consolidation_friction << '\n';
+      f.flush();
+      if (!f) throw std::runtime_error(done.string() + ": cannot mark the run finished");
+    });
   }
   MPI_Comm_free(&comm);
   MPI_Allreduce(MPI_IN_PLACE, &rc, 1, MPI_INT, MPI_MAX, mpi.comm());

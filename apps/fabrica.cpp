@@ -153,16 +153,20 @@ int run(const MpiContext& mpi, const std::string& scene_path, const std::string&
   Scene scene;
   agree(mpi.comm(), [&] { scene = scene_path.empty() ? default_scene() : load_scene(scene_path); });
   if (is_ensemble(scene)) {  // realisations, consolidation frictions (apps/ensemble.hpp)
+    // --restart OUT continues the ensemble in its output directory (a checkpoint of one of its
+    // runs is that run's: restarted on its own with its own scene).
     agree(mpi.comm(), [&] {
-      if (!restart.empty())
+      std::error_code ec;
+      if (!restart.empty() &&
+          (!std::filesystem::is_directory(restart, ec) || !std::filesystem::equivalent(restart, outdir, ec)))
         throw InputError("--restart " + restart + ": " + scene.path +
-                         " runs an ensemble ([triaxial] realisations, seeds or consolidation_friction_cases); restart "
-                         "one of its runs with its own scene (one seed, no consolidation_friction_cases) and output "
-                         "directory OUT/seed_<seed>");
+                         " runs an ensemble ([triaxial] realisations, seeds or consolidation_friction_cases): "
+                         "continue it with --restart OUT, its output directory (-o " +
+                         outdir + ")");
     });
-    return run_ensemble(mpi, scene, outdir, [&](const MpiContext& group, const Scene& one, const std::string& dir) {
-      return run_scene(group, one, dir, overwrite, "");
-    });
+    return run_ensemble(mpi, scene, outdir, overwrite, !restart.empty(),
+                        [&](const MpiContext& group, const Scene& one, const std::string& dir, const std::string& from,
+                            bool replace) { return run_scene(group, one, dir, replace, from); });
   }
   return run_scene(mpi, scene, outdir, overwrite, restart);
 }
