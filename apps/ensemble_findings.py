@@ -2,12 +2,15 @@
 """The study's findings decided over an ensemble of realisations (issue 44 item 3;
 docs/triaxial.md "Findings over realisations").
 
-    ensemble_findings.py OUT
+    ensemble_findings.py OUT [--no-figures]
 
 OUT is the output directory of a run with [triaxial] realisations / seeds (OUT/seed_<s>/ each a
 triaxial run with its fabric files and run.h5) and, if it had consolidation_friction_cases,
 OUT/consolidations.csv. Writes OUT/findings.csv (number, verdict, realisations, numbers,
-criterion) and prints it as a table.
+criterion) and prints it as a table, and draws into OUT/figures/: ensemble_trends.png (peak q/p,
+the final volumetric strain and the global a_c and a_n against mu_r: each realisation's points,
+their mean and its 95 % band) and, with consolidation frictions, ensemble_consolidation.png (the
+void ratio and Z after consolidation against the consolidation mu_s: the study's figure 2(b)).
 
 How each finding is decided:
 - a trend in mu_r (findings 7-10): the ordinary least-squares slope of the quantity against mu_r
@@ -169,14 +172,77 @@ def finding12(out):
     return combine([g, s])
 
 
+def band(ax, x, ys, label, color):
+    """Each realisation's points, the mean over them at each x and its 95 % band (t interval)."""
+    xs = sorted(set(x))
+    for y in ys:
+        ax.plot(x, y, "o", ms=3, color=color, alpha=0.45)
+    mean, lo, hi = [], [], []
+    for v in xs:
+        pts = np.asarray([y[i] for y in ys for i in range(len(x)) if x[i] == v and math.isfinite(y[i])])
+        m = float(pts.mean()) if pts.size else float("nan")
+        h = t975(pts.size - 1) * float(pts.std(ddof=1)) / math.sqrt(pts.size) if pts.size > 1 else 0.0
+        mean.append(m), lo.append(m - h), hi.append(m + h)
+    ax.plot(xs, mean, "-", color=color, label=label)
+    ax.fill_between(xs, lo, hi, color=color, alpha=0.2, lw=0)
+
+
+def figures(out, runs):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    d = os.path.join(out, "figures")
+    os.makedirs(d, exist_ok=True)
+    written = []
+    x = [c.mu_r for c in runs[0].cases]
+    if all([c.mu_r for c in r.cases] == x for r in runs):
+        fig, axs = plt.subplots(1, 3, figsize=(13, 3.8))
+        band(axs[0], x, [[float(np.max(c.shear()["q_p"])) for c in r.cases] for r in runs], "peak q/p", "C0")
+        band(axs[1], x, [[100 * float(c.shear()["epsv"][-1]) for c in r.cases] for r in runs], "eps_v at the end",
+             "C1")
+        band(axs[2], x, [[c.res_mean("all", "a_c") for c in r.cases] for r in runs], "a_c", "C2")
+        band(axs[2], x, [[c.res_mean("all", "a_n") for c in r.cases] for r in runs], "a_n", "C3")
+        for ax, y in zip(axs, ("peak q/p", "volumetric strain at the end (%)", "residual anisotropy")):
+            ax.set_xlabel("mu_r")
+            ax.set_ylabel(y)
+            ax.legend(fontsize=8)
+        fig.suptitle(f"{len(runs)} realisations: each one's points, their mean and its 95 % band")
+        fig.tight_layout()
+        path = os.path.join(d, "ensemble_trends.png")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        written.append(path)
+    cpath = os.path.join(out, "consolidations.csv")
+    if os.path.exists(cpath):
+        with open(cpath) as fh:
+            rows = list(csv.DictReader(fh))
+        seeds = sorted({r["seed"] for r in rows})
+        mus = sorted({float(r["consolidation_friction"]) for r in rows})
+        get = {(r["seed"], float(r["consolidation_friction"])): r for r in rows}
+        fig, axs = plt.subplots(1, 2, figsize=(9, 3.8))
+        for ax, key, label in ((axs[0], "void_ratio", "void ratio after consolidation"), (axs[1], "Z", "Z")):
+            ys = [[float(get[(s, m)][key]) if (s, m) in get else float("nan") for m in mus] for s in seeds]
+            band(ax, mus, ys, label, "C0")
+            ax.set_xlabel("consolidation mu_s")
+            ax.set_ylabel(label)
+        fig.suptitle(f"{len(seeds)} realisations (the study's figure 2(b))")
+        fig.tight_layout()
+        path = os.path.join(d, "ensemble_consolidation.png")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
 def realisations(out):
     return sorted(d for d in glob.glob(os.path.join(out, "seed_*")) if "_consolidation_" not in os.path.basename(d))
 
 
 def main():
-    if len(sys.argv) != 2:
-        sys.exit(__doc__.splitlines()[0] + "\nusage: ensemble_findings.py OUT")
-    out = sys.argv[1]
+    args = [a for a in sys.argv[1:] if a != "--no-figures"]
+    if len(args) != 1:
+        sys.exit(__doc__.splitlines()[0] + "\nusage: ensemble_findings.py OUT [--no-figures]")
+    out = args[0]
     dirs = realisations(out)
     rows = []
     if not dirs:  # one realisation: the run's own verdicts
@@ -212,6 +278,9 @@ def main():
     for n, v, r, numbers, _ in rows:
         print(f"{n:2d}  {v:32s}  {numbers[:150]}")
     print(f"findings written to {path}")
+    if dirs and "--no-figures" not in sys.argv:
+        for w in figures(out, runs):
+            print(f"figure written: {w}")
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@ consolidation-frictions test's: two realisations, two mu_r, two consolidation mu
   1. its least-squares slope and 95 % interval equal the textbook formulas written out here
      (b = Sxy / Sxx, se = sqrt(SSE / (n - 2) / Sxx), t(0.975, 3) = 3.182) to 1e-12, on points of
      known scatter; an exact line gives a zero interval; a parabola's quadratic coefficient;
-  2. OUT/findings.csv has the twelve findings, each verdict one of the three, the trends decided
+  2. OUT/findings.csv has the twelve findings (and the figures ensemble_trends.png and
+     ensemble_consolidation.png are PNG files), each verdict one of the three, the trends decided
      over the 4 points (2 realisations x 2 mu_r) and finding 12 over the 4 consolidations."""
 import csv
 import math
@@ -66,4 +67,9 @@ for r in rows:
 if "(4 points)" not in rows[9]["numbers"] or "(4 consolidations)" not in rows[11]["numbers"]:
     print("the trends are not decided over the ensemble's points")
     bad += 1
+for name in ("ensemble_trends.png", "ensemble_consolidation.png"):
+    with open(os.path.join(out, "figures", name), "rb") as fh:
+        if fh.read(8) != b"\x89PNG\r\n\x1a\n":
+            print(f"figures/{name} is not a PNG file")
+            bad += 1
 sys.exit(1 if bad else 0)
