@@ -589,37 +589,9 @@ void parse_fields(const toml::table* t, const std::string& path, Scene& sc) {
   }
 }
 
-}  // namespace
-
-Scene parse_scene(const std::string& text, const std::string& path) {
-  toml::table root;
-  try {
-    root = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    std::ostringstream m;
-    m << path << ":" << e.source().begin.line << ":" << e.source().begin.column
-      << ": TOML syntax error: " << e.description();
-    throw InputError(m.str());
-  }
-  static const std::set<std::string> tables = {"particles", "cell",     "contact", "compress", "run",
-                                               "triaxial",  "parallel", "fabric",  "fields"};
-  for (auto&& [k, v] : root) {
-    const std::string key(k.str());
-    if (key == "stage") continue;                               // [[stage]]: io/stage_parse.cpp, below
-    if (key == "wall" || key == "driven") continue;             // [[wall]], [[driven]]: parse_walls, parse_driven
-    if (key == "material" || key == "material_pair") continue;  // parse_materials, parse_material_pairs
-    if (!tables.count(key) || !v.is_table())
-      throw InputError(path + ": " + key + " = " + Section::node_text(v) +
-                       ": unknown top-level entry (expected one of the tables [particles], "
-                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], [fields], "
-                       "[[stage]], [[wall]], [[driven]], [[material]], [[material_pair]])");
-  }
-  auto table = [&](const char* name) { return root[name].as_table(); };
-
-  Scene sc;
-  sc.path = path;
-  sc.text = text;
-
+// [particles]: the specimen, generated or read from a data file.
+void parse_particles(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
   Section P(table("particles"), path, "particles");
   const std::string source = P.string("source").value_or("generate");
   if (source == "generate") {
@@ -675,14 +647,23 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   sc.density = P.number("density", sc.density);
   require(P, "density", sc.density, sc.density > 0, "must be positive");
   P.reject_unknown();
+}
 
+// [cell]: the cell's size.
+void parse_cell(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
   Section C(table("cell"), path, "cell");
   if (auto s = C.vec3("size")) {
     if (!(s->minCoeff() > 0)) C.fail("size", Section::node_text(*table("cell")->get("size")), "must be positive");
     sc.cell_size = *s;
   }
   C.reject_unknown();
+}
 
+// [contact]: the contact law, then the [[material]] and [[material_pair]] tables (a scene of one
+// material takes its law and density).
+void parse_contact(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
   Section K(table("contact"), path, "contact");
   ContactLawParams& law = sc.law;
   if (const auto m = K.string("model")) {
@@ -709,7 +690,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     sc.law = sc.materials[0].law;
     if (sc.source == ParticleSource::Generate) sc.density = sc.materials[0].density;
   }
+}
 
+// [compress]: the optional isotropic compression.
+void parse_compress(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
   Section Q(table("compress"), path, "compress");
   CompressSpec& cp = sc.compress;
   cp.enabled = table("compress") != nullptr;
@@ -722,7 +707,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   cp.friction = Q.number("friction", cp.friction);
   require(Q, "friction", cp.friction, cp.friction >= 0, "must be >= 0");
   Q.reject_unknown();
+}
 
+// [run]: time step, output, guards and checkpoints.
+void parse_run(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
   Section R(table("run"), path, "run");
   if (auto s = R.integer("steps")) sc.steps = *s;
   if (sc.steps < 0) R.fail("steps", std::to_string(sc.steps), "must be >= 0");
@@ -762,7 +751,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   sc.checkpoint_seconds = R.number("checkpoint_seconds", sc.checkpoint_seconds);
   require(R, "checkpoint_seconds", sc.checkpoint_seconds, sc.checkpoint_seconds >= 0, "must be >= 0 (0 = off)");
   R.reject_unknown();
+}
 
+// [triaxial]: the periodic triaxial test, its sweep, realisations and consolidation frictions.
+void parse_triaxial(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
+  GenerateSpec& g = sc.generate;
   Section T(table("triaxial"), path, "triaxial");
   TriaxialSpec& tx = sc.triaxial;
   tx.enabled = table("triaxial") != nullptr;
@@ -874,28 +868,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
            Section::node_text(*table("triaxial")->get(T.has("seeds") ? "seeds" : "realisations")),
            "realisations are generated specimens: [particles] source = \"file\" has one");
   T.reject_unknown();
-  if (tx.enabled && R.has("steps"))
-    throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
-                     ": not used with [triaxial], which runs until [triaxial] axial_strain; remove it");
-  if (tx.enabled && cp.enabled)
-    throw InputError(path +
-                     ": [compress] and [triaxial] both given: the triaxial test consolidates "
-                     "the specimen itself; remove [compress]");
+}
 
-  // The loading stages ([[stage]], io/stage_parse.cpp): one protocol per scene.
-  sc.stages = parse_stages(root.get("stage"), path);
-  if (!sc.stages.empty() && tx.enabled)
-    throw InputError(path +
-                     ": [[stage]] and [triaxial] both given: [triaxial] is the study's "
-                     "protocol as stages (docs/triaxial.md); give one of them");
-  if (!sc.stages.empty() && cp.enabled)
-    throw InputError(path +
-                     ": [[stage]] and [compress] both given: prepare the specimen with a "
-                     "stage (type = \"isotropic\"); remove [compress]");
-  if (!sc.stages.empty() && R.has("steps"))
-    throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
-                     ": not used with [[stage]], whose stages end by their end conditions; remove it");
-
+// [parallel]: the decomposition and the groups of ranks.
+void parse_parallel(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
   Section M(table("parallel"), path, "parallel");
   ParallelSpec& ps = sc.parallel;
   ps.decomposition = M.string("decomposition").value_or(ps.decomposition);
@@ -916,7 +893,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   }
   if (ps.cut != "work" && ps.cut != "even") M.fail("cut", "\"" + ps.cut + "\"", "must be \"work\" or \"even\"");
   M.reject_unknown();
+}
 
+// [fabric]: the fabric analysis.
+void parse_fabric(const toml::table& root, const std::string& path, Scene& sc) {
+  auto table = [&](const char* n) { return root[n].as_table(); };
   Section F(table("fabric"), path, "fabric");
   FabricSpec& fs = sc.fabric;
   fs.enabled = F.boolean("enabled").value_or(fs.enabled);
@@ -926,6 +907,73 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (fs.rose_bins < 1 || fs.rose_bins > 3600)
     F.fail("rose_bins", std::to_string(fs.rose_bins), "must lie in [1, 3600]");
   F.reject_unknown();
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& text, const std::string& path) {
+  toml::table root;
+  try {
+    root = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream m;
+    m << path << ":" << e.source().begin.line << ":" << e.source().begin.column
+      << ": TOML syntax error: " << e.description();
+    throw InputError(m.str());
+  }
+  static const std::set<std::string> tables = {"particles", "cell",     "contact", "compress", "run",
+                                               "triaxial",  "parallel", "fabric",  "fields"};
+  for (auto&& [k, v] : root) {
+    const std::string key(k.str());
+    if (key == "stage") continue;                               // [[stage]]: io/stage_parse.cpp, below
+    if (key == "wall" || key == "driven") continue;             // [[wall]], [[driven]]: parse_walls, parse_driven
+    if (key == "material" || key == "material_pair") continue;  // parse_materials, parse_material_pairs
+    if (!tables.count(key) || !v.is_table())
+      throw InputError(path + ": " + key + " = " + Section::node_text(v) +
+                       ": unknown top-level entry (expected one of the tables [particles], "
+                       "[cell], [contact], [compress], [run], [triaxial], [parallel], [fabric], [fields], "
+                       "[[stage]], [[wall]], [[driven]], [[material]], [[material_pair]])");
+  }
+  auto table = [&](const char* name) { return root[name].as_table(); };
+
+  Scene sc;
+  sc.path = path;
+  sc.text = text;
+  const toml::table* run = table("run");
+  const bool steps_given = run && run->contains("steps");
+
+  // One function per table, in this order: later tables read earlier ones' values (the particle
+  // source, the law, the materials); then the rules between tables.
+  parse_particles(root, path, sc);
+  parse_cell(root, path, sc);
+  parse_contact(root, path, sc);
+  parse_compress(root, path, sc);
+  parse_run(root, path, sc);
+  parse_triaxial(root, path, sc);
+  if (sc.triaxial.enabled && steps_given)
+    throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
+                     ": not used with [triaxial], which runs until [triaxial] axial_strain; remove it");
+  if (sc.triaxial.enabled && sc.compress.enabled)
+    throw InputError(path +
+                     ": [compress] and [triaxial] both given: the triaxial test consolidates "
+                     "the specimen itself; remove [compress]");
+
+  // The loading stages ([[stage]], io/stage_parse.cpp): one protocol per scene.
+  sc.stages = parse_stages(root.get("stage"), path);
+  if (!sc.stages.empty() && sc.triaxial.enabled)
+    throw InputError(path +
+                     ": [[stage]] and [triaxial] both given: [triaxial] is the study's "
+                     "protocol as stages (docs/triaxial.md); give one of them");
+  if (!sc.stages.empty() && sc.compress.enabled)
+    throw InputError(path +
+                     ": [[stage]] and [compress] both given: prepare the specimen with a "
+                     "stage (type = \"isotropic\"); remove [compress]");
+  if (!sc.stages.empty() && steps_given)
+    throw InputError(path + ": [run] steps = " + std::to_string(sc.steps) +
+                     ": not used with [[stage]], whose stages end by their end conditions; remove it");
+
+  parse_parallel(root, path, sc);
+  parse_fabric(root, path, sc);
   parse_fields(table("fields"), path, sc);
   parse_walls(root.get("wall"), path, sc);
   parse_driven(root.get("driven"), path, sc);

@@ -171,7 +171,7 @@ struct LawChanges {
   // its rate form to 0).
   ContactLawParams applied_to(ContactLawParams law) const {
     for (std::size_t k = 0; k < value.size(); ++k) {
-      if (!value[k]) continue;
+      if (!value[k] || !kLawParameters[k].member) continue;  // (the enums are not numbers)
       law.*kLawParameters[k].member = *value[k];
       if (kLawParameters[k].clears) law.*kLawParameters[k].clears = 0;
     }
