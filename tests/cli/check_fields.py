@@ -127,8 +127,19 @@ def inrun(run_path, fields_path, case, steps):
                 if x[d].attrs["unit"] != y[d].attrs["unit"]:
                     fail(f"/fields/{case}/{s}/{d}: unit {x[d].attrs['unit']} vs {y[d].attrs['unit']}")
                 n += u.size
+    # The reader of the apps (apps/fabrica_h5.py) finds them in run.h5: the instants and each
+    # field, transposed to [i, j, k] from the file's (nz, ny, nx).
+    rf = fabrica_h5.RunFile(run_path)
+    inst = rf.field_instants(case)
+    if [i.step for i in inst] != want:
+        fail(f"fabrica_h5.py: field instants {[i.step for i in inst]} of {run_path}, expected {want}")
+    f = rf.fields(case, want[-1], ["solid_fraction"])["solid_fraction"]
+    with h5py.File(run_path, "r") as a:
+        raw = a["fields"][case][f"{want[-1]:012d}"]["solid_fraction"][()]
+    if f.shape != raw.shape[::-1] or not np.array_equal(f, np.swapaxes(raw, 0, 2)):
+        fail(f"fabrica_h5.py: solid_fraction of {run_path} at step {want[-1]} read as {f.shape}, not the file's")
     print(f"check_fields.py: {len(got)} field instants of the run at steps {got}: {n} values identical "
-          f"to `fabrica fields`, bit for bit")
+          f"to `fabrica fields`, bit for bit; fabrica_h5.py reads them from run.h5")
 
 
 if __name__ == "__main__":
