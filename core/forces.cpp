@@ -102,7 +102,7 @@ bool fetch_all_ahead(std::size_t particles) {
 constexpr int kNone = 0, kVirial = 1, kFull = 2;
 
 // Mixed: a scene of several materials, the law of each contact that of its pair of materials
-// (ctx.materials), one contact at a time (the lanes of a SIMD law share one law).
+// (ctx.materials), lane by lane (LawLanes: each lane of the SIMD law its own numbers).
 template <class Model, int Roll, bool Twist, bool Viscous, bool Mixed, int Measure>
 struct PairKernel {
   static constexpr bool Rolling = Roll != kNoRolling;
@@ -128,6 +128,42 @@ struct PairKernel {
   const ContactLawParams& law_of(Index i, Index j) const {
     if constexpr (Mixed) return ctx.materials->pair(P.material[i], P.material[j]);
     else return ctx.law;
+  }
+  // Mixed: each pair of materials' law as the lanes take it (a * materials + b), made once per call.
+  std::vector<LawLanes<real_t>> pair_lanes;
+  void make_pair_lanes() {
+    const Materials& m = *ctx.materials;
+    pair_lanes.resize(m.pairs.size());
+    for (std::size_t q = 0; q < m.pairs.size(); ++q) {
+      const ContactLawParams& l = m.pairs[q];
+      LawLanes<real_t>& o = pair_lanes[q];
+      o.model = l.model, o.stiffness_mode = l.stiffness_mode, o.rolling_model = l.rolling_model;
+      o.youngs_modulus = l.youngs_modulus, o.normal_stiffness = l.normal_stiffness;
+      o.stiffness_ratio = l.stiffness_ratio, o.friction = l.friction, o.rolling_friction = l.rolling_friction;
+      o.twisting_friction = l.twisting_friction, o.rolling_damping = l.rolling_damping;
+      o.damping_ratio_n = l.damping_ratio_n, o.damping_ratio_s = l.damping_ratio_s;
+      o.damping_rate_n = l.damping_rate_n, o.damping_rate_s = l.damping_rate_s;
+      o.estar = HertzMindlin::effective_modulus(l), o.gstar = HertzMindlin::effective_shear_modulus(l);
+    }
+  }
+  // The laws of contacts ci[0..n), lane by lane.
+  template <class T>
+  LawLanes<T> lanes_of(const Index* ci, const Index* cj) const {
+    LawLanes<T> L;
+    L.model = ctx.law.model, L.stiffness_mode = ctx.law.stiffness_mode, L.rolling_model = ctx.law.rolling_model;
+    const std::size_t n = ctx.materials->size();
+    for (int l = 0; l < simd::Lanes<T>::n; ++l) {
+      const LawLanes<real_t>& q = pair_lanes[std::size_t(P.material[ci[l]]) * n + P.material[cj[l]]];
+      using simd::set_lane;
+      set_lane(L.youngs_modulus, l, q.youngs_modulus), set_lane(L.normal_stiffness, l, q.normal_stiffness);
+      set_lane(L.stiffness_ratio, l, q.stiffness_ratio), set_lane(L.friction, l, q.friction);
+      set_lane(L.rolling_friction, l, q.rolling_friction), set_lane(L.twisting_friction, l, q.twisting_friction);
+      set_lane(L.rolling_damping, l, q.rolling_damping), set_lane(L.damping_ratio_n, l, q.damping_ratio_n);
+      set_lane(L.damping_ratio_s, l, q.damping_ratio_s), set_lane(L.damping_rate_n, l, q.damping_rate_n);
+      set_lane(L.damping_rate_s, l, q.damping_rate_s), set_lane(L.estar, l, q.estar);
+      set_lane(L.gstar, l, q.gstar);
+    }
+    return L;
   }
 
   // The contact of pair q (bodies i, j) opens after nc touching pairs of this block: the
@@ -279,12 +315,16 @@ struct PairKernel {
   void contacts(std::size_t c) {
     using namespace simd;
     constexpr int kLanes = Lanes<T>::n;
-    static_assert(!Mixed || kLanes == 1, "a law per contact: one contact at a time");
     const real_t dt = ctx.dt;
     const PairList::Work& W = pl.work;
     const Index* ci = W.i.data() + c;
     const Index* cj = W.j.data() + c;
-    const ContactLawParams& law = law_of(ci[0], cj[0]);
+    // The scene's law, or (several materials) each lane's pair's.
+    const auto law_lanes = [&]() -> decltype(auto) {
+      if constexpr (Mixed) return lanes_of<T>(ci, cj);
+      else return (ctx.law);
+    };
+    const auto& law = law_lanes();
     const Index* cs = W.s.data() + c;
     const real_t* R = P.radius.data();
     // The second bodies of the contacts kBodyAhead on: their velocities, spins, forces and
@@ -407,7 +447,7 @@ struct PairKernel {
           sums->rolling += lane(r.rolling, l);
           sums->e_normal += Model::energy_normal(cl, un);
           sums->e_shear += Model::energy_shear(cl, un, lane(h.fs, l));
-          if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(law, cl, un, lane(h.mr, l));
+          if constexpr (Rolling) sums->e_rolling += Model::energy_rolling(law_of(i, j), cl, un, lane(h.mr, l));
           if constexpr (Twist) sums->e_rolling += Model::energy_twisting(cl, un, lane(h.mt, l));
           sums->sum_contact_force += Fl.norm();
           ++sums->contacts_per_particle[i];
@@ -441,10 +481,9 @@ struct PairKernel {
       next_before = next_opening < W.openings.size() ? W.openings[next_opening].before : kNone;
       body_ahead_end = nc;
       std::size_t c = 0;
-      if constexpr (!Mixed)
-        if (ctx.lanes == 4)
-          for (; c + 4 <= nc; c += 4) contacts<d4>(c);
-      if (Mixed || ctx.lanes != 4 || q1 == np)
+      if (ctx.lanes == 4)
+        for (; c + 4 <= nc; c += 4) contacts<d4>(c);
+      if (ctx.lanes != 4 || q1 == np)
         for (; c < nc; ++c) contacts<real_t>(c);
       // Carry contacts [c, nc) and the openings not booked yet to the front.
       for (std::size_t k = c; k < nc; ++k) {
@@ -466,6 +505,7 @@ void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx
   PairKernel<Model, Roll, Twist, Viscous, Mixed, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
   for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
   K.fetch_all = ctx.fetch_ahead < 0 ? fetch_all_ahead(P.size()) : ctx.fetch_ahead > 0;
+  if constexpr (Mixed) K.make_pair_lanes();
   if constexpr (Model::kPreviousOverlap)
     for (int a = 0; a < 3; ++a) K.unscale[a] = std::exp(-K.edot[a] * ctx.dt);
   K.run();

@@ -80,7 +80,7 @@ struct ForceContext {
   // fields, 1 every line a contact reads.
   int fetch_ahead = -1;
   // A scene of several materials: the law of each pair of materials (null or empty: 'law' for
-  // every contact). The pair loop then runs one contact at a time (core/forces.cpp).
+  // every contact). The pair loop then takes each lane's law from it (core/forces.cpp, LawLanes).
   const Materials* materials = nullptr;
 };
 

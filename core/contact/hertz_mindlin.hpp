@@ -78,11 +78,21 @@ struct HertzMindlin {
     const real_t nu = law.poisson_ratio;
     return law.youngs_modulus / (4.0 * (2.0 - nu) * (1.0 + nu));
   }
+  // Lane by lane in a scene of several materials (the pair's, computed as above).
+  template <class T>
+  static const T& effective_modulus(const LawLanes<T>& law) {
+    return law.estar;
+  }
+  template <class T>
+  static const T& effective_shear_modulus(const LawLanes<T>& law) {
+    return law.gstar;
+  }
   static constexpr real_t kTsuji = 1.8257418583505538;  // 2 sqrt(5/6)
 
-  template <int Roll, bool Viscous, class T>
-  [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj, const T&,
-                                             const T& sum_r, const T& mi, const T& mj) {
+  // 'law' a ContactLawParams or the lanes' laws of a scene of several materials (LawLanes<T>).
+  template <int Roll, bool Viscous, class T, class L>
+  [[gnu::always_inline]] static Pair<T> pair(const L& law, const T& Ri, const T& Rj, const T&, const T& sum_r,
+                                             const T& mi, const T& mj) {
     Pair<T> c;
     const T rstar = Ri * Rj / sum_r;
     const T sr = simd::sqrt(rstar);
@@ -115,14 +125,14 @@ struct HertzMindlin {
     return {c.kn0[l], c.kt0[l], c.dn[l], c.ds[l], c.rbar[l], c.ir[l]};
   }
   // k_r / k_t of the rolling model (a constant of the pair: both stiffnesses grow as sqrt(u_n)).
-  template <int Roll, class T>
-  static T rolling_per_shear(const ContactLawParams& law, const Pair<T>& c) {
+  template <int Roll, class T, class L>
+  static T rolling_per_shear(const L& law, const Pair<T>& c) {
     return rolling_stiffness<Roll>(law, c.kn0, c.kt0, c.rbar) / c.kt0;
   }
   static Pair<real_t> lane(const Pair<real_t>& c, int) { return c; }
 
-  template <int Roll, bool Viscous, class T, bool Twist = false>
-  [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
+  template <int Roll, bool Viscous, class T, bool Twist = false, class L = ContactLawParams>
+  [[gnu::always_inline]] static ContactResultL<T> evaluate(const L& law, const Pair<T>& c,
                                                            const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
                                                            real_t dt) {
     using namespace simd;

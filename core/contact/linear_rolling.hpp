@@ -75,8 +75,8 @@ struct PairConstantsL {
 // -ffp-contract=off inlining changes no bit.
 // Roll: the rolling model (core/contact/rolling.hpp; true = elastic-plastic, false = none);
 // Twist: the twisting spring-slider.
-template <int Roll, bool Viscous, class T, bool Twist = false>
-[[gnu::always_inline]] inline ContactResultL<T> contact_law_l(const ContactLawParams& p, const PairConstantsL<T>& c,
+template <int Roll, bool Viscous, class T, bool Twist = false, class L = ContactLawParams>
+[[gnu::always_inline]] inline ContactResultL<T> contact_law_l(const L& p, const PairConstantsL<T>& c,
                                                               const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
                                                               real_t dt) {
   using namespace simd;
@@ -157,9 +157,10 @@ struct LinearRolling {
 
   // Two spheres, lane by lane (rmin = min(Ri, Rj), sum_r = Ri + Rj; mi, mj only if Viscous):
   // the operations of pair_constants, so that both give the same bits.
-  template <int Roll, bool Viscous, class T>
-  [[gnu::always_inline]] static Pair<T> pair(const ContactLawParams& law, const T& Ri, const T& Rj, const T& rmin,
-                                             const T& sum_r, const T& mi, const T& mj) {
+  // 'law' a ContactLawParams or the lanes' laws of a scene of several materials (LawLanes<T>).
+  template <int Roll, bool Viscous, class T, class L>
+  [[gnu::always_inline]] static Pair<T> pair(const L& law, const T& Ri, const T& Rj, const T& rmin, const T& sum_r,
+                                             const T& mi, const T& mj) {
     Pair<T> pc;
     if (law.stiffness_mode == NormalStiffnessMode::Direct) {
       pc.kn = T{} + law.normal_stiffness;
@@ -195,11 +196,11 @@ struct LinearRolling {
   }
   static Pair<real_t> lane(const Pair<real_t>& c, int) { return c; }
 
-  template <int Roll, bool Viscous, class T, bool Twist = false>
-  [[gnu::always_inline]] static ContactResultL<T> evaluate(const ContactLawParams& law, const Pair<T>& c,
+  template <int Roll, bool Viscous, class T, bool Twist = false, class L = ContactLawParams>
+  [[gnu::always_inline]] static ContactResultL<T> evaluate(const L& law, const Pair<T>& c,
                                                            const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
                                                            real_t dt) {
-    return contact_law_l<Roll, Viscous, T, Twist>(law, c, k, h, dt);
+    return contact_law_l<Roll, Viscous, T, Twist, L>(law, c, k, h, dt);
   }
 
   // The state of one contact of overlap un with stored springs h.

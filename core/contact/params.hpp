@@ -55,6 +55,20 @@ struct ContactLawParams {
   }
 };
 
+// The numbers of a law that differ between the contacts of a scene of several materials, lane by
+// lane (core/forces.cpp's Mixed kernel: T = simd::d4, each lane its pair of materials' law),
+// under ContactLawParams' names, so that a model's lane-generic code reads either. estar, gstar:
+// Hertz-Mindlin's effective moduli of the lane's pair. The model, stiffness mode and rolling model
+// are the scene's.
+template <class T>
+struct LawLanes {
+  ContactModel model = ContactModel::Linear;
+  NormalStiffnessMode stiffness_mode = NormalStiffnessMode::Deformability;
+  RollingModel rolling_model = RollingModel::ElasticPlastic;
+  T youngs_modulus{}, normal_stiffness{}, stiffness_ratio{}, friction{}, rolling_friction{}, twisting_friction{};
+  T rolling_damping{}, damping_ratio_n{}, damping_ratio_s{}, damping_rate_n{}, damping_rate_s{}, estar{}, gstar{};
+};
+
 // The name a scene file gives a model ([contact] model, rolling_model).
 inline const char* model_name(ContactModel m) { return m == ContactModel::HertzMindlin ? "hertz_mindlin" : "linear"; }
 inline const char* rolling_model_name(RollingModel m) {

@@ -43,8 +43,8 @@ namespace fabrica {
 enum : int { kNoRolling = 0, kElasticPlastic = 1, kEpsd = 2, kConstantTorque = 3 };
 
 // k_r [N m/rad] from the contact's current k_n, k_s [N/m] and Rbar [m] (0 for the constant torque).
-template <int Roll, class T>
-inline T rolling_stiffness(const ContactLawParams& law, const T& kn, const T& ks, const T& rbar) {
+template <int Roll, class T, class L>
+inline T rolling_stiffness(const L& law, const T& kn, const T& ks, const T& rbar) {
   if constexpr (Roll == kEpsd) return (2.25 * law.rolling_friction * law.rolling_friction) * kn * rbar * rbar;
   else if constexpr (Roll == kConstantTorque) return T{};
   else return ks * rbar * rbar;
@@ -64,8 +64,8 @@ inline real_t rolling_inertia_wall(real_t m1, real_t R1) { return 1.4 * m1 * R1 
 // relative rotation loads m_r <- rot(m_r) - k_r dtheta_r, capped at mu_r Rbar f_n (f_n the
 // elastic normal force), the energy of the rolling slip booked in r.e_rolling. 'twist' is the
 // angle the stored moment is turned by with the contact plane.
-template <class T>
-[[gnu::always_inline]] inline void rolling_spring_l(real_t mu_r, const T& kr, const T& rbar, const T& fn_el,
+template <class T, class M>
+[[gnu::always_inline]] inline void rolling_spring_l(const M& mu_r, const T& kr, const T& rbar, const T& fn_el,
                                                     const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
                                                     const T& twist, real_t dt, ContactResultL<T>& r) {
   using namespace simd;
@@ -90,8 +90,8 @@ template <class T>
 
 // The twisting spring-slider (above): stiffness ktw = k_s Rbar^2 (> 0), cap mu_t Rbar f_n,el; the
 // slip's energy added to r.e_rolling, the moment to r.mt (the caller adds mt n to r.mr).
-template <class T>
-[[gnu::always_inline]] inline void twisting_l(real_t mu_t, const T& ktw, const T& rbar, const T& fn_el,
+template <class T, class M>
+[[gnu::always_inline]] inline void twisting_l(const M& mu_t, const T& ktw, const T& rbar, const T& fn_el,
                                               const ContactKinematicsL<T>& k, ContactHistoryL<T>& h, real_t dt,
                                               ContactResultL<T>& r) {
   using namespace simd;
@@ -111,10 +111,10 @@ template <class T>
 
 // The rolling resistance of model Roll (not kNoRolling), with the contact's k_r and, for the
 // epsd dashpot (Viscous), I_r.
-template <int Roll, bool Viscous, class T>
-[[gnu::always_inline]] inline void rolling_l(const ContactLawParams& law, const T& kr, const T& ir, const T& rbar,
-                                             const T& fn_el, const ContactKinematicsL<T>& k, ContactHistoryL<T>& h,
-                                             const T& twist, real_t dt, ContactResultL<T>& r) {
+template <int Roll, bool Viscous, class T, class L>
+[[gnu::always_inline]] inline void rolling_l(const L& law, const T& kr, const T& ir, const T& rbar, const T& fn_el,
+                                             const ContactKinematicsL<T>& k, ContactHistoryL<T>& h, const T& twist,
+                                             real_t dt, ContactResultL<T>& r) {
   using namespace simd;
   if constexpr (Roll == kConstantTorque) {
     V3<T> wr = k.w2 - k.w1;
