@@ -128,17 +128,55 @@ struct Reach {
   double w;                // 1/m^3
 };
 
+struct NodeWeight {
+  std::size_t node;
+  double w;  // 1/m^3
+};
+
 class Spreader {
  public:
   Spreader(const FieldGrid& g, const FieldKernel& k)
       : g_(g), k_(k), h_(g.spacing()), rs_(k.support()), dv_(g.cell_volume()) {}
 
-  // Fills 'out' with the nodes within the support of x (any real position), in a fixed order
-  // (z, then y, then x along each axis's reach). The Gaussian is separable: its weight at a node
-  // is the product of three 1D factors exp(-d_a^2 / (2 w^2)), one per axis and per node line,
-  // with the support tested on the squared distance (the truncation stays spherical).
+  // The nodes within the support of x (any real position) with their normalised weights, in a
+  // fixed order (z, then y, then x along each axis's reach): reach() with each node's offset and
+  // image (the displacement fields), weights() with the node and weight alone (the other fields).
   const std::vector<Reach>& reach(const Vec3& x) {
     out_.clear();
+    const double sum = visit(x, [&](std::size_t node, const Ax& xx, const Ax& y, const Ax& z, double w) {
+      out_.push_back({node, Vec3(xx.d, y.d, z.d), {xx.img, y.img, z.img}, w});
+    });
+    const double scale = 1.0 / (sum * dv_);
+    for (Reach& r : out_) r.w *= scale;
+    return out_;
+  }
+  const std::vector<NodeWeight>& weights(const Vec3& x) {
+    lean_.clear();
+    const double sum = visit(x, [&](std::size_t node, const Ax&, const Ax&, const Ax&, double w) {
+      lean_.push_back({node, w});
+    });
+    const double scale = 1.0 / (sum * dv_);
+    for (NodeWeight& r : lean_) r.w *= scale;
+    return lean_;
+  }
+
+  // An upper bound of every normalised weight: W(0) over (W at the farthest a nearest node can
+  // be, half the cell's diagonal, times dV), with a margin of 2^-40 for the rounding of the
+  // separable Gaussian's product against raw().
+  double weight_bound() const { return k_.raw(0) / (k_.raw(0.5 * h_.norm()) * dv_) * (1 + 0x1p-40); }
+
+ private:
+  struct Ax {
+    int i, img;
+    real_t d, d2;  // the node's coordinate relative to x along the axis, and its square
+    double g;      // the Gaussian's factor along the axis (1 for Lucy)
+  };
+  // Calls push(node, x axis, y axis, z axis, W) for every node within the support, returns the
+  // sum of W. The Gaussian is separable: its W at a node is the product of three 1D factors
+  // exp(-d_a^2 / (2 w^2)), one per axis and node line, with the support tested on the squared
+  // distance (the truncation stays spherical).
+  template <class Push>
+  double visit(const Vec3& x, Push&& push) {
     const bool gauss = k_.type == KernelType::Gaussian;
     const real_t inv2w2 = 0.5 / (k_.width * k_.width), rs2 = rs_ * rs_;
     for (int a = 0; a < 3; ++a) {
@@ -157,40 +195,38 @@ class Spreader {
       for (const Ax& y : axis_[1]) {
         const real_t dyz2 = y.d2 + z.d2;
         if (dyz2 >= rs2) continue;
-        const double wyz = y.g * z.g;
         const std::size_t line = n0 * std::size_t(y.i) + n01 * std::size_t(z.i);
-        for (const Ax& xx : axis_[0]) {
-          const real_t r2 = dyz2 + xx.d2;
-          if (r2 >= rs2) continue;
-          const double w = gauss ? wyz * xx.g : k_.raw(std::sqrt(r2));
-          if (!(w > 0)) continue;
-          out_.push_back({line + std::size_t(xx.i), Vec3(xx.d, y.d, z.d), {xx.img, y.img, z.img}, w});
-          sum += w;
+        if (gauss) {
+          const double wyz = y.g * z.g;
+          for (const Ax& xx : axis_[0])
+            if (dyz2 + xx.d2 < rs2) {
+              const double w = wyz * xx.g;
+              if (!(w > 0)) continue;
+              push(line + std::size_t(xx.i), xx, y, z, w);
+              sum += w;
+            }
+        } else {
+          for (const Ax& xx : axis_[0]) {
+            const real_t r2 = dyz2 + xx.d2;
+            if (r2 >= rs2) continue;
+            const double w = k_.raw(std::sqrt(r2));
+            if (!(w > 0)) continue;
+            push(line + std::size_t(xx.i), xx, y, z, w);
+            sum += w;
+          }
         }
       }
     if (!(sum > 0)) throw std::logic_error("coarse_grain: a kernel reaches no node (grid not checked)");
-    const double scale = 1.0 / (sum * dv_);
-    for (Reach& r : out_) r.w *= scale;
-    return out_;
+    return sum;
   }
 
-  // An upper bound of every normalised weight: W(0) over (W at the farthest a nearest node can
-  // be, half the cell's diagonal, times dV), with a margin of 2^-40 for the rounding of the
-  // separable Gaussian's product against raw().
-  double weight_bound() const { return k_.raw(0) / (k_.raw(0.5 * h_.norm()) * dv_) * (1 + 0x1p-40); }
-
- private:
-  struct Ax {
-    int i, img;
-    real_t d, d2;  // the node's coordinate relative to x along the axis, and its square
-    double g;      // the Gaussian's factor along the axis (1 for Lucy)
-  };
   const FieldGrid& g_;
   const FieldKernel& k_;
   Vec3 h_;
   real_t rs_, dv_;
   std::array<std::vector<Ax>, 3> axis_;
   std::vector<Reach> out_;
+  std::vector<NodeWeight> lean_;
 };
 
 // Symmetric tensor components: 00, 11, 22, 01, 12, 02.
@@ -369,7 +405,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     v[kM] = p.mass;
     for (int i = 0; i < 3; ++i) v[kMv + i] = p.mass * p.v[i], v[kMw + i] = p.mass * p.w[i];
     for (int m = 0; m < 6; ++m) v[kMvv + m] = p.mass * p.v[kSymI[m]] * p.v[kSymJ[m]];
-    for (const Reach& r : sp.reach(wrap_into(p.x, L))) sums.add_row(r.node, 0, v, 14, r.w);
+    for (const NodeWeight& r : sp.weights(wrap_into(p.x, L))) sums.add_row(r.node, 0, v, 14, r.w);
   }
   // A contact's branch weights: at each node, the sum over the quadrature points of omega_q
   // times the point's normalised weight, summed in double in the fixed order of the points (the
@@ -388,7 +424,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     for (int piece = 0; piece < m; ++piece)
       for (int q = 0; q < 3; ++q) {
         const double s = (piece + 0.5 * (1 + kGl[q])) / m, weight = 0.5 * kGw[q] / m;
-        for (const Reach& r : sp.reach(x1 + s * b)) {
+        for (const NodeWeight& r : sp.weights(x1 + s * b)) {
           double& bw = branch_w[r.node];
           if (bw == 0) touched.push_back(r.node);  // weights are positive: 0 means not reached yet
           bw += weight * r.w;
@@ -404,7 +440,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     double nn[7] = {1.0};
     for (int k = 0; k < 6; ++k) nn[1 + k] = n[kSymI[k]] * n[kSymJ[k]];
     const std::size_t base = kNet + kPerNet * class_of(c.rec.sliding, c.rec.rolling, c.rec.fn > out.strong_threshold);
-    for (const Reach& r : sp.reach(xc)) sums.add_row(r.node, base, nn, kPerNet, r.w);
+    for (const NodeWeight& r : sp.weights(xc)) sums.add_row(r.node, base, nn, kPerNet, r.w);
   }
   sums.reduce(reducer);
 
