@@ -266,6 +266,25 @@ Field make_field(const std::string& name, const std::string& unit, int comps, st
   return {name, unit, comps, std::vector<double>(nodes * std::size_t(comps), 0.0)};
 }
 
+// make_field() with the storage of a field of the same name from 'recycle' when there is one.
+class FieldMaker {
+ public:
+  explicit FieldMaker(FieldsResult* recycle) : recycle_(recycle) {}
+  Field operator()(const std::string& name, const std::string& unit, int comps, std::size_t nodes) {
+    if (recycle_)
+      for (Field& f : recycle_->fields)
+        if (f.name == name && f.values.capacity() > 0) {
+          Field out{name, unit, comps, std::move(f.values)};
+          out.values.assign(nodes * std::size_t(comps), 0.0);
+          return out;
+        }
+    return make_field(name, unit, comps, nodes);
+  }
+
+ private:
+  FieldsResult* recycle_;
+};
+
 }  // namespace
 
 real_t FieldKernel::raw(real_t r) const {
@@ -328,7 +347,8 @@ double field_bytes(const FieldGrid& grid) {
 }
 
 FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
-                          std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer) {
+                          std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer,
+                          FieldsResult* recycle) {
   FieldsResult out;
   out.grid = grid, out.kernel = kernel;
   const std::size_t N = grid.nodes();
@@ -445,15 +465,15 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
   sums.reduce(reducer);
 
   // The fields.
-  Field phi = make_field("solid_fraction", "1", 1, N), rho = make_field("density", "kg/m^3", 1, N),
-        vel = make_field("velocity", "m/s", 3, N), kin = make_field("kinetic_stress", "Pa", 9, N),
-        con = make_field("contact_stress", "Pa", 9, N), tot = make_field("stress", "Pa", 9, N),
-        spin = make_field("spin", "rad/s", 3, N);
+  FieldMaker make(recycle);
+  Field phi = make("solid_fraction", "1", 1, N), rho = make("density", "kg/m^3", 1, N),
+        vel = make("velocity", "m/s", 3, N), kin = make("kinetic_stress", "Pa", 9, N),
+        con = make("contact_stress", "Pa", 9, N), tot = make("stress", "Pa", 9, N), spin = make("spin", "rad/s", 3, N);
   std::vector<Field> dens, fab;
   if (options.networks)
     for (int k = 0; k < kNetworks; ++k) {
-      dens.push_back(make_field("contact_density_" + std::string(kNetworkNames[k]), "1/m^3", 1, N));
-      fab.push_back(make_field("fabric_" + std::string(kNetworkNames[k]), "1", 9, N));
+      dens.push_back(make("contact_density_" + std::string(kNetworkNames[k]), "1/m^3", 1, N));
+      fab.push_back(make("fabric_" + std::string(kNetworkNames[k]), "1", 9, N));
     }
   for (std::size_t g = 0; g < N; ++g) {
     phi.values[g] = sums.value(g, kVol);
