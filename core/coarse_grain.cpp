@@ -28,37 +28,40 @@ __extension__ typedef unsigned __int128 UWide;
 // of the largest possible term, and added as 128-bit integers, which hold 2^42 such terms.
 class GridSums {
  public:
-  GridSums(std::size_t nodes, std::size_t slots) : slots_(slots), acc_(nodes * slots, 0), e_(slots, 0) {}
+  // The integers live in a buffer kept by the thread between calls (grown, never shrunk): a
+  // fresh allocation of tens of MB at every field instant costs its page faults again, more
+  // than the sums themselves on a fine grid; zeroing a buffer already mapped is cheap.
+  GridSums(std::size_t nodes, std::size_t slots)
+      : nodes_(nodes), slots_(slots), acc_(workspace()), e_(slots, 0), scale_(slots, 1.0), unit_(slots, 1.0) {
+    if (acc_.size() < nodes * slots) acc_.resize(nodes * slots);
+    std::fill(acc_.begin(), acc_.begin() + std::ptrdiff_t(nodes * slots), Wide(0));
+  }
+  GridSums(const GridSums&) = delete;
+  GridSums& operator=(const GridSums&) = delete;
 
   // bound[s]: an upper bound of |term| over every term of slot s on every rank.
   void set_bounds(std::span<const double> bound) {
-    for (std::size_t s = 0; s < slots_; ++s)
+    for (std::size_t s = 0; s < slots_; ++s) {
       e_[s] = bound[s] > 0 && std::isfinite(bound[s]) ? std::ilogb(bound[s]) + 1 - 84 : 0;
+      e_[s] = std::max(e_[s], -1000);  // 2^-e finite (a coarser grid still holds every term)
+      scale_[s] = std::ldexp(1.0, -e_[s]);
+      unit_[s] = std::ldexp(1.0, e_[s]);
+    }
   }
 
-  void add(std::size_t node, std::size_t slot, double x) {
-    const std::uint64_t bits = std::bit_cast<std::uint64_t>(x);
-    const int field = int((bits >> 52) & 0x7ff);
-    if (field == 0x7ff) throw std::domain_error("coarse_grain: non-finite term");
-    if (field == 0) return;  // zero or subnormal: far below the grid
-    std::uint64_t mant = (bits & ((std::uint64_t(1) << 52) - 1)) | (std::uint64_t(1) << 52);
-    const int pos = field - 1075 - e_[slot];  // |x| 2^-e = mant 2^pos
-    Wide v;
-    if (pos < 0) {
-      if (pos <= -53) return;
-      v = Wide(mant >> -pos);
-    } else {
-      if (pos > 40) throw std::logic_error("coarse_grain: a term exceeds its slot's bound");
-      v = Wide(mant) << pos;
-    }
-    Wide& a = acc_[node * slots_ + slot];
-    a += (bits >> 63) ? -v : v;
+  void add(std::size_t node, std::size_t slot, double x) { acc_[node * slots_ + slot] += fixed(slot, x); }
+
+  // Adds x[k] w to slots first .. first + count - 1 of a node (each term rounded once).
+  void add_row(std::size_t node, std::size_t first, const double* x, std::size_t count, double w) {
+    Wide* a = acc_.data() + node * slots_ + first;
+    for (std::size_t k = 0; k < count; ++k) a[k] += fixed(first + k, x[k] * w);
   }
 
   // Sums the grids of every rank, exactly: each 128-bit integer as four 32-bit digits in int64
   // words (the top one signed), summed as integers, in chunks of at most 2^18 slots.
   void reduce(Domain& reducer) {
-    const std::size_t total = acc_.size(), chunk = std::size_t(1) << 18;
+    if (reducer.size() == 1) return;  // the sums are this rank's
+    const std::size_t total = nodes_slots(), chunk = std::size_t(1) << 18;
     std::vector<std::int64_t> buf;
     for (std::size_t a = 0; a < total; a += chunk) {
       const std::size_t b = std::min(total, a + chunk);
@@ -80,15 +83,41 @@ class GridSums {
   }
 
   // The sum of a slot at a node (correctly rounded integer to double, then scaled exactly).
-  double value(std::size_t node, std::size_t slot) const {
-    const Wide a = acc_[node * slots_ + slot];
-    return std::ldexp(static_cast<double>(a), e_[slot]);
-  }
+  double value(std::size_t node, std::size_t slot) const { return value_of(acc_[node * slots_ + slot], slot); }
+  // The integer of a slot at a node, and the value of an integer on a slot's grid (sums of the
+  // integers of slots with the same grid are exact).
+  Wide raw(std::size_t node, std::size_t slot) const { return acc_[node * slots_ + slot]; }
+  // (Times 2^e, a normal double: the same correctly rounded result as ldexp.)
+  double value_of(Wide a, std::size_t slot) const { return static_cast<double>(a) * unit_[slot]; }
+  int exponent(std::size_t slot) const { return e_[slot]; }
 
  private:
-  std::size_t slots_;
-  std::vector<Wide> acc_;
+  // x rounded towards zero to a multiple of 2^e[slot], in units of 2^e[slot]. y = x 2^-e is
+  // exact (a power-of-two scaling; a result below the normal range is below one unit and
+  // truncates to 0 whatever its rounding), below 2^93 by the bound (2^9 of margin over the
+  // 2^84 of set_bounds), and split exactly as hi 2^41 + lo with both parts truncated towards
+  // zero and of the sign of y: their sum is trunc(y), with no conversion of a double to 128 bits.
+  Wide fixed(std::size_t slot, double x) const {
+    const double y = x * scale_[slot];
+    if (!(std::abs(y) < 0x1p93)) {
+      if (!std::isfinite(x)) throw std::domain_error("coarse_grain: non-finite term");
+      throw std::logic_error("coarse_grain: a term exceeds its slot's bound");
+    }
+    const auto hi = static_cast<std::int64_t>(y * 0x1p-41);
+    const auto lo = static_cast<std::int64_t>(y - static_cast<double>(hi) * 0x1p41);
+    return Wide(hi) * (Wide(1) << 41) + Wide(lo);
+  }
+
+  static std::vector<Wide>& workspace() {
+    thread_local std::vector<Wide> w;
+    return w;
+  }
+  std::size_t nodes_slots() const { return nodes_ * slots_; }
+
+  std::size_t nodes_ = 0, slots_;
+  std::vector<Wide>& acc_;
   std::vector<int> e_;
+  std::vector<double> scale_, unit_;  // 2^-e, 2^e
 };
 
 // The nodes a kernel centred at x reaches, with their normalised weights (sum w dV = 1).
@@ -99,57 +128,105 @@ struct Reach {
   double w;                // 1/m^3
 };
 
+struct NodeWeight {
+  std::size_t node;
+  double w;  // 1/m^3
+};
+
 class Spreader {
  public:
-  Spreader(const FieldGrid& g, const FieldKernel& k) : g_(g), k_(k), h_(g.spacing()), rs_(k.support()) {}
+  Spreader(const FieldGrid& g, const FieldKernel& k)
+      : g_(g), k_(k), h_(g.spacing()), rs_(k.support()), dv_(g.cell_volume()) {}
 
-  // Fills 'out' with the nodes within the support of x (any real position), in a fixed order.
+  // The nodes within the support of x (any real position) with their normalised weights, in a
+  // fixed order (z, then y, then x along each axis's reach): reach() with each node's offset and
+  // image (the displacement fields), weights() with the node and weight alone (the other fields).
   const std::vector<Reach>& reach(const Vec3& x) {
     out_.clear();
+    const double sum = visit(x, [&](std::size_t node, const Ax& xx, const Ax& y, const Ax& z, double w) {
+      out_.push_back({node, Vec3(xx.d, y.d, z.d), {xx.img, y.img, z.img}, w});
+    });
+    const double scale = 1.0 / (sum * dv_);
+    for (Reach& r : out_) r.w *= scale;
+    return out_;
+  }
+  const std::vector<NodeWeight>& weights(const Vec3& x) {
+    lean_.clear();
+    const double sum = visit(x, [&](std::size_t node, const Ax&, const Ax&, const Ax&, double w) {
+      lean_.push_back({node, w});
+    });
+    const double scale = 1.0 / (sum * dv_);
+    for (NodeWeight& r : lean_) r.w *= scale;
+    return lean_;
+  }
+
+  // An upper bound of every normalised weight: W(0) over (W at the farthest a nearest node can
+  // be, half the cell's diagonal, times dV), with a margin of 2^-40 for the rounding of the
+  // separable Gaussian's product against raw().
+  double weight_bound() const { return k_.raw(0) / (k_.raw(0.5 * h_.norm()) * dv_) * (1 + 0x1p-40); }
+
+ private:
+  struct Ax {
+    int i, img;
+    real_t d, d2;  // the node's coordinate relative to x along the axis, and its square
+    double g;      // the Gaussian's factor along the axis (1 for Lucy)
+  };
+  // Calls push(node, x axis, y axis, z axis, W) for every node within the support, returns the
+  // sum of W. The Gaussian is separable: its W at a node is the product of three 1D factors
+  // exp(-d_a^2 / (2 w^2)), one per axis and node line, with the support tested on the squared
+  // distance (the truncation stays spherical).
+  template <class Push>
+  double visit(const Vec3& x, Push&& push) {
+    const bool gauss = k_.type == KernelType::Gaussian;
+    const real_t inv2w2 = 0.5 / (k_.width * k_.width), rs2 = rs_ * rs_;
     for (int a = 0; a < 3; ++a) {
       axis_[a].clear();
       const long lo = long(std::ceil((x[a] - rs_) / h_[a] - 0.5)), hi = long(std::floor((x[a] + rs_) / h_[a] - 0.5));
       const long n = g_.n[a];
       for (long i = lo; i <= hi; ++i) {
         const long img = i >= 0 ? i / n : -((-i - 1) / n) - 1;  // floor(i / n)
-        axis_[a].push_back({int(i - img * n), int(img), (real_t(i) + 0.5) * h_[a] - x[a]});
+        const real_t d = (real_t(i) + 0.5) * h_[a] - x[a];
+        axis_[a].push_back({int(i - img * n), int(img), d, d * d, gauss ? std::exp(-d * d * inv2w2) : 1.0});
       }
     }
+    const std::size_t n0 = std::size_t(g_.n[0]), n01 = n0 * std::size_t(g_.n[1]);
     double sum = 0;
     for (const Ax& z : axis_[2])
-      for (const Ax& y : axis_[1])
-        for (const Ax& xx : axis_[0]) {
-          const Vec3 d(xx.d, y.d, z.d);
-          const real_t r = d.norm();
-          if (r >= rs_) continue;
-          const double w = k_.raw(r);
-          if (!(w > 0)) continue;
-          const std::size_t node =
-              std::size_t(xx.i) + std::size_t(g_.n[0]) * (std::size_t(y.i) + std::size_t(g_.n[1]) * std::size_t(z.i));
-          out_.push_back({node, d, {xx.img, y.img, z.img}, w});
-          sum += w;
+      for (const Ax& y : axis_[1]) {
+        const real_t dyz2 = y.d2 + z.d2;
+        if (dyz2 >= rs2) continue;
+        const std::size_t line = n0 * std::size_t(y.i) + n01 * std::size_t(z.i);
+        if (gauss) {
+          const double wyz = y.g * z.g;
+          for (const Ax& xx : axis_[0])
+            if (dyz2 + xx.d2 < rs2) {
+              const double w = wyz * xx.g;
+              if (!(w > 0)) continue;
+              push(line + std::size_t(xx.i), xx, y, z, w);
+              sum += w;
+            }
+        } else {
+          for (const Ax& xx : axis_[0]) {
+            const real_t r2 = dyz2 + xx.d2;
+            if (r2 >= rs2) continue;
+            const double w = k_.raw(std::sqrt(r2));
+            if (!(w > 0)) continue;
+            push(line + std::size_t(xx.i), xx, y, z, w);
+            sum += w;
+          }
         }
+      }
     if (!(sum > 0)) throw std::logic_error("coarse_grain: a kernel reaches no node (grid not checked)");
-    const double scale = 1.0 / (sum * g_.cell_volume());
-    for (Reach& r : out_) r.w *= scale;
-    return out_;
+    return sum;
   }
 
-  // An upper bound of every normalised weight: W(0) over (W at the farthest a nearest node can
-  // be, half the cell's diagonal, times dV).
-  double weight_bound() const { return k_.raw(0) / (k_.raw(0.5 * h_.norm()) * g_.cell_volume()); }
-
- private:
-  struct Ax {
-    int i, img;
-    real_t d;
-  };
   const FieldGrid& g_;
   const FieldKernel& k_;
   Vec3 h_;
-  real_t rs_;
+  real_t rs_, dv_;
   std::array<std::vector<Ax>, 3> axis_;
   std::vector<Reach> out_;
+  std::vector<NodeWeight> lean_;
 };
 
 // Symmetric tensor components: 00, 11, 22, 01, 12, 02.
@@ -188,6 +265,25 @@ void agree_bounds(GridSums& sums, std::vector<double> vmax, double wbound, Domai
 Field make_field(const std::string& name, const std::string& unit, int comps, std::size_t nodes) {
   return {name, unit, comps, std::vector<double>(nodes * std::size_t(comps), 0.0)};
 }
+
+// make_field() with the storage of a field of the same name from 'recycle' when there is one.
+class FieldMaker {
+ public:
+  explicit FieldMaker(FieldsResult* recycle) : recycle_(recycle) {}
+  Field operator()(const std::string& name, const std::string& unit, int comps, std::size_t nodes) {
+    if (recycle_)
+      for (Field& f : recycle_->fields)
+        if (f.name == name && f.values.capacity() > 0) {
+          Field out{name, unit, comps, std::move(f.values)};
+          out.values.assign(nodes * std::size_t(comps), 0.0);
+          return out;
+        }
+    return make_field(name, unit, comps, nodes);
+  }
+
+ private:
+  FieldsResult* recycle_;
+};
 
 }  // namespace
 
@@ -245,12 +341,14 @@ bool field_quantity_known(const std::string& name) {
 }
 
 double field_bytes(const FieldGrid& grid) {
-  // 128 slots of 16 bytes (the fixed-point sums) and at most 193 doubles of result a node.
-  return double(grid.nodes()) * (128.0 * 16 + 193.0 * 8);
+  // 79 slots of 16 bytes (the fixed-point sums: 23, and 7 for each of the 8 classes of contacts),
+  // a contact's branch weight and at most 193 doubles of result a node.
+  return double(grid.nodes()) * (79.0 * 16 + 194.0 * 8);
 }
 
 FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
-                          std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer) {
+                          std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer,
+                          FieldsResult* recycle) {
   FieldsResult out;
   out.grid = grid, out.kernel = kernel;
   const std::size_t N = grid.nodes();
@@ -272,11 +370,26 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     out.strong_threshold = out.contacts > 0 ? options.strong_ratio * (s.value(0) / real_t(out.contacts)) : 0.0;
   }
 
-  // Slots: particle sums, the contact stress, per network the count and n n.
+  // Slots: particle sums, the contact stress, and per class of contacts (sliding, rolling,
+  // strong: 8 classes) the count and n n. Each network is a union of classes (its sums are
+  // the classes' integers added after the reduction: exact, the same integers as summing each
+  // contact into each of its 6 networks, at a sixth of the additions).
   constexpr std::size_t kVol = 0, kM = 1, kMv = 2, kMvv = 5, kMw = 11, kFb = 14, kNet = 23, kPerNet = 7;
-  const std::size_t slots = options.networks ? kNet + kPerNet * kNetworks : kNet;
+  constexpr std::size_t kClasses = 8;
+  const std::size_t slots = options.networks ? kNet + kPerNet * kClasses : kNet;
   GridSums sums(N, slots);
   Spreader sp(grid, kernel);
+  const auto class_of = [](bool sliding, bool rolling, bool strong) {
+    return std::size_t(sliding) * 4 + std::size_t(rolling) * 2 + std::size_t(strong);
+  };
+  // The classes of each network, from contact_networks() itself (strong: f_n above any threshold).
+  std::array<std::vector<std::size_t>, kNetworks> net_classes;
+  for (std::size_t cls = 0; cls < kClasses; ++cls) {
+    ContactRecord rec;
+    rec.sliding = cls & 4, rec.rolling = cls & 2;
+    rec.fn = (cls & 1) ? std::numeric_limits<real_t>::infinity() : -std::numeric_limits<real_t>::infinity();
+    for (int net : contact_networks(rec, 0.0)) net_classes[std::size_t(net)].push_back(cls);
+  }
 
   // Quadrature pieces of a branch: about two per kernel width (a Gaussian's w, Lucy's c / 2).
   const real_t resolution = kernel.type == KernelType::Gaussian ? kernel.width : 0.5 * kernel.width;
@@ -301,24 +414,24 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
         for (int j = 0; j < 3; ++j) up(kFb + 3 * i + j, f[i] * c.rec.branch[j]);
     }
     if (options.networks)
-      for (std::size_t k = 0; k < std::size_t(kNetworks); ++k)
-        for (std::size_t m = 0; m < kPerNet; ++m) vmax[kNet + kPerNet * k + m] = 1;  // |n_i n_j| <= 1
+      for (std::size_t s = kNet; s < slots; ++s) vmax[s] = 1;  // a count's 1, |n_i n_j| <= 1
     agree_bounds(sums, vmax, sp.weight_bound(), reducer);
   }
 
   // Spreading.
   for (const CgParticle& p : particles) {
-    const double vol = 4.0 / 3.0 * std::numbers::pi * p.radius * p.radius * p.radius;
-    for (const Reach& r : sp.reach(wrap_into(p.x, L))) {
-      sums.add(r.node, kVol, vol * r.w);
-      sums.add(r.node, kM, p.mass * r.w);
-      for (int i = 0; i < 3; ++i) {
-        sums.add(r.node, kMv + i, p.mass * p.v[i] * r.w);
-        sums.add(r.node, kMw + i, p.mass * p.w[i] * r.w);
-      }
-      for (int m = 0; m < 6; ++m) sums.add(r.node, kMvv + m, p.mass * p.v[kSymI[m]] * p.v[kSymJ[m]] * r.w);
-    }
+    double v[14];
+    v[kVol] = 4.0 / 3.0 * std::numbers::pi * p.radius * p.radius * p.radius;
+    v[kM] = p.mass;
+    for (int i = 0; i < 3; ++i) v[kMv + i] = p.mass * p.v[i], v[kMw + i] = p.mass * p.w[i];
+    for (int m = 0; m < 6; ++m) v[kMvv + m] = p.mass * p.v[kSymI[m]] * p.v[kSymJ[m]];
+    for (const NodeWeight& r : sp.weights(wrap_into(p.x, L))) sums.add_row(r.node, 0, v, 14, r.w);
   }
+  // A contact's branch weights: at each node, the sum over the quadrature points of omega_q
+  // times the point's normalised weight, summed in double in the fixed order of the points (the
+  // contact alone decides it), then f (x) b times it rounded once a node and component.
+  std::vector<double> branch_w(N, 0.0);
+  std::vector<std::size_t> touched;
   for (const CgContact& c : contacts) {
     const Vec3 f = c.rec.force();
     const Vec3& b = c.rec.branch;
@@ -327,37 +440,40 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
       for (int j = 0; j < 3; ++j) fb[3 * i + j] = f[i] * b[j];
     const Vec3 x1 = wrap_into(c.x1, L);
     const int m = pieces(b);
+    touched.clear();
     for (int piece = 0; piece < m; ++piece)
       for (int q = 0; q < 3; ++q) {
         const double s = (piece + 0.5 * (1 + kGl[q])) / m, weight = 0.5 * kGw[q] / m;
-        for (const Reach& r : sp.reach(x1 + s * b))
-          for (int k = 0; k < 9; ++k) sums.add(r.node, kFb + std::size_t(k), fb[k] * (weight * r.w));
+        for (const NodeWeight& r : sp.weights(x1 + s * b)) {
+          double& bw = branch_w[r.node];
+          if (bw == 0) touched.push_back(r.node);  // weights are positive: 0 means not reached yet
+          bw += weight * r.w;
+        }
       }
+    for (std::size_t node : touched) {
+      sums.add_row(node, kFb, fb, 9, branch_w[node]);
+      branch_w[node] = 0;
+    }
     if (!options.networks) continue;
     const Vec3& n = c.rec.normal;
     const Vec3 xc = x1 + (c.r1 - 0.5 * c.rec.overlap) * n;
-    double nn[6];
-    for (int k = 0; k < 6; ++k) nn[k] = n[kSymI[k]] * n[kSymJ[k]];
-    const std::array<int, kPartitions> nets = contact_networks(c.rec, out.strong_threshold);
-    for (const Reach& r : sp.reach(xc))
-      for (int net : nets) {
-        const std::size_t base = kNet + kPerNet * std::size_t(net);
-        sums.add(r.node, base, r.w);
-        for (int k = 0; k < 6; ++k) sums.add(r.node, base + 1 + std::size_t(k), nn[k] * r.w);
-      }
+    double nn[7] = {1.0};
+    for (int k = 0; k < 6; ++k) nn[1 + k] = n[kSymI[k]] * n[kSymJ[k]];
+    const std::size_t base = kNet + kPerNet * class_of(c.rec.sliding, c.rec.rolling, c.rec.fn > out.strong_threshold);
+    for (const NodeWeight& r : sp.weights(xc)) sums.add_row(r.node, base, nn, kPerNet, r.w);
   }
   sums.reduce(reducer);
 
   // The fields.
-  Field phi = make_field("solid_fraction", "1", 1, N), rho = make_field("density", "kg/m^3", 1, N),
-        vel = make_field("velocity", "m/s", 3, N), kin = make_field("kinetic_stress", "Pa", 9, N),
-        con = make_field("contact_stress", "Pa", 9, N), tot = make_field("stress", "Pa", 9, N),
-        spin = make_field("spin", "rad/s", 3, N);
+  FieldMaker make(recycle);
+  Field phi = make("solid_fraction", "1", 1, N), rho = make("density", "kg/m^3", 1, N),
+        vel = make("velocity", "m/s", 3, N), kin = make("kinetic_stress", "Pa", 9, N),
+        con = make("contact_stress", "Pa", 9, N), tot = make("stress", "Pa", 9, N), spin = make("spin", "rad/s", 3, N);
   std::vector<Field> dens, fab;
   if (options.networks)
     for (int k = 0; k < kNetworks; ++k) {
-      dens.push_back(make_field("contact_density_" + std::string(kNetworkNames[k]), "1/m^3", 1, N));
-      fab.push_back(make_field("fabric_" + std::string(kNetworkNames[k]), "1", 9, N));
+      dens.push_back(make("contact_density_" + std::string(kNetworkNames[k]), "1/m^3", 1, N));
+      fab.push_back(make("fabric_" + std::string(kNetworkNames[k]), "1", 9, N));
     }
   for (std::size_t g = 0; g < N; ++g) {
     phi.values[g] = sums.value(g, kVol);
@@ -381,13 +497,16 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
       tot.values[9 * g + k] = con.values[9 * g + k] + kin.values[9 * g + k];
     }
     for (std::size_t net = 0; net < dens.size(); ++net) {
-      const std::size_t base = kNet + kPerNet * net;
-      const double c = sums.value(g, base);
+      // The network's integers: its classes' (every network slot has the same grid 2^e).
+      Wide t[kPerNet] = {};
+      for (std::size_t cls : net_classes[net])
+        for (std::size_t k = 0; k < kPerNet; ++k) t[k] += sums.raw(g, kNet + kPerNet * cls + k);
+      const double c = sums.value_of(t[0], kNet);
       dens[net].values[g] = c;
       for (int k = 0; k < 6; ++k) {
         const int i = kSymI[k], j = kSymJ[k];
         fab[net].values[9 * g + 3 * i + j] = fab[net].values[9 * g + 3 * j + i] =
-            c > 0 ? sums.value(g, base + 1 + std::size_t(k)) / c : kNaN;
+            c > 0 ? sums.value_of(t[1 + k], kNet + 1 + std::size_t(k)) / c : kNaN;
       }
     }
   }

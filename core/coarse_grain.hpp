@@ -109,9 +109,12 @@ struct FieldsResult {
 // Love-Weber stress), contact_stress [Pa] (sum f (x) b times the integral of W along the branch),
 // stress [Pa] (contact + kinetic), spin [rad/s] (mass-weighted mean); per network k (with
 // options.networks) contact_density_<k> [1/m^3] and fabric_<k> [1] (sum n n W / sum W). A mean
-// is NaN where its weight is zero.
+// is NaN where its weight is zero. 'recycle' (optional): a previous result whose fields' storage
+// is reused (a field of the same name), so that fields computed at every instant do not map
+// fresh memory each time; its fields are left empty.
 FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
-                          std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer);
+                          std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer,
+                          FieldsResult* recycle = nullptr);
 
 // One particle at two instants for the displacement fields.
 struct CgMotion {

@@ -50,7 +50,8 @@ void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell
                      number_text(memory, 3) + " B: give " + (scene.fields.cells ? "fewer cells" : "a larger spacing"));
 }
 
-FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim) {
+FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim,
+                        FieldsResult* recycle) {
   // Read through the const simulation: the non-const particles() would mark the positions as
   // changed, and the run would then differ from one without fields.
   const Simulation& cs = sim;
@@ -85,7 +86,7 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
     return q == "networks" || q.starts_with("contact_density_") || q.starts_with("fabric_");
   };
   opt.networks = f.quantities.empty() || std::any_of(f.quantities.begin(), f.quantities.end(), network);
-  FieldsResult r = coarse_grain(grid, kernel, parts, conts, opt, sim.domain());
+  FieldsResult r = coarse_grain(grid, kernel, parts, conts, opt, sim.domain(), recycle);
   if (!f.quantities.empty()) {
     const auto kept = [&](const Field& x) {
       for (const std::string& q : f.quantities)

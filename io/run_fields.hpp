@@ -26,7 +26,8 @@ void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell
 // (particle-particle only); every rank gets the whole grid, the same bits on any number of ranks
 // and the same as `fabrica fields` computes from a snapshot of the same step. Only the
 // quantities of [fields] are kept (the network sums are skipped when none of theirs is asked).
-// Collective over sim.domain().
-FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim);
+// Collective over sim.domain(). 'recycle': a previous result whose storage is reused (coarse_grain).
+FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim,
+                        FieldsResult* recycle = nullptr);
 
 }  // namespace fabrica

@@ -452,7 +452,7 @@ void RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   const std::string name = layout::step_name(sim.step_count());
   const std::string gp = "fields/" + case_name + "/" + name;
   if (file_.exists(gp)) return;  // same answer on every rank
-  const FieldsResult r = run_fields(fields_spec_, fields_strong_ratio_, scene_path_, sim);
+  FieldsResult r = run_fields(fields_spec_, fields_strong_ratio_, scene_path_, sim, &spare_fields_);
   const FieldGrid& grid = r.grid;
   double values = 0;
   for (const Field& f : r.fields) values += double(f.values.size());
@@ -496,6 +496,7 @@ void RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   std::sort(e.quantities.begin(), e.quantities.end());
   bytes_ += 8 * values;
   fields_xmf_.push_back(e);
+  spare_fields_ = std::move(r);
   fields_seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
   flush();
 }

@@ -9,6 +9,7 @@
 // bounded size by io/snapshot_writer.hpp; nothing is gathered on one rank.
 // Every member function is collective: every rank calls it with the same arguments.
 #pragma once
+#include "core/coarse_grain.hpp"
 #include "core/simulation.hpp"
 #include "io/h5.hpp"
 #include "io/scene.hpp"
@@ -140,6 +141,8 @@ class RunOutput {
   std::string scene_path_;
   std::int64_t fields_steps_ = 0;
   double fields_seconds_ = 0;
+  // The last instant's fields, their storage reused by the next instant's (no fresh pages).
+  FieldsResult spare_fields_;
   std::vector<FieldsXdmfEntry> fields_xmf_;
   bool created_anew_ = false;
   bool failed_ = false;  // a write of this file failed: it is not flushed again

@@ -10,7 +10,10 @@
 //  - a uniform translation velocity gives that velocity (1e-12) and no kinetic stress;
 //  - a homogeneous (diagonal) deformation of the periodic cell, particles wrapped across the
 //    faces, gives the applied displacement gradient at every node (1e-10 absolute);
-//  - the fields do not depend on the order of the particles and contacts, to the bit;
+//  - the fields do not depend on the order of the particles and contacts, to the bit, nor on
+//    reusing a previous result's storage; each network's contact density (summed from the
+//    classes of contacts) integrates to its count and the two halves of a partition add up to
+//    `all` (1e-12);
 //  - unusable grids and kernels are refused with their numbers.
 // The rank-count independence is tested in tests/mpi/test_fields_ranks.cpp.
 #include "core/coarse_grain.hpp"
@@ -19,11 +22,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <numbers>
 #include <random>
+#include <utility>
 
 namespace fabrica {
 namespace {
@@ -235,6 +240,49 @@ TEST(CoarseGrain, IndependentOfTheOrderToTheBit) {
       const double a = r1.fields[f].values[i], b = r2.fields[f].values[i];
       ASSERT_TRUE(std::memcmp(&a, &b, sizeof a) == 0) << r1.fields[f].name << " " << i << ": " << a << " " << b;
     }
+}
+
+// The storage of a previous result (another grid) reused: the same bits, the previous fields
+// emptied. Each network's sums come from its classes of contacts (sliding, rolling, strong):
+// every network's contact density integrates to its number of contacts, and the two networks
+// of each two-way partition add up to `all`.
+TEST(CoarseGrain, RecycledStorageAndNetworksFromClasses) {
+  const Sample s = sample(400, 11);
+  FieldGrid grid{{7, 6, 9}, s.L};
+  FieldKernel k{KernelType::Gaussian, 0.004, 3};
+  SerialDomain d;
+  const FieldsResult r1 = coarse_grain(grid, k, s.p, s.c, {}, d);
+  FieldsResult spare = coarse_grain({{9, 9, 9}, s.L}, k, s.p, s.c, {}, d);
+  const FieldsResult r2 = coarse_grain(grid, k, s.p, s.c, {}, d, &spare);
+  ASSERT_EQ(r1.fields.size(), r2.fields.size());
+  for (std::size_t f = 0; f < r1.fields.size(); ++f) {
+    EXPECT_TRUE(spare.fields[f].values.empty()) << spare.fields[f].name;
+    ASSERT_EQ(r1.fields[f].values.size(), r2.fields[f].values.size());
+    for (std::size_t i = 0; i < r1.fields[f].values.size(); ++i) {
+      const double a = r1.fields[f].values[i], b = r2.fields[f].values[i];
+      ASSERT_TRUE(std::memcmp(&a, &b, sizeof a) == 0) << r1.fields[f].name << " " << i << ": " << a << " " << b;
+    }
+  }
+  std::array<double, kNetworks> count{};
+  for (const CgContact& c : s.c)
+    for (int net : contact_networks(c.rec, r1.strong_threshold)) count[std::size_t(net)] += 1;
+  double worst = 0;
+  for (int net = 0; net < kNetworks; ++net) {
+    const std::string name = "contact_density_" + std::string(kNetworkNames[std::size_t(net)]);
+    worst = std::max(worst, std::abs(volume_integral(r1, name, 0) - count[std::size_t(net)]) / double(s.c.size()));
+  }
+  const Field& all = r1.field("contact_density_all");
+  for (const auto& [a, b] : {std::pair{"ns", "s"}, {"nr", "r"}, {"sf", "wf"}}) {
+    const Field &fa = r1.field(std::string("contact_density_") + a),
+                &fb = r1.field(std::string("contact_density_") + b);
+    for (std::size_t g = 0; g < all.values.size(); ++g)
+      if (all.values[g] > 0)
+        worst = std::max(worst, std::abs(fa.values[g] + fb.values[g] - all.values[g]) / all.values[g]);
+  }
+  std::printf("%zu contacts: networks' counts and partitions, largest relative error %.2e\n", s.c.size(), worst);
+  EXPECT_LT(worst, 1e-12);
+  EXPECT_GT(count[kS], 0.0);
+  EXPECT_GT(count[kSR], 0.0);
 }
 
 TEST(CoarseGrain, UnusableGridsAreRefused) {
