@@ -4,9 +4,9 @@
 // on disk ('flush': a checkpoint never refers to rows or output that are not). Collective.
 #pragma once
 #include "core/simulation.hpp"
-#include "io/checkpoint.hpp"
-#include "io/fields.hpp"
-#include "io/scene.hpp"
+#include "io/mpi/checkpoint.hpp"
+#include "io/mpi/fields.hpp"
+#include "io/serial/scene.hpp"
 
 #include <functional>
 #include <string>

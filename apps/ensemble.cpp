@@ -1,6 +1,6 @@
 #include "apps/ensemble.hpp"
 
-#include "io/errors.hpp"
+#include "core/errors.hpp"
 #include "parallel/guard.hpp"
 
 #include <fmt/core.h>

@@ -8,7 +8,7 @@
 // that run different realisations at once (MPI_Comm_split): a realisation's results are bit for
 // bit those of running the scene with its seed alone on a group's number of ranks.
 #pragma once
-#include "io/scene.hpp"
+#include "io/serial/scene.hpp"
 #include "parallel/mpi_context.hpp"
 
 #include <functional>

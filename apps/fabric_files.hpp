@@ -18,7 +18,7 @@ class FabricFiles {
   FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins,
               std::int64_t resume_step = -1);
   const FabricStreams* streams() const { return streams_.fabric ? &streams_ : nullptr; }
-  // Each throws a WriteError naming the file if a write so far failed (io/write_check.hpp).
+  // Each throws a WriteError naming the file if a write so far failed (io/serial/write_check.hpp).
   void check();  // the rows so far written
   void flush();  // the rows so far on disk (before a checkpoint)
   void close();  // synced and closed

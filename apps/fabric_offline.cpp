@@ -3,9 +3,9 @@
 #include "apps/fabric_output.hpp"
 #include "core/fabric.hpp"
 #include "core/serial_domain.hpp"
-#include "io/errors.hpp"
-#include "io/snapshot.hpp"
-#include "io/write_check.hpp"
+#include "core/errors.hpp"
+#include "io/mpi/snapshot.hpp"
+#include "io/serial/write_check.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_domain.hpp"
 
@@ -56,7 +56,7 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
   for (const auto& [name, list] : chosen) {
     if (list.empty()) continue;
     // Each file is written to PATH.tmp, checked, synced and renamed over PATH at the end
-    // (io/write_check.hpp): a failed write leaves an earlier analysis as it was.
+    // (io/serial/write_check.hpp): a failed write leaves an earlier analysis as it was.
     std::ofstream f, s, r;
     const std::array<std::string, 3> paths{(out / name / "fabric.csv").string(), (out / name / "sff.csv").string(),
                                            (out / name / "rose.csv").string()};

@@ -1,7 +1,7 @@
 """Read a Fabrica run file ``OUT/run.h5`` into numpy arrays.
 
 The layout is described in docs/output.md; this module is the Python counterpart of the C++
-reader ``io/snapshot.hpp`` and returns the same values (checked by the test
+reader ``io/mpi/snapshot.hpp`` and returns the same values (checked by the test
 ``cli.output.python_reader`` against that reader on the same file)::
 
     import sys; sys.path.insert(0, "apps")

@@ -2,15 +2,15 @@
 
 #include "core/coarse_grain.hpp"
 #include "core/serial_domain.hpp"
-#include "io/errors.hpp"
-#include "io/h5.hpp"
-#include "io/layout.hpp"
-#include "io/memory_check.hpp"
-#include "io/scene.hpp"
-#include "io/snapshot.hpp"
-#include "io/version.hpp"
-#include "io/write_check.hpp"
-#include "io/xdmf.hpp"
+#include "core/errors.hpp"
+#include "io/mpi/h5.hpp"
+#include "io/mpi/layout.hpp"
+#include "io/serial/memory_check.hpp"
+#include "io/serial/scene.hpp"
+#include "io/mpi/snapshot.hpp"
+#include "io/mpi/version.hpp"
+#include "io/serial/write_check.hpp"
+#include "io/mpi/xdmf.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_domain.hpp"
 
@@ -87,11 +87,8 @@ std::string kernel_text(const FieldKernel& k) {
                                         : fmt::format("lucy, support radius {} m", k.width);
 }
 
-}  // namespace
-
-int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
-  namespace fs = std::filesystem;
-  const bool root = mpi.rank() == 0;
+// The kernel and the grid's options from the command line, checked.
+FieldKernel checked_kernel(const FieldsOfflineArgs& a) {
   FieldKernel kernel;
   if (a.kernel == "gaussian") kernel.type = KernelType::Gaussian;
   else if (a.kernel == "lucy") kernel.type = KernelType::Lucy;
@@ -107,10 +104,16 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   if (a.width && (!(*a.width > 0) || !std::isfinite(*a.width)))
     throw InputError(fmt::format("--width = {}: must be positive", *a.width));
   if (!(a.strong_ratio > 0)) throw InputError(fmt::format("--strong-ratio = {}: must be positive", a.strong_ratio));
+  return kernel;
+}
 
-  // Which snapshots (as `fabrica fabric`); every rank reads run.h5 itself and the ranks agree on
-  // the outcome of each read (parallel/guard.hpp).
-  std::map<std::string, std::vector<SnapshotInfo>> listed, chosen;
+using SnapshotsByCase = std::map<std::string, std::vector<SnapshotInfo>>;
+
+// Which snapshots (as `fabrica fabric`): 'listed' every snapshot of the cases asked for,
+// 'chosen' those to coarse-grain. Every rank reads run.h5 itself and the ranks agree on the
+// outcome of each read (parallel/guard.hpp).
+void choose_snapshots(const MpiContext& mpi, const FieldsOfflineArgs& a, SnapshotsByCase& listed,
+                      SnapshotsByCase& chosen) {
   std::vector<SnapshotInfo> all;
   agree(mpi.comm(), [&] { all = list_snapshots(a.file); });
   for (const SnapshotInfo& s : all)
@@ -131,9 +134,12 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
     }
   }
   if (chosen.empty()) throw InputError(fmt::format("{}: no case has a snapshot at step {}", a.file, *a.step));
+}
 
-  // The radii (the same in every snapshot of a run) set the default width and the smallest
-  // width allowed; every grid is checked before any field is computed.
+// The radii (the same in every snapshot of a run) set the default width and the smallest width
+// allowed; every grid is checked before any field is computed. Returns the grid spacing.
+double check_grids(const MpiContext& mpi, const FieldsOfflineArgs& a, const SnapshotsByCase& chosen,
+                   FieldKernel& kernel) {
   ParticleSnapshot first;
   agree(mpi.comm(), [&] {
     const SnapshotInfo& s = chosen.begin()->second.front();
@@ -161,16 +167,159 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
             "rank, more than half of the machine's {:.3g} B: give fewer cells (--cells) or a larger --spacing",
             name, s.step, g.n[0], g.n[1], g.n[2], g.nodes(), bytes, memory));
     }
+  return spacing;
+}
+
+// One instant's fields, computed by every rank on its share of the particles and contacts.
+struct Instant {
+  FieldsResult res;
+  std::optional<SnapshotInfo> prev;  // the snapshot the displacement fields start from
+  double stress_error = 0;           // |integral of the contact stress - Love-Weber| / |Love-Weber|
+  double mean_solid_fraction = 0;
+};
+
+Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, const std::string& name,
+                             const SnapshotInfo& info, const std::vector<SnapshotInfo>& every, const FieldGrid& grid,
+                             const FieldKernel& kernel, const Masses& masses, Domain& domain) {
+  const std::size_t P = std::size_t(mpi.size()), me = std::size_t(mpi.rank());
+  ParticleSnapshot ps;
+  ContactSnapshot cs;
+  agree(mpi.comm(), [&] {
+    ps = read_particle_snapshot(a.file, name, info.step);
+    cs = read_contact_snapshot(a.file, name, info.step);
+  });
+  std::vector<CgParticle> parts;
+  for (std::size_t i = me; i < ps.id.size(); i += P) {
+    CgParticle q;
+    q.x = ps.position[i], q.v = ps.velocity[i], q.w = ps.spin[i], q.radius = ps.radius[i];
+    q.mass = masses.of(ps.material[i], ps.radius[i]);
+    parts.push_back(q);
+  }
+  // Particle-particle contacts only (a wall contact has id2 < 0), with body 1's centre.
+  std::vector<CgContact> conts;
+  Mat3 love_weber = Mat3::Zero();  // every rank holds every contact: the check below
+  std::size_t k = 0;
+  for (const ContactRecord& c : cs.contacts) {
+    if (c.id2 < 0) continue;
+    love_weber += c.force() * c.branch.transpose();
+    if (k++ % P != me) continue;
+    const auto it = std::lower_bound(ps.id.begin(), ps.id.end(), c.id1);
+    if (it == ps.id.end() || *it != c.id1)
+      throw InputError(fmt::format("{}: case \"{}\" step {}: contact ({}, {}) names a particle not in the snapshot",
+                                   a.file, name, info.step, c.id1, c.id2));
+    const std::size_t i = std::size_t(it - ps.id.begin());
+    conts.push_back({c, ps.position[i], ps.radius[i]});
+  }
+  FieldOptions opt;
+  opt.strong_ratio = a.strong_ratio;
+  Instant out;
+  out.res = coarse_grain(grid, kernel, parts, conts, opt, domain);
+  // The displacement fields from the case's previous snapshot, if any.
+  for (const SnapshotInfo& s : every)
+    if (s.step < info.step) out.prev = s;
+  if (out.prev) {
+    ParticleSnapshot p0;
+    agree(mpi.comm(), [&] { p0 = read_particle_snapshot(a.file, name, out.prev->step); });
+    std::vector<CgMotion> motions;
+    for (std::size_t i = me; i < ps.id.size(); i += P) {
+      const auto it = std::lower_bound(p0.id.begin(), p0.id.end(), ps.id[i]);
+      if (it == p0.id.end() || *it != ps.id[i]) continue;  // not in both: no displacement
+      const std::size_t j = std::size_t(it - p0.id.begin());
+      motions.push_back({p0.position[j], ps.position[i], ps.radius[i]});
+    }
+    FieldGrid g0 = grid;
+    g0.lengths = out.prev->cell_lengths;
+    FieldsResult d = displacement_fields(g0, kernel, info.cell_lengths, motions, domain);
+    for (Field& f : d.fields) out.res.fields.push_back(std::move(f));
+  }
+  // The check printed: the volume integral of the contact stress against the Love-Weber sum.
+  const Field& s = out.res.field("contact_stress");
+  Mat3 integral = Mat3::Zero();
+  for (std::size_t g = 0; g < grid.nodes(); ++g)
+    for (int q = 0; q < 9; ++q) integral(q / 3, q % 3) += s.values[9 * g + std::size_t(q)];
+  integral *= grid.cell_volume();
+  if (love_weber.norm() > 0) out.stress_error = (integral - love_weber).norm() / love_weber.norm();
+  for (double v : out.res.field("solid_fraction").values) out.mean_solid_fraction += v;
+  out.mean_solid_fraction /= double(grid.nodes());
+  return out;
+}
+
+// Writes one instant into fields/<case>/<step> of 'file' (rank 0) and returns its XDMF entry.
+FieldsXdmfEntry write_instant(h5::File& file, const FieldsOfflineArgs& a, const std::string& name,
+                              const SnapshotInfo& info, const FieldGrid& grid, const FieldKernel& kernel,
+                              const Instant& in) {
+  const FieldsResult& res = in.res;
+  const std::string path = "fields/" + name + "/" + layout::step_name(info.step);
+  if (!file.exists("fields/" + name)) file.create_group("fields/" + name);
+  const h5::Group g = file.open_group("fields/" + name).create_group(layout::step_name(info.step));
+  g.set_attr("step", info.step);
+  g.set_attr("time", info.time);
+  const std::vector<double> L(info.cell_lengths.data(), info.cell_lengths.data() + 3);
+  const Vec3 h = grid.spacing();
+  const std::vector<double> cells{double(grid.n[0]), double(grid.n[1]), double(grid.n[2])}, sp{h[0], h[1], h[2]},
+      origin{0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+  g.set_attr("cell_lengths", std::span<const double>(L));
+  g.set_attr("cells", std::span<const double>(cells));
+  g.set_attr("spacing", std::span<const double>(sp));
+  g.set_attr("origin", std::span<const double>(origin));
+  g.set_attr("kernel", std::string(kernel.type == KernelType::Gaussian ? "gaussian" : "lucy"));
+  g.set_attr("width", kernel.width);
+  g.set_attr("cutoff", kernel.type == KernelType::Gaussian ? kernel.cutoff : 1.0);
+  g.set_attr("strong_ratio", a.strong_ratio);
+  g.set_attr("strong_threshold", res.strong_threshold);
+  g.set_attr("particles", res.particles);
+  g.set_attr("contacts", res.contacts);
+  if (in.prev) {
+    g.set_attr("displacement_from_step", in.prev->step);
+    const std::vector<double> L0(in.prev->cell_lengths.data(), in.prev->cell_lengths.data() + 3);
+    g.set_attr("displacement_reference_lengths", std::span<const double>(L0));
+  }
+  FieldsXdmfEntry e;
+  e.case_name = name, e.group = "/" + path, e.step = info.step, e.time = info.time, e.cells = grid.n;
+  e.spacing = {h[0], h[1], h[2]}, e.origin = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+  write_fields(g, res, e.quantities);
+  return e;
+}
+
+// The file renamed into place, and its XDMF sidecars: as run.xmf and run_<case>.xmf, every case
+// in one sidecar and each case in its own (ParaView takes the union of the cases' times as one
+// time axis).
+void finish_file(h5::File& file, const std::string& tmp, const std::filesystem::path& out,
+                 const SnapshotsByCase& chosen, const std::vector<FieldsXdmfEntry>& entries) {
+  namespace fs = std::filesystem;
+  try {
+    file.close();
+  } catch (const h5::Error& e) { throw InputError(e.what()); }
+  replace_file(tmp, out.string());
+  fs::path xmf = out;
+  xmf.replace_extension(".xmf");
+  write_fields_xdmf(xmf.string(), out.filename().string(), entries);
+  for (const auto& [name, list] : chosen) {
+    std::vector<FieldsXdmfEntry> mine;
+    for (const FieldsXdmfEntry& e : entries)
+      if (e.case_name == name) mine.push_back(e);
+    fs::path one = out;
+    one.replace_filename(out.stem().string() + "_" + name + ".xmf");
+    write_fields_xdmf(one.string(), out.filename().string(), mine);
+  }
+}
+
+}  // namespace
+
+int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
+  namespace fs = std::filesystem;
+  const bool root = mpi.rank() == 0;
+  FieldKernel kernel = checked_kernel(a);
+  SnapshotsByCase listed, chosen;
+  choose_snapshots(mpi, a, listed, chosen);
+  const double spacing = check_grids(mpi, a, chosen, kernel);
   const Masses masses = masses_of(mpi, a);
 
   const fs::path out = a.output.empty() ? fs::path(a.file).parent_path() / "fields.h5" : fs::path(a.output);
   const std::string tmp = out.string() + ".tmp";
-  fs::path xmf = out;
-  xmf.replace_extension(".xmf");
   std::unique_ptr<Domain> domain;
   if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(mpi.comm());
   else domain = std::make_unique<SerialDomain>();
-  const std::size_t P = std::size_t(mpi.size()), me = std::size_t(mpi.rank());
 
   // Rank 0 writes the file, serially (its own communicator), to FILE.tmp renamed at the end.
   h5::File file;
@@ -189,132 +338,28 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   std::size_t done = 0;
   for (const auto& [name, list] : chosen) {
     for (const SnapshotInfo& info : list) {
-      ParticleSnapshot ps;
-      ContactSnapshot cs;
-      agree(mpi.comm(), [&] {
-        ps = read_particle_snapshot(a.file, name, info.step);
-        cs = read_contact_snapshot(a.file, name, info.step);
-      });
       const FieldGrid grid = grid_of(a, info.cell_lengths, spacing);
-      std::vector<CgParticle> parts;
-      for (std::size_t i = me; i < ps.id.size(); i += P) {
-        CgParticle q;
-        q.x = ps.position[i], q.v = ps.velocity[i], q.w = ps.spin[i], q.radius = ps.radius[i];
-        q.mass = masses.of(ps.material[i], ps.radius[i]);
-        parts.push_back(q);
-      }
-      // Particle-particle contacts only (a wall contact has id2 < 0), with body 1's centre.
-      std::vector<CgContact> conts;
-      Mat3 love_weber = Mat3::Zero();  // every rank holds every contact: the check below
-      std::size_t k = 0;
-      for (const ContactRecord& c : cs.contacts) {
-        if (c.id2 < 0) continue;
-        love_weber += c.force() * c.branch.transpose();
-        if (k++ % P != me) continue;
-        const auto it = std::lower_bound(ps.id.begin(), ps.id.end(), c.id1);
-        if (it == ps.id.end() || *it != c.id1)
-          throw InputError(fmt::format("{}: case \"{}\" step {}: contact ({}, {}) names a particle not in the snapshot",
-                                       a.file, name, info.step, c.id1, c.id2));
-        const std::size_t i = std::size_t(it - ps.id.begin());
-        conts.push_back({c, ps.position[i], ps.radius[i]});
-      }
-      FieldOptions opt;
-      opt.strong_ratio = a.strong_ratio;
-      FieldsResult res = coarse_grain(grid, kernel, parts, conts, opt, *domain);
-      // The displacement fields from the case's previous snapshot, if any.
-      const std::vector<SnapshotInfo>& every = listed.at(name);
-      std::optional<SnapshotInfo> prev;
-      for (const SnapshotInfo& s : every)
-        if (s.step < info.step) prev = s;
-      if (prev) {
-        ParticleSnapshot p0;
-        agree(mpi.comm(), [&] { p0 = read_particle_snapshot(a.file, name, prev->step); });
-        std::vector<CgMotion> motions;
-        for (std::size_t i = me; i < ps.id.size(); i += P) {
-          const auto it = std::lower_bound(p0.id.begin(), p0.id.end(), ps.id[i]);
-          if (it == p0.id.end() || *it != ps.id[i]) continue;  // not in both: no displacement
-          const std::size_t j = std::size_t(it - p0.id.begin());
-          motions.push_back({p0.position[j], ps.position[i], ps.radius[i]});
-        }
-        FieldGrid g0 = grid;
-        g0.lengths = prev->cell_lengths;
-        FieldsResult d = displacement_fields(g0, kernel, info.cell_lengths, motions, *domain);
-        for (Field& f : d.fields) res.fields.push_back(std::move(f));
-      }
-      // The check printed: the volume integral of the contact stress against the Love-Weber sum.
-      double err = 0;
-      {
-        const Field& s = res.field("contact_stress");
-        Mat3 integral = Mat3::Zero();
-        for (std::size_t g = 0; g < grid.nodes(); ++g)
-          for (int q = 0; q < 9; ++q) integral(q / 3, q % 3) += s.values[9 * g + std::size_t(q)];
-        integral *= grid.cell_volume();
-        if (love_weber.norm() > 0) err = (integral - love_weber).norm() / love_weber.norm();
-      }
-      double phi = 0;
-      for (double v : res.field("solid_fraction").values) phi += v;
-      phi /= double(grid.nodes());
+      const Instant in = coarse_grain_instant(mpi, a, name, info, listed.at(name), grid, kernel, masses, *domain);
       agree(mpi.comm(), [&] {
         if (!root) return;
-        const std::string path = "fields/" + name + "/" + layout::step_name(info.step);
         try {
-          if (!file.exists("fields/" + name)) file.create_group("fields/" + name);
-          const h5::Group g = file.open_group("fields/" + name).create_group(layout::step_name(info.step));
-          g.set_attr("step", info.step);
-          g.set_attr("time", info.time);
-          const std::vector<double> L(info.cell_lengths.data(), info.cell_lengths.data() + 3);
-          const Vec3 h = grid.spacing();
-          const std::vector<double> cells{double(grid.n[0]), double(grid.n[1]), double(grid.n[2])},
-              sp{h[0], h[1], h[2]}, origin{0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
-          g.set_attr("cell_lengths", std::span<const double>(L));
-          g.set_attr("cells", std::span<const double>(cells));
-          g.set_attr("spacing", std::span<const double>(sp));
-          g.set_attr("origin", std::span<const double>(origin));
-          g.set_attr("kernel", std::string(kernel.type == KernelType::Gaussian ? "gaussian" : "lucy"));
-          g.set_attr("width", kernel.width);
-          g.set_attr("cutoff", kernel.type == KernelType::Gaussian ? kernel.cutoff : 1.0);
-          g.set_attr("strong_ratio", a.strong_ratio);
-          g.set_attr("strong_threshold", res.strong_threshold);
-          g.set_attr("particles", res.particles);
-          g.set_attr("contacts", res.contacts);
-          if (prev) {
-            g.set_attr("displacement_from_step", prev->step);
-            const std::vector<double> L0(prev->cell_lengths.data(), prev->cell_lengths.data() + 3);
-            g.set_attr("displacement_reference_lengths", std::span<const double>(L0));
-          }
-          FieldsXdmfEntry e;
-          e.case_name = name, e.group = "/" + path, e.step = info.step, e.time = info.time, e.cells = grid.n;
-          e.spacing = {h[0], h[1], h[2]}, e.origin = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
-          write_fields(g, res, e.quantities);
-          entries.push_back(e);
+          entries.push_back(write_instant(file, a, name, info, grid, kernel, in));
         } catch (const h5::Error& e) { throw InputError(e.what()); }
         fmt::print(
             "{} step {}: eps1 {:.4f}, {} particles, {} contacts, grid {} x {} x {} ({}), mean solid fraction "
             "{:.4f}, contact stress integral vs Love-Weber {:.1e}{}\n",
-            name, info.step, info.strain[0], res.particles, res.contacts, grid.n[0], grid.n[1], grid.n[2],
-            kernel_text(kernel), phi, err,
-            prev ? fmt::format(", displacement from step {}", prev->step) : std::string());
+            name, info.step, info.strain[0], in.res.particles, in.res.contacts, grid.n[0], grid.n[1], grid.n[2],
+            kernel_text(kernel), in.mean_solid_fraction, in.stress_error,
+            in.prev ? fmt::format(", displacement from step {}", in.prev->step) : std::string());
       });
       ++done;
     }
   }
   agree(mpi.comm(), [&] {
     if (!root) return;
-    try {
-      file.close();
-    } catch (const h5::Error& e) { throw InputError(e.what()); }
-    replace_file(tmp, out.string());
-    // As run.xmf and run_<case>.xmf: every case in one sidecar, and each case in its own (ParaView
-    // takes the union of the cases' times as one time axis).
-    write_fields_xdmf(xmf.string(), out.filename().string(), entries);
-    for (const auto& [name, list] : chosen) {
-      std::vector<FieldsXdmfEntry> mine;
-      for (const FieldsXdmfEntry& e : entries)
-        if (e.case_name == name) mine.push_back(e);
-      fs::path one = out;
-      one.replace_filename(out.stem().string() + "_" + name + ".xmf");
-      write_fields_xdmf(one.string(), out.filename().string(), mine);
-    }
+    finish_file(file, tmp, out, chosen, entries);
+    fs::path xmf = out;
+    xmf.replace_extension(".xmf");
     fmt::print("{} instant(s) coarse-grained; fields written to {} ({}, and per case {}_<case>.xmf, for ParaView)\n",
                done, out.string(), xmf.string(), (out.parent_path() / out.stem()).string());
   });

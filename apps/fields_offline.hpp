@@ -1,7 +1,7 @@
 // `fabrica fields RUN.h5 [--case C] [--step S | --all] [--spacing H | --cells NX NY NZ]
 // [--kernel gaussian|lucy] [--width W] [--cutoff C] [--density RHO] [--strong-ratio R] [-o FILE]`:
 // the coarse-grained fields (core/coarse_grain.hpp) of particle and contact snapshots stored in a
-// run file (io/snapshot.hpp), written to the HDF5 file FILE (default <directory of RUN.h5>/
+// run file (io/mpi/snapshot.hpp), written to the HDF5 file FILE (default <directory of RUN.h5>/
 // fields.h5), group /fields/<case>/<step>, with the XDMF sidecars FILE with .xmf (every case) and
 // <stem>_<case>.xmf (docs/fields.md).
 // On several ranks every rank reads the snapshot and keeps every P-th particle and contact; the

@@ -104,7 +104,7 @@ class Run:
             scene = tomllib.loads(self.info.scene_text)
         except tomllib.TOMLDecodeError as e:
             raise SystemExit(f"plot_paper.py: {h5}: the stored scene does not parse: {e}")
-        # The defaults of io/scene.hpp and core/contact_law.hpp for keys the scene leaves out.
+        # The defaults of io/serial/scene.hpp and core/contact_law.hpp for keys the scene leaves out.
         self.mu_s = float(scene.get("contact", {}).get("friction", 0.3))
         self.consolidation_mu_s = float(scene.get("triaxial", {}).get("consolidation_friction", 1.0))
         self.scene = scene

@@ -1,7 +1,7 @@
 #include "apps/series_file.hpp"
 
-#include "io/checkpoint.hpp"
-#include "io/write_check.hpp"
+#include "io/mpi/checkpoint.hpp"
+#include "io/serial/write_check.hpp"
 #include "parallel/guard.hpp"
 
 #include <filesystem>

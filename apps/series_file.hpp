@@ -1,5 +1,5 @@
 // A CSV series written by rank 0 and checked on every rank: each write is checked
-// (io/write_check.hpp) and the ranks agree on the outcome (parallel/guard.hpp), so that a failed
+// (io/serial/write_check.hpp) and the ranks agree on the outcome (parallel/guard.hpp), so that a failed
 // write ends every rank. On a restart the rows after the checkpoint's step are dropped (column
 // 'step_column' holds the step) and the run appends from there.
 #pragma once

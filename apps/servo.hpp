@@ -31,7 +31,7 @@
 // expands); axes not under control keep their fixed rate.
 #pragma once
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
+#include "io/serial/scene.hpp"
 
 #include <array>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-// The control law of one loading stage (io/stage_spec.hpp): the cell's strain rates after each
+// The control law of one loading stage (io/serial/stage_spec.hpp): the cell's strain rates after each
 // stress measurement. Stress-controlled axes follow the servo (apps/servo.hpp) to their
 // targets; strain-rate axes keep their rate. The path couples them:
 //   constant_p       axes 2, 3 target (3 p - s11) / 2 (s11 measured): p = (s11 + s22 + s33) / 3;
@@ -10,7 +10,7 @@
 //                    a cycle ends where it began (eps_1 = 0, q_s = 0), after 2 reversals.
 #pragma once
 #include "apps/servo.hpp"
-#include "io/stage_spec.hpp"
+#include "io/serial/stage_spec.hpp"
 
 #include <array>
 #include <cstdint>

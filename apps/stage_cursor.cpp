@@ -1,6 +1,6 @@
 #include "apps/stage_cursor.hpp"
 
-#include "io/state_fields.hpp"
+#include "io/mpi/state_fields.hpp"
 
 namespace fabrica {
 

@@ -1,8 +1,8 @@
 // A stage's cursor and result (apps/stage_run.hpp) as named, typed fields of a checkpoint
-// section (io/fields.hpp): another build reads them or refuses them naming the field.
+// section (io/mpi/fields.hpp): another build reads them or refuses them naming the field.
 #pragma once
 #include "apps/stage_run.hpp"
-#include "io/fields.hpp"
+#include "io/mpi/fields.hpp"
 
 namespace fabrica {
 

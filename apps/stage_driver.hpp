@@ -4,7 +4,7 @@
 // checkpoints ([run] checkpoint_every / checkpoint_seconds) that a restart continues from
 // inside any stage bit for bit.
 #pragma once
-#include "io/scene.hpp"
+#include "io/serial/scene.hpp"
 
 #include <string>
 

@@ -1,4 +1,4 @@
-// The end conditions of a stage (io/stage_spec.hpp, StageEnd), checked at its measurements:
+// The end conditions of a stage (io/serial/stage_spec.hpp, StageEnd), checked at its measurements:
 // the stage ends when any one it gives is met.
 //   steps     the stage's step count reaches it (the driver measures at that step);
 //   strain    eps of the axis, from the stage's start, reaches the value (its sign: the way);
@@ -8,7 +8,7 @@
 //   cycles    a cyclic path's cycles done (apps/stage_control.hpp).
 #pragma once
 #include "core/measures.hpp"
-#include "io/stage_spec.hpp"
+#include "io/serial/stage_spec.hpp"
 
 #include <cstdint>
 

@@ -1,6 +1,6 @@
 #include "apps/stage_record.hpp"
 
-#include "io/run_output.hpp"
+#include "io/mpi/run_output.hpp"
 
 namespace fabrica {
 

@@ -4,7 +4,7 @@
 #include "apps/stage_record.hpp"
 #include "core/contact_snapshot.hpp"
 #include "core/fabric.hpp"
-#include "io/run_output.hpp"
+#include "io/mpi/run_output.hpp"
 #include "parallel/guard.hpp"
 
 #include <fmt/core.h>

@@ -1,4 +1,4 @@
-// One simulation through loading stages (io/stage_spec.hpp), one at a time: each step, the
+// One simulation through loading stages (io/serial/stage_spec.hpp), one at a time: each step, the
 // control law's strain rates (apps/stage_control.hpp) at every servo interval, the end
 // conditions (apps/stage_end.hpp), the series rows, the fabric rows, the HDF5 output and the
 // run's energy account. Every rank runs the same control flow; every decision is taken from
@@ -7,7 +7,7 @@
 #include "apps/fabric_output.hpp"
 #include "apps/stage_control.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
+#include "io/serial/scene.hpp"
 
 #include <cstdint>
 #include <functional>
@@ -77,7 +77,7 @@ class StageRun {
   // seconds spent in it (records, analysis, output) so far:
   void set_fabric_output(const FabricStreams* out) { fabric_out_ = out; }
   double fabric_seconds() const { return fabric_seconds_; }
-  // Optional HDF5 output (io/run_output.hpp): the series rows and the snapshots (every
+  // Optional HDF5 output (io/mpi/run_output.hpp): the series rows and the snapshots (every
   // [run] snapshot_every steps and at the end of each stage) go to case 'case_name' of 'out'.
   void set_output(RunOutput* out, std::string case_name) {
     output_ = out;

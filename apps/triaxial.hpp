@@ -10,7 +10,7 @@
 #include "apps/stage_run.hpp"
 #include "apps/triaxial_stages.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
+#include "io/serial/scene.hpp"
 
 #include <memory>
 #include <string>

@@ -10,7 +10,7 @@
 //                   eps_1 = axial_strain; fabric at its rows; peak q/p and lateral error.
 // Each with the servo settings, tolerances and max_stage_steps of [triaxial].
 #pragma once
-#include "io/scene.hpp"
+#include "io/serial/scene.hpp"
 
 namespace fabrica {
 

@@ -1,10 +1,10 @@
 #include "apps/triaxial_sweep.hpp"
 
 #include "apps/stage_cursor.hpp"
-#include "io/checkpoint.hpp"
-#include "io/distributed_setup.hpp"
-#include "io/run_output.hpp"
-#include "io/write_check.hpp"
+#include "io/mpi/checkpoint.hpp"
+#include "io/mpi/distributed_setup.hpp"
+#include "io/mpi/run_output.hpp"
+#include "io/serial/write_check.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_context.hpp"
 

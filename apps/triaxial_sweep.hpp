@@ -12,7 +12,7 @@
 #include "apps/series_file.hpp"
 #include "apps/stage_record.hpp"
 #include "apps/triaxial.hpp"
-#include "io/setup.hpp"
+#include "io/serial/setup.hpp"
 
 #include <chrono>
 #include <filesystem>

@@ -22,8 +22,8 @@
 //   OUTDIR/triaxial_curves.csv (every sampled curve).
 #include "apps/triaxial.hpp"
 #include "core/timestep.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -12,10 +12,10 @@
 // mean step of the run for scale. The last line is machine-readable.
 #include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
-#include "io/checkpoint.hpp"
-#include "io/scene.hpp"
-#include "io/distributed_setup.hpp"
-#include "io/setup.hpp"
+#include "io/mpi/checkpoint.hpp"
+#include "io/serial/scene.hpp"
+#include "io/mpi/distributed_setup.hpp"
+#include "io/serial/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
 

@@ -10,8 +10,8 @@
 // neighbour check, rebuild, forces). The last line is a machine-readable summary.
 #include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <algorithm>
 #include <chrono>

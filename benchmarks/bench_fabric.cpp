@@ -12,8 +12,8 @@
 #include "core/contact_snapshot.hpp"
 #include "core/fabric.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -1,7 +1,7 @@
 // bench_fields: the cost of one coarse-grained field instant (core/coarse_grain.hpp) at paper
 // scale, on the shared dense-13584 packing (13,584 spheres; its contact forces after 200 steps,
 // with a friction of 0.3 and mu_r 0.05 so that sliding and rolling contacts exist), serial, as a
-// run with [fields] computes it (io/run_fields.cpp): the particles and the particle-particle
+// run with [fields] computes it (io/mpi/run_fields.cpp): the particles and the particle-particle
 // contact records passed to coarse_grain(). Each figure is the median of REPS repetitions:
 //   records    listing the contact records (for_each_contact_record) into CgContacts;
 //   grid       coarse_grain() of nothing: the grid's fixed costs (allocation, reduction, fields);
@@ -22,8 +22,8 @@
 #include "core/coarse_grain.hpp"
 #include "core/contact_snapshot.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -123,7 +123,7 @@ int main(int argc, char** argv) {
     t0 = clock_type::now();
     r = coarse_grain(grid, kernel, parts, conts, all, dom);
     t_all.push_back(since(t0));
-    // As a run does (io/run_output.cpp): the previous instant's storage reused.
+    // As a run does (io/mpi/run_output.cpp): the previous instant's storage reused.
     FieldsResult spare = std::move(r);
     t0 = clock_type::now();
     r = coarse_grain(grid, kernel, parts, conts, all, dom, &spare);

@@ -1,10 +1,10 @@
-// bench_io: write bandwidth of one snapshot (particles and contacts, io/run_output.hpp) of the
+// bench_io: write bandwidth of one snapshot (particles and contacts, io/mpi/run_output.hpp) of the
 // shared dense-13584 packing, on however many ranks it is started.
 //
 //   mpirun -np P bench_io [REPS=7] [DIR=/tmp] [scene.toml]
 //
 // The scene's data file (benchmarks/dense-13584.toml: ../shared/bench/dense-13584/dense.data)
-// is read with io/lammps_data, decomposed over the ranks and advanced 10 steps so that the
+// is read with io/serial/lammps_data, decomposed over the ranks and advanced 10 steps so that the
 // contact list is built. Then REPS snapshots are written into DIR/bench_io-npP/run.h5, each as
 // its own case, each timed from a barrier to the end of RunOutput::snapshot (which includes the
 // redistribution by id, the collective writes, the H5Fflush and the XDMF rewrite). Bandwidth =
@@ -12,11 +12,11 @@
 // a machine-readable summary. The repetitions alternate between datasets with HDF5's Fletcher-32
 // checksum (as Fabrica writes them) and without (h5::set_checksums(false)), so that the cost of
 // the checksum is measured in the same sitting: seconds_median is with it, _nock without. Then
-// rank 0 reads the whole file back verifying every checksum (io/verify.hpp).
+// rank 0 reads the whole file back verifying every checksum (io/mpi/verify.hpp).
 #include "benchmarks/median.hpp"
-#include "io/run_output.hpp"
-#include "io/verify.hpp"
-#include "io/setup.hpp"
+#include "io/mpi/run_output.hpp"
+#include "io/mpi/verify.hpp"
+#include "io/serial/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
 

@@ -32,8 +32,8 @@
 // --benchmark_filter=contact_law, --benchmark_format=json, ...).
 #include "core/forces.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <benchmark/benchmark.h>
 

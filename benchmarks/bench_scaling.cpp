@@ -16,9 +16,9 @@
 // machine-readable.
 #include "benchmarks/median.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/distributed_setup.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/mpi/distributed_setup.hpp"
+#include "io/serial/setup.hpp"
 #include "parallel/mpi_context.hpp"
 #include "parallel/mpi_domain.hpp"
 

@@ -310,7 +310,9 @@ struct PairKernel {
     next_before = next_opening < o.size() ? o[next_opening].before : kNone;
   }
 
-  // Touching contacts c, ..., c + n - 1 (n the lanes of T).
+  // Touching contacts c, ..., c + n - 1 (n the lanes of T). One SIMD pass of the pair kernel:
+  // its length is its nature (loads, the law, the stores, in lanes), so it is not cut in pieces.
+  // function-length: exempt
   template <class T>
   void contacts(std::size_t c) {
     using namespace simd;
@@ -648,7 +650,7 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
   }
   // A wall's own law may need rolling resistance or dashpots that the scene's does not: the
   // pair loop then runs with them at the scene's zero values (mu_r = 0: no rolling moment).
-  // Walls share the scene's rolling model (io/scene.cpp).
+  // Walls share the scene's rolling model (io/serial/scene.cpp).
   bool rolling = ctx.law.rolling(), twisting = ctx.law.twisting(), viscous = ctx.law.viscous();
   for (const Wall& w : ctx.walls)
     if (w.own_law)
@@ -662,7 +664,7 @@ void compute_forces(Particles& p, const PeriodicCell& cell, const ForceContext& 
   }
   const int roll = rolling ? 1 + int(ctx.law.rolling_model) : kNoRolling;
   const std::size_t k = std::size_t((((roll * 2 + twisting) * 2 + viscous) * 2 + mixed) * 3 + measure);
-  // Walls share the scene's model (io/scene.cpp refuses another).
+  // Walls share the scene's model (io/serial/scene.cpp refuses another).
   with_model(ctx.law.model, [&](auto model) {
     kKernels<decltype(model)>[k](p, cell, ctx, pairs, wall_contacts, diss, sums, wall_power);
   });

@@ -286,6 +286,14 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
     tmp_img_[q] = swap ? std::uint8_t(26 - tmp_img_[q]) : tmp_img_[q];
   }
 
+  std::vector<int>().swap(cls_);  // the class grids are done with: free before the sort
+  last_pairs_ = m;
+  order_pairs(p, L, m, out);
+}
+
+// Moves the m pairs found (tmp_i_, tmp_j_, tmp_img_) into 'out' in the space-filling-curve order.
+void NeighborSearch::order_pairs(const Particles& p, const Vec3& L, std::size_t m, PairList& out) {
+  const std::size_t n = p.size();
   // Order the pairs along the space-filling curve (core/space_order.hpp): by the place of body
   // i in the (Morton key, id) order, then by that of body j. The order compares two particles
   // by their own position and id only, so each particle receives its contact forces in the
@@ -293,7 +301,6 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
   // trajectories, are bitwise the same on any number of ranks. And it follows space, so the
   // force loop walks memory nearly in order at any specimen size.
   space_ranks(p, n, L, rank_);
-  std::vector<int>().swap(cls_);  // the class grids are done with: free before the sort
   // A counting sort by the place of i (the places are 0 .. n-1), then each run of one i
   // ordered by the place of j: the (place i, place j) order without a sort buffer per pair
   // (memory at large N: 4 bytes per particle instead of 16 per pair). Every pair is listed
@@ -329,7 +336,6 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
       out.image[h] = img;
     }
   // Free the buffers until the next build (memory at large N).
-  last_pairs_ = m;
   std::vector<Index>().swap(cell_start_);
   std::vector<std::uint32_t>().swap(rank_);
 }

@@ -39,6 +39,7 @@ class NeighborSearch {
   struct CellCopies;  // one grid's spheres in cell order (neighbor.cpp)
 
  private:
+  void order_pairs(const Particles& p, const Vec3& L, std::size_t m, PairList& out);
   std::vector<int> cls_;           // size class of each particle
   std::vector<Index> cell_start_;  // counting-sort buffer of the pair order
   std::vector<Index> tmp_i_, tmp_j_;

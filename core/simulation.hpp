@@ -72,13 +72,13 @@ struct PhaseTimes {
   std::int64_t steps = 0;
 };
 
-// The state a checkpoint holds (io/checkpoint.hpp): enough to rebuild a Simulation that
+// The state a checkpoint holds (io/mpi/checkpoint.hpp): enough to rebuild a Simulation that
 // continues bit for bit, provided it was taken right after a neighbour-list rebuild
 // (Simulation::rebuilt_last_step()): the lists are then a function of the positions and of the
 // springs of the touching contacts.
 // The energy account of a Simulation (see boundary_work() and MacroState::energy_input): a
 // checkpoint carries it so that a restarted run keeps one unbroken account. The field names are
-// those the checkpoint format stores (io/checkpoint.cpp); their meaning:
+// those the checkpoint format stores (io/mpi/checkpoint.cpp); their meaning:
 struct EnergyAccount {
   real_t e0 = 0;    // kinetic + elastic energy at construction [J]
   real_t work = 0;  // boundary work up to the end of the last step [J]
@@ -127,7 +127,7 @@ class Simulation {
   Simulation& operator=(Simulation&&) = default;
 
   // A run restored from a snapshot (every rank passes the same particles and history, or with
-  // snapshot.holding = Share a part of each, as io/checkpoint reads them; the dissipation is
+  // snapshot.holding = Share a part of each, as io/mpi/checkpoint reads them; the dissipation is
   // this rank's). Forces are not recomputed: the next step() is the one the
   // saved run would have taken.
   Simulation(SimulationSnapshot snapshot, Domain* domain);

@@ -21,7 +21,7 @@ void update_servo_walls(std::vector<Wall>& walls, std::span<const double> load, 
   for (std::size_t k = 0; k < walls.size(); ++k) {
     Wall& w = walls[k];
     if (!w.servo()) continue;
-    int axis = 0;  // walls are perpendicular to a cell axis (io/scene.cpp)
+    int axis = 0;  // walls are perpendicular to a cell axis (io/serial/scene.cpp)
     w.normal.cwiseAbs().maxCoeff(&axis);
     const real_t u = servo_speed(w, load[2 * k], load[2 * k + 1], V / L[axis], dt);
     w.velocity = w.velocity - w.velocity.dot(w.normal) * w.normal + u * w.normal;

@@ -1,6 +1,6 @@
 // Plain values appended to and read back from the byte buffers that travel between the ranks of
 // one run. Every rank runs the same build, so the values keep their native layout here; what is
-// written to files has an explicit layout instead (io/fields.hpp). T is a plain value or a
+// written to files has an explicit layout instead (io/mpi/fields.hpp). T is a plain value or a
 // struct of them and of fixed-size Eigen vectors (which std::is_trivially_copyable does not
 // admit, though copying their bytes is exact).
 #pragma once

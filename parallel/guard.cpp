@@ -1,7 +1,7 @@
 #include "parallel/guard.hpp"
 
-#include "io/errors.hpp"
-#include "io/fault.hpp"
+#include "core/errors.hpp"
+#include "core/fault.hpp"
 
 #include <chrono>
 #include <csignal>

@@ -76,8 +76,8 @@ inline const char* rolling_model_name(RollingModel m) {
 }
 
 // The law's parameters, declared once: the scene parsers ([contact], [[wall]], [[stage]]:
-// io/scene.cpp, io/stage_parse.cpp), the checkpoint (io/state_fields.cpp) and the HDF5 scene
-// record (io/run_output.cpp) all go through this list, and docs/scene.md lists every key of it
+// io/serial/scene.cpp, io/serial/stage_parse.cpp), the checkpoint (io/mpi/state_fields.cpp) and the HDF5 scene
+// record (io/mpi/run_output.cpp) all go through this list, and docs/scene.md lists every key of it
 // with its unit (tests/io/test_scene.cpp checks). In the checkpoint's order: fields are never
 // removed or reordered (the format); 'since' is the checkpoint format that added a field.
 enum class LawValue : std::uint8_t { Real, StiffnessMode, Model, RollingModel };

@@ -10,8 +10,8 @@
 #include "apps/servo.hpp"
 #include "apps/triaxial.hpp"
 #include "tests/apps/fcc_lattice.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "parallel/mpi_context.hpp"
 
 #include <fmt/core.h>

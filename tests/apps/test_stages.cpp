@@ -6,8 +6,8 @@
 #include "apps/stage_end.hpp"
 #include "apps/stage_run.hpp"
 #include "apps/triaxial.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "tests/apps/fcc_lattice.hpp"
 
 #include <fmt/core.h>

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""cli.output.python_reader: apps/fabrica_h5.py against the C++ reader (io/snapshot.hpp) on the
+"""cli.output.python_reader: apps/fabrica_h5.py against the C++ reader (io/mpi/snapshot.hpp) on the
 same run file, and the contact fields stored for the XDMF line cells.
 
     check_fabrica_h5.py DUMP_RUN_H5 OUT

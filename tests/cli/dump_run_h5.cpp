@@ -1,4 +1,4 @@
-// dump_run_h5 FILE: everything the C++ reader (io/snapshot.hpp) gives for a run file, as text
+// dump_run_h5 FILE: everything the C++ reader (io/mpi/snapshot.hpp) gives for a run file, as text
 // with round-trip precision (%.17g), for cli.output.python_reader, which compares it with what
 // apps/fabrica_h5.py reads from the same file. One record a line:
 //   info <ranks> <version> <git_describe> <scene_path>
@@ -6,7 +6,7 @@
 //   snapshot <case> <step> <time> L1 L2 L3 e1 e2 e3 <N> <M>
 //   particle <id> x y z vx vy vz wx wy wz r        (N lines, after each snapshot line)
 //   contact <id1> <id2> n(3) b(3) overlap fn ft(3) mr(3) sliding rolling   (M lines)
-#include "io/snapshot.hpp"
+#include "io/mpi/snapshot.hpp"
 
 #include <cstdio>
 #include <exception>

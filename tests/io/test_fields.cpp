@@ -1,6 +1,6 @@
-// io/fields: named, typed, little-endian values, checked against their layout when read.
-#include "io/errors.hpp"
-#include "io/fields.hpp"
+// io/mpi/fields: named, typed, little-endian values, checked against their layout when read.
+#include "core/errors.hpp"
+#include "io/mpi/fields.hpp"
 
 #include <gtest/gtest.h>
 

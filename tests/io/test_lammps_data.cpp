@@ -1,9 +1,9 @@
 // LAMMPS data files: the shared benchmark file reads as described in its README, velocities and
 // spins included; malformed files are refused with the file, the line and the value, and a
 // section the reader does not understand is refused rather than ignored.
-#include "io/lammps_data.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/lammps_data.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <gtest/gtest.h>
 #include "tests/temp_dir.hpp"

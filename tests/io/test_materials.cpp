@@ -12,8 +12,8 @@
 //  - bad input refused before the run, naming the file, table, key and value.
 #include "core/contact/materials.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <gtest/gtest.h>
 #include "tests/temp_dir.hpp"

@@ -25,8 +25,8 @@
 //     Psi1 / kappa of the Coulomb limit all through the impact).
 // The derivations are in docs/verification.md. Tolerances are stated next to each assertion.
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <gtest/gtest.h>
 #include "tests/temp_dir.hpp"

@@ -1,4 +1,4 @@
-// Round trip of OUT/run.h5 (io/run_output -> io/snapshot), run through mpiexec at 1 and 2 ranks:
+// Round trip of OUT/run.h5 (io/mpi/run_output -> io/mpi/snapshot), run through mpiexec at 1 and 2 ranks:
 // a compressed polydisperse packing with sliding and rolling contacts is written collectively,
 // then every rank reads the file back serially and finds each of its own particles and contact
 // records with every value equal bit for bit (tolerance 0: the file stores IEEE doubles as they
@@ -8,10 +8,10 @@
 #include "core/contact_snapshot.hpp"
 #include "core/generate.hpp"
 #include "core/timestep.hpp"
-#include "io/h5.hpp"
-#include "io/run_output.hpp"
-#include "io/snapshot.hpp"
-#include "io/snapshot_writer.hpp"
+#include "io/mpi/h5.hpp"
+#include "io/mpi/run_output.hpp"
+#include "io/mpi/snapshot.hpp"
+#include "io/mpi/snapshot_writer.hpp"
 #include "parallel/mpi_domain.hpp"
 
 #include <gtest/gtest.h>

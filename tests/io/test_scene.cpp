@@ -1,7 +1,7 @@
 // Scene files: valid scenes parse to the documented values; bad input is refused with a message
 // that names the file, the field and the value.
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "core/restitution.hpp"
 
 #include <gtest/gtest.h>
@@ -251,7 +251,7 @@ TEST(Scene, ServoModeAndItsKeys) {
   expect_error("[triaxial]\nservo_integral_relaxation = 0.6\n", {"servo_integral_relaxation", "0.6"});
 }
 
-// [[stage]] tables (io/stage_parse.cpp): each type's controls, end conditions, contact
+// [[stage]] tables (io/serial/stage_parse.cpp): each type's controls, end conditions, contact
 // parameters and servo keys; bad input refused with stage[i].field and the value.
 TEST(Scene, StageList) {
   const Scene s = parse_scene(R"(

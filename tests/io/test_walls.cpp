@@ -6,8 +6,8 @@
 #include "core/restitution.hpp"
 #include "core/simulation.hpp"
 #include "core/wall_servo.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <gtest/gtest.h>
 #include "tests/temp_dir.hpp"

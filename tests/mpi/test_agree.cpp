@@ -1,7 +1,7 @@
 // Agreement over the ranks (parallel/guard.hpp): an error thrown by one rank in a rank-local
 // phase is thrown by every rank, with that rank's message and kind; sums of doubles are the
 // same bits on every rank (MpiDomain::sum_all takes rank 0's). Registered at 1 to 4 ranks.
-#include "io/errors.hpp"
+#include "core/errors.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_domain.hpp"
 

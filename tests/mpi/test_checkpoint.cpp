@@ -1,4 +1,4 @@
-// Checkpoint and restart (io/checkpoint.hpp) on the dense packing, with the cell deforming and
+// Checkpoint and restart (io/mpi/checkpoint.hpp) on the dense packing, with the cell deforming and
 // rolling springs on. The reference is an uninterrupted serial run on every rank (the
 // trajectory does not depend on the rank count); the restarted run must match it bit for bit:
 // positions, velocities, spins and every shear and rolling spring.
@@ -14,9 +14,9 @@
 //                                      (ctest: written on 2 ranks, read on 1, 4, 8, 16), via the
 //                                      file named in FABRICA_CHECKPOINT_FILE.
 #include "core/simulation.hpp"
-#include "io/checkpoint.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/mpi/checkpoint.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "parallel/mpi_domain.hpp"
 
 #include "core/timestep.hpp"

@@ -5,8 +5,8 @@
 #include "core/simulation.hpp"
 #include "core/timestep.hpp"
 #include "tests/mpi/two_materials.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "parallel/mpi_domain.hpp"
 
 #include "mpi_test_helpers.hpp"

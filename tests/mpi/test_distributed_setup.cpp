@@ -1,11 +1,11 @@
-// The set-up made by all ranks together (io/distributed_setup): no rank holds more than its
+// The set-up made by all ranks together (io/mpi/distributed_setup): no rank holds more than its
 // share, and the result is the serial set-up's bit for bit - the same particles, cell and time
 // step, the same errors for bad data files, and the same trajectory. Run at 1, 2, 4, 8, 16 ranks.
 #include "core/simulation.hpp"
-#include "io/distributed_setup.hpp"
-#include "io/errors.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/mpi/distributed_setup.hpp"
+#include "core/errors.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "mpi_test_helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -184,7 +184,7 @@ TEST(DistributedSetup, BadDataFilesGiveTheSerialMessages) {
 }
 
 // A [cell] size smaller than the file's box: the spheres beyond it are refused with the serial
-// message (io/setup.hpp check_inside_cell), whichever rank read them.
+// message (io/serial/setup.hpp check_inside_cell), whichever rank read them.
 TEST(DistributedSetup, ParticleOutsideTheSceneCellGivesTheSerialMessage) {
   const Scene sc =
       load_scene(write_case("small_cell", lattice_data(6, false), "[cell]\nsize = [0.015, 0.018, 0.018]\n"));

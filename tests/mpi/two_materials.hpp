@@ -3,7 +3,7 @@
 // than material 0 (the set-up's law); the time step re-estimated for the pairs.
 #pragma once
 #include "core/timestep.hpp"
-#include "io/setup.hpp"
+#include "io/serial/setup.hpp"
 
 namespace fabrica::test {
 

@@ -10,8 +10,8 @@
 // (shared) numbers. Tolerances are stated at each assertion. Registered at 2 ranks; any count
 // works (on 1 rank the "parallel" run is an MpiDomain of one rank).
 #include "apps/triaxial.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "parallel/mpi_domain.hpp"
 
 #include <gtest/gtest.h>

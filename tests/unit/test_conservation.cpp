@@ -447,7 +447,7 @@ TEST(Conservation, FreeFallSeenBetweenStepsIsTheEndOfStepState) {
   const int n = 137;
   for (int s = 0; s < n; ++s) sim.step(false);
   const real_t t = n * dt;
-  const Simulation& seen = sim;  // as the output writers see it (io/snapshot_writer.cpp)
+  const Simulation& seen = sim;  // as the output writers see it (io/mpi/snapshot_writer.cpp)
   const Particles& p = seen.particles();
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(p.v[0][k], v0[k] + g[k] * t, 1e-12) << "axis " << k;

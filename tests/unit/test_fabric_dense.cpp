@@ -11,8 +11,8 @@
 #include "core/measures.hpp"
 #include "core/serial_domain.hpp"
 #include "core/simulation.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 
 #include <gtest/gtest.h>
 

@@ -11,8 +11,8 @@
 // over the checks.
 #include "core/generate.hpp"
 #include "core/timestep.hpp"
-#include "io/scene.hpp"
-#include "io/setup.hpp"
+#include "io/serial/scene.hpp"
+#include "io/serial/setup.hpp"
 #include "scene_helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -473,7 +473,7 @@ TEST(Guards, BoundaryWorkOfACompressedLattice) {
   EXPECT_NEAR(sim.boundary_work() / (elastic - e0), 1.0, 1e-3);
 }
 
-// --- Set-up checks (io/setup) -------------------------------------------------------------
+// --- Set-up checks (io/serial/setup) -------------------------------------------------------------
 
 std::string write_tmp(const std::string& name, const std::string& text) {
   const auto p = test::temp_dir() / name;

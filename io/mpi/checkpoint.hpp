@@ -1,0 +1,226 @@
+// Checkpoints: the complete state of a run in one file, written collectively with MPI-IO and
+// readable on any number of ranks (docs/checkpoint.md).
+//
+// File layout (docs/checkpoint.md#format; every value little-endian whatever the machine):
+//   header (kHeaderBytes): magic "FABRCKPT", format version, header size, software version,
+//     fingerprint of the scene text, writer rank count, flags (blow-up), step, time, the
+//     application ("run" or "triaxial"), file size, and a table of sections (name, offset,
+//     bytes, records, record size, kind);
+//   sections, one after the other, of three kinds: "global" (bytes every rank knows
+//     identically, written by rank 0: named, typed fields with their layout, io/mpi/fields.hpp),
+//     "per-rank" (one record per writer rank, in rank order) and "distributed" (fixed-size
+//     records, each rank's in rank order: particles and contacts, io/mpi/state_fields.hpp);
+//   trailer: "FABREND" and a position-weighted checksum of every byte before it.
+// A file is written as DIR/name.tmp, synced, closed, then renamed by rank 0 after a barrier:
+// a run killed at any moment leaves the previous complete checkpoint in place. A reader on any
+// number of ranks reads the header and the small sections on every rank and only its own
+// range of the distributed records (MPI-IO), so no rank holds the whole specimen.
+#pragma once
+#include "core/simulation.hpp"
+#include "io/mpi/fields.hpp"
+
+#include <mpi.h>
+
+#include <cstdint>
+#include <cstring>
+#include <map>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace fabrica {
+
+// Raise the format version with any change of the file's structure. The fields of a section
+// carry their own layout (names and types), so a change of what a section holds is refused by
+// the reader naming the field, in any version.
+inline constexpr std::uint32_t kCheckpointFormat = 10;
+// The oldest format this build reads: 6 differs from 7 only in its particle records, which
+// carry three values this build derives (io/mpi/state_fields.hpp ParticleRecordReader); 7 from 8
+// only in the contact law's last four fields (law.model, law.poisson_ratio, law.rolling_model,
+// law.rolling_damping: io/mpi/state_fields.cpp read_law reads a law without them as the linear law
+// with the elastic-plastic rolling spring); 8 from 9 in the law's last field
+// (law.twisting_friction: without it, none) and the twisting spring at the end of the contact
+// records of a scene with twisting resistance (io/mpi/state_fields.hpp); 9 from 10 in what a scene
+// of several materials adds (the material in the particle records, wall.material and the
+// materials' laws after spatial_sort: absent, one material).
+inline constexpr std::uint32_t kOldestCheckpointFormat = 6;
+inline constexpr std::size_t kHeaderBytes = 2048;
+
+// FNV-1a (64 bits) of the scene text: a checkpoint of another scene is refused.
+std::uint64_t scene_fingerprint(const std::string& text);
+
+enum class SectionKind : std::uint32_t { Global = 0, PerRank = 1, Distributed = 2 };
+
+struct CheckpointSection {
+  std::string name;
+  std::uint64_t offset = 0, bytes = 0, records = 0;
+  std::uint32_t record_bytes = 0;  // 0 for a global section
+  SectionKind kind = SectionKind::Global;
+};
+
+struct CheckpointHeader {
+  std::uint32_t format = 0;
+  std::string software;
+  std::uint64_t scene_fingerprint = 0;
+  std::int32_t ranks = 0;
+  bool blowup = false;
+  std::int64_t step = 0;
+  double time = 0;
+  std::string app;
+  std::uint64_t file_bytes = 0;
+  std::vector<CheckpointSection> sections;
+};
+
+// Appends plain values to a byte string, as their bytes (the applications' cursors; prefer
+// FieldWriter and CheckpointWriter::add_fields for anything new).
+class Bytes {
+ public:
+  template <class T>
+  Bytes& put(const T& v) {
+    const char* c = reinterpret_cast<const char*>(&v);
+    s_.append(c, sizeof(T));
+    return *this;
+  }
+  Bytes& put_string(const std::string& v) {
+    put(std::uint64_t(v.size()));
+    s_ += v;
+    return *this;
+  }
+  const std::string& str() const { return s_; }
+
+ private:
+  std::string s_;
+};
+
+// Reads them back; throws InputError naming the file and the section if they run short.
+class BytesIn {
+ public:
+  BytesIn(std::string data, std::string where) : s_(std::move(data)), where_(std::move(where)) {}
+  template <class T>
+  T get() {
+    T v;
+    need(sizeof(T));
+    std::memcpy(static_cast<void*>(&v), s_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  std::string get_string();
+  bool done() const { return pos_ == s_.size(); }
+
+ private:
+  void need(std::size_t n) const;
+  std::string s_, where_;
+  std::size_t pos_ = 0;
+};
+
+// Stages the sections of one checkpoint, then writes it. Every rank of 'comm' makes the same
+// calls in the same order (collective).
+class CheckpointWriter {
+ public:
+  CheckpointWriter(MPI_Comm comm, std::uint64_t scene_fingerprint, std::string app, bool blowup = false);
+
+  // The state of 'sim' under sections "<prefix>.global", ".particles", ".contacts",
+  // ".dissipation". The step and time of the header are those of the first simulation added.
+  // The particle and contact records are made by write(), in blocks of kBlockRecords: 'sim'
+  // must outlive it, unchanged.
+  void add_simulation(const std::string& prefix, const Simulation& sim);
+  // Bytes every rank knows identically (written by rank 0).
+  void add_global(const std::string& name, std::string bytes);
+  // Fields every rank knows identically, with their layout (read with Checkpoint::fields).
+  void add_fields(const std::string& name, const FieldWriter& fields);
+
+  static constexpr std::uint64_t kBlockRecords = std::uint64_t(1) << 16;
+  // Records per block (tests: many blocks from a small specimen; the file is the same).
+  void set_block_records(std::uint64_t n) { block_records_ = n > 0 ? n : 1; }
+
+  // Writes 'path' atomically (path.tmp, sync, rename). Collective; throws CollectiveError on
+  // an I/O failure (the same on every rank). Returns the file size in bytes.
+  std::uint64_t write(const std::string& path);
+
+ private:
+  struct Staged {
+    std::string name;
+    SectionKind kind;
+    std::uint32_t record_bytes;  // 0: a global section
+    std::string local;           // this rank's block, or the whole (global) section
+    // Distributed records made at write time, a block at a time, instead of 'local', so that a
+    // rank never holds its whole share of the file: 'records' here, and produce(first, n, out)
+    // appends records [first, first + n) of this rank to out.
+    std::uint64_t records = 0;
+    std::function<void(std::uint64_t, std::uint64_t, std::string&)> produce = {};
+    std::uint64_t bytes() const { return produce ? records * record_bytes : local.size(); }
+  };
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  CheckpointHeader head_;
+  std::vector<Staged> staged_;
+  bool have_step_ = false;
+  std::uint64_t block_records_ = kBlockRecords;
+};
+
+// A checkpoint read and checked: magic, format version, size, section table, checksum, and
+// (when 'scene_text' is given) the scene fingerprint. Collective: every rank reads the header
+// and the small sections, and its own range of the distributed records (1/P of them); the
+// checksum is summed over the ranks. Every error is an InputError naming the file and what is
+// wrong, thrown on every rank alike (the lowest rank's message when they differ).
+class Checkpoint {
+ public:
+  struct Expect {
+    const std::string* scene_text = nullptr;  // refuse a checkpoint of another scene
+    std::string app;                          // refuse another application ("" = any)
+    bool allow_blowup = false;                // refuse a blow-up checkpoint unless set
+  };
+  static Checkpoint read(MPI_Comm comm, const std::string& path, const Expect& expect);
+
+  const CheckpointHeader& header() const { return head_; }
+  const std::string& path() const { return path_; }
+  bool has(const std::string& name) const;
+  std::string section(const std::string& name) const;  // the bytes of a global section
+  // The fields of a section written with CheckpointWriter::add_fields (valid while this lives).
+  FieldReader fields(const std::string& name) const;
+  // The snapshot of a simulation saved under 'prefix': this rank's range of the particles and
+  // contacts (holding = Share: Simulation's constructor sends them to their owners); the
+  // dissipation accumulators go to the same ranks when the rank count is unchanged, else their
+  // sum goes to rank 0.
+  SimulationSnapshot simulation(const std::string& prefix, MPI_Comm comm) const;
+
+ private:
+  const CheckpointSection& find(const std::string& name) const;
+  struct Chunk {
+    std::uint64_t first = 0;  // this rank's first record
+    std::string bytes;
+  };
+  std::string path_;
+  CheckpointHeader head_;
+  std::map<std::string, std::string> small_;  // global and per-rank sections
+  std::map<std::string, Chunk> chunks_;       // this rank's records of the distributed ones
+};
+
+// Prints the header and the section table (fabrica checkpoint-info).
+std::string describe(const CheckpointHeader& h, const std::string& path);
+
+// For a restart (rank 0): keeps the header line and the complete rows of the CSV series 'path'
+// whose column 'step_column' (0-based) is at most 'step', and drops the others (rows written
+// after the checkpoint, or a last row cut short by a kill), so that the restarted run appends
+// exactly what the uninterrupted run wrote. Returns false if there is no such file.
+bool keep_series_through(const std::string& path, int step_column, std::int64_t step);
+
+// When to take a checkpoint: at the first neighbour-rebuild step after 'every' steps since the
+// last one (0 = never by count), or after 'seconds' of wall-clock time (0 = never by time,
+// decided by rank 0 and broadcast). Collective at rebuild steps (identical on every rank).
+class CheckpointSchedule {
+ public:
+  CheckpointSchedule(MPI_Comm comm, std::int64_t every, double seconds, std::int64_t step);
+  bool due(const Simulation& sim);
+  void taken(std::int64_t step);
+  void rebase(std::int64_t step) { last_step_ = step; }  // count from here (a new branch)
+
+ private:
+  MPI_Comm comm_;
+  std::int64_t every_;
+  double seconds_;
+  std::int64_t last_step_;
+  double last_time_;
+};
+
+}  // namespace fabrica

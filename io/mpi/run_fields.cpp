@@ -1,0 +1,101 @@
+#include "io/mpi/run_fields.hpp"
+
+#include "core/contact_snapshot.hpp"
+#include "core/errors.hpp"
+#include "io/serial/memory_check.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+
+namespace fabrica {
+
+FieldGrid run_field_grid(const FieldsSpec& f, const Vec3& L) {
+  FieldGrid g;
+  g.lengths = L;
+  const double h = f.spacing ? *f.spacing : f.width;
+  // As `fabrica fields --spacing` (apps/fields_offline.cpp): the same counts for the same cell.
+  for (int k = 0; k < 3; ++k)
+    g.n[k] = f.cells ? (*f.cells)[k] : int(std::max(1.0, std::min(std::round(L[k] / h), 2.0e9)));
+  return g;
+}
+
+FieldKernel run_field_kernel(const FieldsSpec& f) {
+  FieldKernel k;
+  k.type = f.lucy ? KernelType::Lucy : KernelType::Gaussian;
+  k.width = f.width;
+  k.cutoff = f.cutoff;
+  return k;
+}
+
+void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell& cell, MPI_Comm comm) {
+  if (!scene.fields.enabled) return;
+  double rmin = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < p.n_owned(); ++i) rmin = std::min(rmin, double(p.radius[i]));
+  MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
+  if (!std::isfinite(rmin)) rmin = 0;  // no particles: nothing to resolve
+  const FieldGrid g = run_field_grid(scene.fields, cell.lengths());
+  const FieldKernel k = run_field_kernel(scene.fields);
+  const std::string where = scene.path + ": [fields] ";
+  const std::string grid = "grid " + std::to_string(g.n[0]) + " x " + std::to_string(g.n[1]) + " x " +
+      std::to_string(g.n[2]) + " nodes in the cell of " + number_text(g.lengths[0], 6) + " x " +
+      number_text(g.lengths[1], 6) + " x " + number_text(g.lengths[2], 6) + " m";
+  const std::string why = check_field_grid(g, k, rmin);
+  if (!why.empty()) throw InputError(where + "width = " + number_text(k.width, 10) + " (" + grid + "): " + why);
+  const double bytes = field_bytes(g), memory = machine_memory_bytes();
+  if (memory > 0 && bytes > 0.5 * memory)
+    throw InputError(where + (scene.fields.cells ? "cells" : "spacing") + " (" + grid + "): the grid needs " +
+                     number_text(bytes, 3) + " B of memory on every rank, more than half of the machine's " +
+                     number_text(memory, 3) + " B: give " + (scene.fields.cells ? "fewer cells" : "a larger spacing"));
+}
+
+FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim,
+                        FieldsResult* recycle) {
+  // Read through the const simulation: the non-const particles() would mark the positions as
+  // changed, and the run would then differ from one without fields.
+  const Simulation& cs = sim;
+  const Particles& p = cs.particles();
+  const FieldGrid grid = run_field_grid(f, cs.cell().lengths());
+  const FieldKernel kernel = run_field_kernel(f);
+  // A cell that has deformed since the check: the grid is checked again (the same on every rank).
+  if (const std::string why = check_field_grid(grid, kernel, 0); !why.empty())
+    throw InputError(scene_path + ": [fields] at step " + std::to_string(cs.step_count()) + " (grid " +
+                     std::to_string(grid.n[0]) + " x " + std::to_string(grid.n[1]) + " x " + std::to_string(grid.n[2]) +
+                     "): " + why);
+  std::vector<CgParticle> parts(p.n_owned());
+  std::unordered_map<GlobalId, std::size_t> index;
+  index.reserve(p.n_owned());
+  for (std::size_t i = 0; i < p.n_owned(); ++i) {
+    parts[i] = {p.x[i], p.v[i], p.w[i], p.radius[i], p.mass[i]};
+    index.emplace(p.id[i], i);
+  }
+  std::vector<CgContact> conts;
+  // Body 1 of every record is owned here (for_each_contact_record: the pairs of owned bodies 1);
+  // its stored position is the snapshot's, so the fields equal those of `fabrica fields`.
+  for_each_contact_record(
+      p, cs.cell(), cs.params().law, cs.pairs(),
+      [&](const ContactRecord& c) {
+        const std::size_t i = index.at(c.id1);
+        conts.push_back({c, p.x[i], p.radius[i]});
+      },
+      &cs.params().materials);
+  FieldOptions opt;
+  opt.strong_ratio = strong_ratio;
+  const auto network = [](const std::string& q) {
+    return q == "networks" || q.starts_with("contact_density_") || q.starts_with("fabric_");
+  };
+  opt.networks = f.quantities.empty() || std::any_of(f.quantities.begin(), f.quantities.end(), network);
+  FieldsResult r = coarse_grain(grid, kernel, parts, conts, opt, sim.domain(), recycle);
+  if (!f.quantities.empty()) {
+    const auto kept = [&](const Field& x) {
+      for (const std::string& q : f.quantities)
+        if (q == x.name || (q == "networks" && network(x.name))) return true;
+      return false;
+    };
+    std::erase_if(r.fields, [&](const Field& x) { return !kept(x); });
+  }
+  return r;
+}
+
+}  // namespace fabrica

@@ -1,0 +1,33 @@
+// The coarse-grained fields during a run ([fields], docs/fields.md "Fields during a run"): the
+// grid and kernel of the scene, the check of the grid against the specimen before the run, and
+// the fields of the simulation's current state (collective over the simulation's domain). They
+// are written into run.h5 by RunOutput::fields (io/mpi/run_output.hpp).
+#pragma once
+#include "core/coarse_grain.hpp"
+#include "core/simulation.hpp"
+#include "io/serial/scene.hpp"
+
+#include <mpi.h>
+
+namespace fabrica {
+
+// The grid of [fields] for a cell of lengths L: its cells, or round(L_a / spacing) nodes along
+// axis a (at least 1; spacing defaults to the width).
+FieldGrid run_field_grid(const FieldsSpec& f, const Vec3& L);
+FieldKernel run_field_kernel(const FieldsSpec& f);
+
+// Refuses (InputError, the same message on every rank of 'comm') a [fields] grid and kernel that
+// cannot be used on the specimen of 'p' (owned particles; any split over the ranks) in 'cell':
+// a width below the smallest radius, a support short of the nearest node, a grid above half of
+// the machine's memory. Collective.
+void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell& cell, MPI_Comm comm);
+
+// The fields of 'sim' now: each rank its owned particles and the contacts of the bodies 1 it owns
+// (particle-particle only); every rank gets the whole grid, the same bits on any number of ranks
+// and the same as `fabrica fields` computes from a snapshot of the same step. Only the
+// quantities of [fields] are kept (the network sums are skipped when none of theirs is asked).
+// Collective over sim.domain(). 'recycle': a previous result whose storage is reused (coarse_grain).
+FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim,
+                        FieldsResult* recycle = nullptr);
+
+}  // namespace fabrica
