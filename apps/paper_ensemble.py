@@ -328,7 +328,7 @@ def fig_xi(ens, path, written):
                        color=pp.NET_COLOURS[net], label=pd.NETWORK_LABELS[net])
     ax[3].set_xlabel(r"rolling resistance coefficient $\mu_r$")
     ax[3].set_ylabel(r"$\xi_k$, mean over the residual state")
-    ax[3].set_title(f"(d) $\\xi_k$ against $\\mu_r$ (points: each realisation)")
+    ax[3].set_title("(d) $\\xi_k$ against $\\mu_r$ (points: each realisation)")
     ax[3].legend()
     fig.suptitle(f"Fig. 11  Influence of rolling resistance on the weights $\\xi_k$: {ens.text()}", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.92))

@@ -212,15 +212,13 @@ def ensemble_section(ens):
     groups = run.scene.get("parallel", {}).get("groups", 1)
     one = lambda v: f"{v[0]}" if len(set(v)) == 1 else ", ".join(map(str, v))  # noqa: E731
     rows = [("realisations", len(ens.runs), ""),
-            ("seeds", ", ".join(ens.seeds), "OUT/seed_&lt;s&gt;/"),
+            ("seeds", ", ".join(ens.seeds), "OUT/seed_<s>/"),
             ("spheres per realisation", one(spheres), "in the last snapshot of each run.h5"),
             ("MPI ranks per realisation", one(ranks), "as each run.h5 records"),
             ("[parallel] groups", groups, "realisations run side by side, one group of ranks each"),
             ("consolidation frictions of finding 12", ", ".join(f"{x:g}" for x in cf) if cf else "none",
-             "consolidation_friction_cases: OUT/consolidations.csv")]
-    rows = [(q, v, u) for q, v, u in rows] + [(q, v, u) for q, v, u in scene_rows(run)]
-    body = "".join(f"<tr><td>{esc(q)}</td><td class='num'>{esc(v)}</td><td>{u if '&' in str(u) else esc(u)}</td>"
-                   "</tr>" for q, v, u in rows)
+             "consolidation_friction_cases: OUT/consolidations.csv")] + scene_rows(run)
+    body = "".join(f"<tr><td>{esc(q)}</td><td class='num'>{esc(v)}</td><td>{esc(u)}</td></tr>" for q, v, u in rows)
     return ("<h2 id='ensemble-head'>The ensemble</h2>"
             f"<p>{len(ens.runs)} realisations of the same scene on specimens generated from seeds "
             f"{esc(', '.join(ens.seeds))} (docs/triaxial.md \"Realisations\"), each consolidated at mu_s = "

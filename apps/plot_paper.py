@@ -18,7 +18,12 @@ writes OUT/figures/ (docs/fabric.md, "Figures of the study", says what each show
                                     q/p, and the mean deviation of every partition (with the
                                     study's weights xi and with the exact shares p_k / p)
 and OUT/report.html (apps/paper_report.py) unless --no-report. Figures 3-8 show the case whose
-mu_r is nearest the study's 0.05 (among mu_r > 0). Needs /usr/bin/python3 with numpy,
+mu_r is nearest the study's 0.05 (among mu_r > 0). On the output of an ensemble (OUT/seed_<s>/
+each a triaxial run) the same figures over the realisations, each curve the mean and its 95 %
+band, with fig02b_consolidation.png (the study's figure 2(b)) and the bands' numbers in
+figures/ensemble_bands.csv (apps/paper_ensemble.py), the findings decided over the realisations
+(apps/ensemble_findings.py: OUT/findings.csv, figures/ensemble_trends.png) and the ensemble's
+report page. Needs /usr/bin/python3 with numpy,
 matplotlib and h5py (Debian's python3-numpy, python3-matplotlib, python3-h5py).
 """
 import argparse
