@@ -51,6 +51,29 @@ T975 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2
         2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042]
 
 
+# The criteria as the report states them (apps/paper_report.py), in the module's own terms.
+CRITERIA = [
+    "A trend in mu_r (findings 7-10): the ordinary least-squares slope of the quantity against mu_r over every "
+    "realisation and case together, with its 95 % confidence interval (Student's t, n - 2 degrees of freedom). "
+    "\"Grows\" holds when the interval lies above 0, does not hold when it lies below 0, and is undecided at this "
+    "ensemble size when it contains 0 (\"decreases\" the same with the signs exchanged).",
+    f"\"Barely changes\": the change over the swept mu_r range (the slope's interval times the range) as a share "
+    f"of the quantity's mean holds within +-{pf.BARELY:g}, does not hold when the interval lies wholly outside "
+    f"that band, and is undecided when it crosses the band's edge.",
+    "\"A exceeds B\": the mean of A - B over every realisation and case with its 95 % interval (t, n - 1 "
+    "degrees of freedom): above 0 holds, below 0 does not hold, containing 0 undecided.",
+    "A finding of several parts holds when every part holds, does not hold when one part does not hold, and is "
+    "undecided otherwise.",
+    "A statement about one state (findings 1-6 and 11): decided on each realisation as apps/paper_findings.py "
+    "decides it on one run (its thresholds in docs/fabric.md); holds if it holds in every realisation, does not "
+    "hold if in none, undecided (holding in k of n) otherwise.",
+    "Finding 12 (OUT/consolidations.csv): the void ratio after consolidation against the consolidation mu_s: "
+    "\"grows\" by the slope's 95 % interval as above, \"more slowly at higher mu_s\" by the 95 % interval of "
+    "the quadratic coefficient of a least-squares parabola (below 0 holds, above 0 does not hold, containing 0 "
+    "undecided; three consolidation frictions at least).",
+]
+
+
 def t975(df):
     if df < 1:
         return float("nan")
@@ -235,7 +258,54 @@ def figures(out, runs):
 
 
 def realisations(out):
-    return sorted(d for d in glob.glob(os.path.join(out, "seed_*")) if "_consolidation_" not in os.path.basename(d))
+    """The realisations' directories OUT/seed_<s>/, in increasing seed."""
+    dirs = [d for d in glob.glob(os.path.join(out, "seed_*"))
+            if os.path.isdir(d) and "_consolidation_" not in os.path.basename(d)]
+    key = lambda d: (0, int(d.rsplit("_", 1)[1]), d) if d.rsplit("_", 1)[1].isdigit() else (1, 0, d)  # noqa: E731
+    return sorted(dirs, key=key)
+
+
+def decide(out, runs=None):
+    """The twelve rows (finding, verdict, realisations, numbers, criterion) of OUT's ensemble, or
+    of OUT itself when it is one run; runs: the realisations already loaded (paper_data.load)."""
+    dirs = realisations(out)
+    rows = []
+    if not dirs:  # one realisation: the run's own verdicts
+        run = pd.load(out)
+        for f in pf.decide(run):
+            rows.append((f.number, f.verdict, "one realisation", f.numbers, f.criterion))
+        return rows
+    runs = runs if runs is not None else [pd.load(d) for d in dirs]
+    per = [pf.decide(r) for r in runs]
+    trends = trend_findings(runs) if len({c.mu_r for c in runs[0].cases}) > 1 else {}
+    for k in range(12):
+        n = k + 1
+        if n in trends:
+            v, numbers = trends[n]
+            rows.append((n, v, f"{len(runs)}", numbers, "slopes in mu_r over every realisation and case with "
+                         "95 % intervals (ensemble_findings.py)"))
+        elif n == 12:
+            v, numbers = finding12(out)
+            rows.append((n, v, f"{len(runs)}", numbers, "least-squares line and parabola of the void ratio "
+                         "against the consolidation mu_s, 95 % intervals"))
+        else:
+            vs = [p[k].verdict for p in per]
+            held = sum(v == pf.HOLDS for v in vs)
+            v = HOLDS if held == len(vs) else FAILS if held == 0 else UNDECIDED
+            rows.append((n, v, f"{len(runs)}", f"holds in {held} of {len(vs)} realisations; first: "
+                         + per[0][k].numbers, per[0][k].criterion + " (in every realisation)"))
+    return rows
+
+
+def write(out, rows):
+    """OUT/findings.csv (finding, verdict, realisations, numbers, criterion); returns its path."""
+    path = os.path.join(out, "findings.csv")
+    with open(path + ".tmp", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["finding", "verdict", "realisations", "numbers", "criterion"])
+        w.writerows(rows)
+    os.replace(path + ".tmp", path)
+    return path
 
 
 def main():
@@ -244,37 +314,9 @@ def main():
         sys.exit(__doc__.splitlines()[0] + "\nusage: ensemble_findings.py OUT [--no-figures]")
     out = args[0]
     dirs = realisations(out)
-    rows = []
-    if not dirs:  # one realisation: the run's own verdicts
-        run = pd.load(out)
-        for f in pf.decide(run):
-            rows.append((f.number, f.verdict, "one realisation", f.numbers, f.criterion))
-    else:
-        runs = [pd.load(d) for d in dirs]
-        per = [pf.decide(r) for r in runs]
-        trends = trend_findings(runs) if len({c.mu_r for c in runs[0].cases}) > 1 else {}
-        for k in range(12):
-            n = k + 1
-            if n in trends:
-                v, numbers = trends[n]
-                rows.append((n, v, f"{len(runs)}", numbers, "slopes in mu_r over every realisation and case with "
-                             "95 % intervals (ensemble_findings.py)"))
-            elif n == 12:
-                v, numbers = finding12(out)
-                rows.append((n, v, f"{len(runs)}", numbers, "least-squares line and parabola of the void ratio "
-                             "against the consolidation mu_s, 95 % intervals"))
-            else:
-                vs = [p[k].verdict for p in per]
-                held = sum(v == pf.HOLDS for v in vs)
-                v = HOLDS if held == len(vs) else FAILS if held == 0 else UNDECIDED
-                rows.append((n, v, f"{len(runs)}", f"holds in {held} of {len(vs)} realisations; first: "
-                             + per[0][k].numbers, per[0][k].criterion + " (in every realisation)"))
-    path = os.path.join(out, "findings.csv")
-    with open(path + ".tmp", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["finding", "verdict", "realisations", "numbers", "criterion"])
-        w.writerows(rows)
-    os.replace(path + ".tmp", path)
+    runs = [pd.load(d) for d in dirs]
+    rows = decide(out, runs if dirs else None)
+    path = write(out, rows)
     for n, v, r, numbers, _ in rows:
         print(f"{n:2d}  {v:32s}  {numbers[:150]}")
     print(f"findings written to {path}")

@@ -18,7 +18,12 @@ writes OUT/figures/ (docs/fabric.md, "Figures of the study", says what each show
                                     q/p, and the mean deviation of every partition (with the
                                     study's weights xi and with the exact shares p_k / p)
 and OUT/report.html (apps/paper_report.py) unless --no-report. Figures 3-8 show the case whose
-mu_r is nearest the study's 0.05 (among mu_r > 0). Needs /usr/bin/python3 with numpy,
+mu_r is nearest the study's 0.05 (among mu_r > 0). On the output of an ensemble (OUT/seed_<s>/
+each a triaxial run) the same figures over the realisations, each curve the mean and its 95 %
+band, with fig02b_consolidation.png (the study's figure 2(b)) and the bands' numbers in
+figures/ensemble_bands.csv (apps/paper_ensemble.py), the findings decided over the realisations
+(apps/ensemble_findings.py: OUT/findings.csv, figures/ensemble_trends.png) and the ensemble's
+report page. Needs /usr/bin/python3 with numpy,
 matplotlib and h5py (Debian's python3-numpy, python3-matplotlib, python3-h5py).
 """
 import argparse
@@ -64,7 +69,9 @@ def save(fig, path, written):
     written.append(path)
 
 
-def fig_force_chains(run, path, written):
+def fig_force_chains(run, path, written, note=""):
+    """Force chains of the reference case at the end of shear; note: a line added to the title
+    (an ensemble's figure names the realisation drawn)."""
     case = run.reference()
     c = run.last_contacts(case)
     L = c.info.cell_lengths
@@ -99,8 +106,8 @@ def fig_force_chains(run, path, written):
     fig.suptitle(f"Fig. 3  Force chains at the end of shear ($\\varepsilon_1$ = {eps1:.1f} %), "
                  f"$\\mu_s$ = {run.mu_s:g}, {case.label}\ncontacts with their midpoint in the middle third of the cell "
                  f"along axis 3, projected on the 1-2 plane; line width proportional to $f_n$ "
-                 f"(largest {fmax:.3g} N)", fontsize=10.5)
-    fig.tight_layout(rect=(0, 0, 1, 0.93))
+                 f"(largest {fmax:.3g} N)" + (f"\n{note}" if note else ""), fontsize=10.5)
+    fig.tight_layout(rect=(0, 0, 1, 0.91 if note else 0.93))
     save(fig, path, written)
 
 
@@ -339,15 +346,37 @@ def make_figures(run, outdir):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("outdir", help="output directory of a triaxial run (fabrica run with [triaxial])")
+    ap.add_argument("outdir", help="output directory of a triaxial run (fabrica run with [triaxial]), "
+                    "or of an ensemble of realisations (OUT/seed_<s>/)")
     ap.add_argument("--no-report", action="store_true", help="write the figures only, not report.html")
     a = ap.parse_args()
+    import ensemble_findings
+    if ensemble_findings.realisations(a.outdir):
+        return ensemble(a.outdir, a.no_report)
     run = pd.load(a.outdir)
     written = make_figures(run, a.outdir)
     print("figures written: " + ", ".join(os.path.basename(w) for w in written) + f" in {a.outdir}/figures")
     if not a.no_report:
         import paper_report
         print(f"report written: {paper_report.write(run, a.outdir, written)}")
+
+
+def ensemble(out, no_report):
+    """An ensemble's output: the figures over its realisations (apps/paper_ensemble.py), its
+    findings (apps/ensemble_findings.py: OUT/findings.csv, ensemble_trends.png) and the report."""
+    import ensemble_findings
+    import paper_ensemble
+    ens = paper_ensemble.Ensemble(out)
+    written = paper_ensemble.make_figures(ens, out)
+    rows = ensemble_findings.decide(out, ens.runs)
+    ensemble_findings.write(out, rows)
+    trends = [w for w in ensemble_findings.figures(out, ens.runs) if w.endswith("ensemble_trends.png")]
+    print("figures written: " + ", ".join(os.path.basename(w) for w in written + trends)
+          + f" in {out}/figures; bands in {out}/figures/{paper_ensemble.BANDS_FILE}")
+    print(f"findings written: {os.path.join(out, 'findings.csv')}")
+    if not no_report:
+        import paper_report
+        print(f"report written: {paper_report.write_ensemble(ens, out, written + trends)}")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """cli.report.html: OUT/report.html (apps/paper_report.py) opened in headless Chromium.
 
-    check_report.py OUT PNG
+    check_report.py OUT PNG [--ensemble]
 
 Checks: the page refers to nothing outside itself (every src/href is a data: URI or an
 in-page anchor, no <script>, no <link>); Chromium's DOM (--dump-dom) has the findings table
@@ -9,6 +9,10 @@ in-page anchor, no <script>, no <link>); Chromium's DOM (--dump-dom) has the fin
 cannot be decided, the SFF table with a row per partition (6), and ten figures whose images
 decoded (naturalWidth is not in the dumped DOM, so the figures' PNG data is decoded with
 matplotlib instead); a screenshot (--screenshot) is written to PNG and is not blank.
+With --ensemble (the page of an ensemble's output, apps/paper_report.py write_ensemble): the
+verdicts are holds / does not hold / undecided at this ensemble size, the page also has the
+ensemble's table (id ensemble) and the list of criteria (id criteria), and its figures are
+fig02b, fig03-fig12 and ensemble_trends (12; 11 without OUT/consolidations.csv).
 Chromium missing: skipped (77), except under CI (CI=true), where it is a failure
 (scripts/run.sh test installs it).
 """
@@ -23,6 +27,7 @@ import sys
 import tempfile
 
 VERDICTS = {"holds", "does not hold", "cannot be decided"}
+ENSEMBLE_VERDICTS = {"holds", "does not hold", "undecided at this ensemble size"}
 
 
 def fail(msg):
@@ -35,7 +40,7 @@ class Dom(html.parser.HTMLParser):
 
     def __init__(self):
         super().__init__()
-        self.tables, self.images, self.refs, self.tags = [], [], [], set()
+        self.tables, self.images, self.refs, self.tags, self.ids = [], [], [], set(), set()
         self.table = None
         self.row = None
         self.cell = None
@@ -43,6 +48,8 @@ class Dom(html.parser.HTMLParser):
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
         self.tags.add(tag)
+        if "id" in a:
+            self.ids.add(a["id"])
         for k in ("src", "href"):
             if k in a:
                 self.refs.append(a[k])
@@ -82,6 +89,9 @@ def chromium():
 
 def main():
     out, png = sys.argv[1], os.path.abspath(sys.argv[2])
+    ensemble = "--ensemble" in sys.argv[3:]
+    verdict_set = ENSEMBLE_VERDICTS if ensemble else VERDICTS
+    figures = (11 + os.path.exists(os.path.join(out, "consolidations.csv"))) if ensemble else 10
     page = os.path.abspath(os.path.join(out, "report.html"))
     if not os.path.isfile(page):
         fail(f"{page} missing")
@@ -120,15 +130,17 @@ def main():
     if len(rows) != 12:
         fail(f"the findings table has {len(rows)} rows, not 12")
     for k, row in enumerate(rows, start=1):
-        if len(row) != 5 or row[0] != str(k) or row[2] not in VERDICTS or not re.search(r"[0-9]", row[3]):
+        if len(row) != 5 or row[0] != str(k) or row[2] not in verdict_set or not re.search(r"[0-9]", row[3]):
             fail(f"findings row {k}: {row[:4]}")
+    if ensemble and not {"ensemble", "criteria"} <= dom.ids:
+        fail(f"no table#ensemble or ol#criteria in the rendered DOM (ids: {sorted(dom.ids)})")
     sff = [t for t in dom.tables if t["rows"] and t["rows"][0][0] == "{all}"]
     if not sff or len(sff[0]["rows"]) != 6:
         fail("no SFF table with the 6 partitions")
     import matplotlib.image as mpimg
     import numpy as np
-    if len(dom.images) != 10:
-        fail(f"{len(dom.images)} figures in the page, expected 10")
+    if len(dom.images) != figures:
+        fail(f"{len(dom.images)} figures in the page, expected {figures}")
     for i, u in enumerate(dom.images):
         if not u.startswith("data:image/png;base64,"):
             fail(f"figure {i}: not an embedded PNG")
@@ -140,9 +152,10 @@ def main():
     if shot.shape[1] != 1280 or differ < 0.02:
         fail(f"{png}: {shot.shape}, {differ:.1%} of the pixels differ from the background")
     verdicts = [row[2] for row in rows]
-    print(f"check_report: rendered by {exe}; findings table: 12 rows ({verdicts.count('holds')} hold, "
-          f"{verdicts.count('does not hold')} do not, {verdicts.count('cannot be decided')} undecided); "
-          f"SFF table 6 partitions; 10 embedded figures; screenshot {png} ({shot.shape[1]}x{shot.shape[0]}, "
+    undecided = sum(v not in ("holds", "does not hold") for v in verdicts)
+    print(f"check_report: rendered by {exe}; {'an ensemble; ' if ensemble else ''}findings table: 12 rows "
+          f"({verdicts.count('holds')} hold, {verdicts.count('does not hold')} do not, {undecided} undecided); "
+          f"SFF table 6 partitions; {figures} embedded figures; screenshot {png} ({shot.shape[1]}x{shot.shape[0]}, "
           f"{differ:.0%} non-background pixels)")
 
 
