@@ -1,14 +1,14 @@
-// make_setup (io/serial/setup.hpp) made by the ranks of a communicator together, so that no rank holds
-// more than its share of the specimen (docs/large.md):
-//   - a data file is read in byte ranges, one per rank (each rank reads the header and then only
-//     its range of the body); every line is checked where it is read, and the whole-file checks
-//     (each id once, every velocity for an atom, the counts) are made through a directory: the
-//     rank id mod P receives the atoms and velocities of the ids it is responsible for;
-//   - a generated specimen is still made whole on every rank (the generator is sequential) and
-//     each rank keeps its share at once;
-//   - the checks that span ranks (cell size, the neighbour grid, the initial overlaps) use the
-//     radii of all ranks and the decomposition's ghosts, and the time step the whole set's
-//     critical estimate: the result is the same as make_setup's on one rank.
+// make_setup (io/serial/setup.hpp) made by the ranks of a communicator together, so that no rank
+// holds more than its share of the specimen (docs/large.md): the one sequence of set-up steps
+// over the ranks of 'comm' (a SetupRanks of MPI, io/serial/setup_ranks.hpp):
+//   - a data file is read in byte ranges, one per rank, its whole-file checks made through a
+//     directory of ids (io/mpi/distributed_read.hpp);
+//   - a generated specimen is made by regions, each rank its regions; or, with the sequential
+//     generator, whole on every rank, each rank keeping its share;
+//   - the checks that span ranks (cell size, the neighbour grid, the initial overlaps, the
+//     walls, the driven sets) use the values of all ranks and the decomposition's ghosts, and
+//     the time step the whole set's critical estimate: the result is the same as make_setup's
+//     on one rank.
 // Every error, on any rank, ends every rank with the message of the lowest rank that met one
 // (InputError), before any output exists. The memory check counts the ranks of this node.
 #pragma once

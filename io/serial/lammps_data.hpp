@@ -28,7 +28,7 @@ struct DataFile {
 // none), each sphere's material is that of its type, and a type of no material is refused.
 DataFile read_lammps_data(const std::string& path, const std::vector<std::int64_t>* types = nullptr);
 
-// The pieces of the reader, shared with the distributed one (io/mpi/distributed_setup.cpp), which
+// The pieces of the reader, shared with the distributed one (io/mpi/distributed_read.cpp), which
 // reads the body in byte ranges, one per rank. Each throws InputError as above.
 struct DataHeader {
   long long natoms = -1;

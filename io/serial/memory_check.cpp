@@ -27,6 +27,15 @@ void check_memory(const std::string& what, double bytes, const std::string& why)
     throw InputError(what + ": needs at least " + gb(bytes) + " of memory (" + why + "), the machine has " + gb(have));
 }
 
+void check_specimen_memory(const std::string& what, std::int64_t spheres, int ranks, int node) {
+  const double bytes = double(spheres) * kBytesPerSphere / ranks * node;
+  if (ranks == 1) check_memory(what, bytes, "200 B per sphere at least");
+  else
+    check_memory(what, bytes,
+                 "200 B per sphere at least, " + std::to_string(spheres / ranks) + " spheres on each of " +
+                     std::to_string(node) + " rank(s) of this node");
+}
+
 void check_neighbour_grid(const std::string& what, const Vec3& L, real_t rmin, real_t skin) {
   const double edge = 2 * rmin + skin;
   double cells = 1;

@@ -20,6 +20,9 @@ constexpr double kBytesPerSphere = 200;
 // Throws InputError("<what>: needs at least B of memory (<why>), the machine has M") if 'bytes'
 // exceeds the machine's memory.
 void check_memory(const std::string& what, double bytes, const std::string& why);
+// The check of a specimen of 'spheres' spheres shared by 'ranks' ranks, 'node' of them on this
+// machine ('ranks' 1: held whole, "200 B per sphere at least"; else per rank, naming the share).
+void check_specimen_memory(const std::string& what, std::int64_t spheres, int ranks, int node);
 
 // The neighbour search's cells for a cell of lengths L and the smallest sphere radius rmin
 // (cell edge 2 rmin + skin); refused (InputError naming 'what') above 2^31 cells or the memory.

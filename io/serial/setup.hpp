@@ -1,11 +1,16 @@
 // Turns a validated Scene into a ready Simulation: particles (generated or read), cell, and a
-// time step checked against the critical estimate.
+// time step checked against the critical estimate. One sequence of steps, each check written
+// once, over the ranks that make it (io/serial/setup_ranks.hpp): make_setup(scene) is its
+// one-rank case, make_distributed_setup (io/mpi/distributed_setup.hpp) the case of many.
 #pragma once
+#include "core/contact_list.hpp"
 #include "core/region_packing.hpp"
 #include "core/simulation.hpp"
 #include "io/serial/scene.hpp"
 
 namespace fabrica {
+
+class SetupRanks;
 
 struct Setup {
   Particles particles;
@@ -22,6 +27,10 @@ struct Setup {
 // smaller radius, or a time step above the critical estimate without force_time_step.
 // [run] density_scaling multiplies every mass and moment of inertia (before the estimate).
 Setup make_setup(const Scene& scene);
+// The same steps made by 'ranks' together (collective over them): the particles returned are
+// those each rank holds at the end (ranks.holding()); the result and every error are the
+// one-rank set-up's on any number of ranks.
+Setup make_setup(const Scene& scene, SetupRanks& ranks);
 
 // The pair with the largest overlap relative to the smaller radius (periodic), or ratio 0 and
 // ids -1 if no two spheres overlap.
@@ -30,6 +39,8 @@ struct OverlapReport {
   GlobalId a = -1, b = -1;
 };
 OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell);
+// The same over the given pairs of p (owned and ghosts) in a cell of lengths L.
+OverlapReport largest_overlap(const Particles& p, const PairList& pairs, const Vec3& L);
 
 // [particles] placement = "regions": the gradation, the expected cell and its cut into regions
 // (from the expected solid volume, so the same before any diameter is drawn), and the cell for
@@ -56,7 +67,7 @@ std::size_t outside_cell(const Particles& p, const Vec3& L);
 // The materials of generated spheres (several materials: each its material by
 // generated_material, its mass by the material's density), [run] density_scaling applied to
 // the particles, and the contact law, materials, skin, gravity and local damping of the scene
-// copied into the parameters (make_setup and make_distributed_setup).
+// copied into the parameters (a step of make_setup).
 void apply_scene_run(const Scene& scene, Setup& s);
 // The atom type of each material of a data-file scene (-1: a wall's material); empty without
 // [[material]] tables.

@@ -242,3 +242,25 @@ TEST(DistributedSetup, GeneratedByRegionsIsTheSameOnAnyRankCount) {
   }
   EXPECT_EQ(sum_all(bad), 0);
 }
+
+// The sequential generator with [run] density_scaling: the critical estimate of the scaled
+// masses on any rank count (the whole specimen made on every rank is checked once, with the
+// scene's own numbers). A time step between the unscaled and the scaled estimate is accepted.
+TEST(DistributedSetup, DensityScalingOfAGeneratedSpecimenOnAnyRankCount) {
+  const std::string base =
+      "[particles]\ncount = 500\nd_min = 0.010\nd_max = 0.030\nseed = 3\nsolid_fraction = 0.2\n"
+      "[contact]\nyoungs_modulus = 100e6\nfriction = 0.3\n[run]\nsteps = 2\nskin = 0.001\n"
+      "density_scaling = 4.0\n";
+  const fabrica::Setup ref = make_setup(parse_scene(base, "scaled.toml"));
+  std::ostringstream dt;
+  dt.precision(17);
+  dt << 0.75 * ref.critical_dt;
+  const Scene sc = parse_scene(base + "time_step = " + dt.str() + "\n", "scaled.toml");
+  ASSERT_GT(0.75 * ref.critical_dt, ref.critical_dt / 2);  // above the unscaled estimate (1/sqrt(4))
+  const std::string serial = error_of([&] { make_setup(sc); });
+  const std::string parallel = error_of([&] { make_run_setup(sc, MPI_COMM_WORLD, cartesian()); });
+  EXPECT_EQ(serial, "");
+  EXPECT_EQ(parallel, serial);
+  const fabrica::Setup s = make_run_setup(sc, MPI_COMM_WORLD, cartesian());
+  EXPECT_EQ(s.critical_dt, ref.critical_dt);
+}
