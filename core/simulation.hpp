@@ -195,6 +195,7 @@ class Simulation {
   real_t boundary_work() const { return work_; }
   EnergyAccount energy_account() const;
   Domain& domain() { return *domain_; }
+  const Domain& domain() const { return *domain_; }
   const PairList& pairs() const { return pairs_; }
   const WallContactList& wall_contacts() const { return walls_; }
   const Dissipation& dissipation() const { return diss_; }

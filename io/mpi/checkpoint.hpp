@@ -2,21 +2,24 @@
 // readable on any number of ranks (docs/checkpoint.md).
 //
 // File layout (docs/checkpoint.md#format; every value little-endian whatever the machine):
-//   header (kHeaderBytes): magic "FABRCKPT", format version, header size, software version,
-//     fingerprint of the scene text, writer rank count, flags (blow-up), step, time, the
-//     application ("run" or "triaxial"), file size, and a table of sections (name, offset,
-//     bytes, records, record size, kind);
+//   header (kHeaderBytes): its fields and the section table, io/mpi/checkpoint_format.hpp;
 //   sections, one after the other, of three kinds: "global" (bytes every rank knows
-//     identically, written by rank 0: named, typed fields with their layout, io/mpi/fields.hpp),
-//     "per-rank" (one record per writer rank, in rank order) and "distributed" (fixed-size
-//     records, each rank's in rank order: particles and contacts, io/mpi/state_fields.hpp);
+//     identically, written by rank 0: named, typed fields with their layout, io/mpi/fields.hpp;
+//     a simulation's, io/mpi/simulation_fields.hpp), "per-rank" (one record per writer rank,
+//     in rank order) and "distributed" (fixed-size records, each rank's in rank order:
+//     particles and contacts, io/mpi/state_fields.hpp);
 //   trailer: "FABREND" and a position-weighted checksum of every byte before it.
-// A file is written as DIR/name.tmp, synced, closed, then renamed by rank 0 after a barrier:
-// a run killed at any moment leaves the previous complete checkpoint in place. A reader on any
-// number of ranks reads the header and the small sections on every rank and only its own
-// range of the distributed records (MPI-IO), so no rank holds the whole specimen.
+// The file itself, through MPI-IO: io/mpi/checkpoint_file.hpp (written as DIR/name.tmp and
+// renamed, so that a run killed at any moment leaves the previous complete checkpoint in
+// place). A reader on any number of ranks reads the header and the small sections on every
+// rank and only its own range of the distributed records, so no rank holds the whole specimen.
+// Files of earlier formats: io/mpi/checkpoint_older.hpp. When to take one, and the CSV series
+// of a restart: io/mpi/checkpoint_schedule.hpp.
 #pragma once
 #include "core/simulation.hpp"
+#include "io/mpi/checkpoint_file.hpp"
+#include "io/mpi/checkpoint_format.hpp"
+#include "io/mpi/checkpoint_schedule.hpp"
 #include "io/mpi/fields.hpp"
 
 #include <mpi.h>
@@ -29,47 +32,6 @@
 #include <vector>
 
 namespace fabrica {
-
-// Raise the format version with any change of the file's structure. The fields of a section
-// carry their own layout (names and types), so a change of what a section holds is refused by
-// the reader naming the field, in any version.
-inline constexpr std::uint32_t kCheckpointFormat = 10;
-// The oldest format this build reads: 6 differs from 7 only in its particle records, which
-// carry three values this build derives (io/mpi/state_fields.hpp ParticleRecordReader); 7 from 8
-// only in the contact law's last four fields (law.model, law.poisson_ratio, law.rolling_model,
-// law.rolling_damping: io/mpi/state_fields.cpp read_law reads a law without them as the linear law
-// with the elastic-plastic rolling spring); 8 from 9 in the law's last field
-// (law.twisting_friction: without it, none) and the twisting spring at the end of the contact
-// records of a scene with twisting resistance (io/mpi/state_fields.hpp); 9 from 10 in what a scene
-// of several materials adds (the material in the particle records, wall.material and the
-// materials' laws after spatial_sort: absent, one material).
-inline constexpr std::uint32_t kOldestCheckpointFormat = 6;
-inline constexpr std::size_t kHeaderBytes = 2048;
-
-// FNV-1a (64 bits) of the scene text: a checkpoint of another scene is refused.
-std::uint64_t scene_fingerprint(const std::string& text);
-
-enum class SectionKind : std::uint32_t { Global = 0, PerRank = 1, Distributed = 2 };
-
-struct CheckpointSection {
-  std::string name;
-  std::uint64_t offset = 0, bytes = 0, records = 0;
-  std::uint32_t record_bytes = 0;  // 0 for a global section
-  SectionKind kind = SectionKind::Global;
-};
-
-struct CheckpointHeader {
-  std::uint32_t format = 0;
-  std::string software;
-  std::uint64_t scene_fingerprint = 0;
-  std::int32_t ranks = 0;
-  bool blowup = false;
-  std::int64_t step = 0;
-  double time = 0;
-  std::string app;
-  std::uint64_t file_bytes = 0;
-  std::vector<CheckpointSection> sections;
-};
 
 // Appends plain values to a byte string, as their bytes (the applications' cursors; prefer
 // FieldWriter and CheckpointWriter::add_fields for anything new).
@@ -150,6 +112,10 @@ class CheckpointWriter {
     std::function<void(std::uint64_t, std::uint64_t, std::string&)> produce = {};
     std::uint64_t bytes() const { return produce ? records * record_bytes : local.size(); }
   };
+  // The section table and this rank's offset of each section (collective).
+  std::vector<std::uint64_t> lay_out();
+  // Writes section s at this rank's 'offset' (collective); adds its bytes' checksum to 'part'.
+  void write_section(CheckpointOutFile& file, const Staged& s, std::uint64_t offset, std::uint64_t& part);
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
   CheckpointHeader head_;
@@ -186,6 +152,13 @@ class Checkpoint {
 
  private:
   const CheckpointSection& find(const std::string& name) const;
+  // Reads and checks the header and this rank's parts of the sections; returns what is wrong.
+  std::string load(const CheckpointInFile& file, MPI_Comm comm);
+  // The refusals of 'expect' (another scene, another application, a blow-up state).
+  void check(const Expect& expect) const;
+  // The dissipation and gravity work of 'prefix' into 'snap' (rank of size ranks).
+  void read_per_rank(const std::string& prefix, const std::string& where, int rank, int size,
+                     SimulationSnapshot& snap) const;
   struct Chunk {
     std::uint64_t first = 0;  // this rank's first record
     std::string bytes;
@@ -194,33 +167,6 @@ class Checkpoint {
   CheckpointHeader head_;
   std::map<std::string, std::string> small_;  // global and per-rank sections
   std::map<std::string, Chunk> chunks_;       // this rank's records of the distributed ones
-};
-
-// Prints the header and the section table (fabrica checkpoint-info).
-std::string describe(const CheckpointHeader& h, const std::string& path);
-
-// For a restart (rank 0): keeps the header line and the complete rows of the CSV series 'path'
-// whose column 'step_column' (0-based) is at most 'step', and drops the others (rows written
-// after the checkpoint, or a last row cut short by a kill), so that the restarted run appends
-// exactly what the uninterrupted run wrote. Returns false if there is no such file.
-bool keep_series_through(const std::string& path, int step_column, std::int64_t step);
-
-// When to take a checkpoint: at the first neighbour-rebuild step after 'every' steps since the
-// last one (0 = never by count), or after 'seconds' of wall-clock time (0 = never by time,
-// decided by rank 0 and broadcast). Collective at rebuild steps (identical on every rank).
-class CheckpointSchedule {
- public:
-  CheckpointSchedule(MPI_Comm comm, std::int64_t every, double seconds, std::int64_t step);
-  bool due(const Simulation& sim);
-  void taken(std::int64_t step);
-  void rebase(std::int64_t step) { last_step_ = step; }  // count from here (a new branch)
-
- private:
-  MPI_Comm comm_;
-  std::int64_t every_;
-  double seconds_;
-  std::int64_t last_step_;
-  double last_time_;
 };
 
 }  // namespace fabrica

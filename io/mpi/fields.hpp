@@ -37,6 +37,7 @@ class FieldWriter {
   FieldWriter& field(const char* name, double v) { return f64(name, v); }
   FieldWriter& field(const char* name, const Vec3& v) { return vec3(name, v); }
   FieldWriter& field(const char* name, const Mat3& v) { return mat3(name, v); }
+  FieldWriter& field(const char* name, const std::string& v) { return text(name, v); }
 
   const std::string& schema() const { return schema_; }
   const std::string& bytes() const { return bytes_; }
@@ -72,6 +73,7 @@ class FieldReader {
   void field(const char* name, double& v) { v = f64(name); }
   void field(const char* name, Vec3& v) { v = vec3(name); }
   void field(const char* name, Mat3& v) { v = mat3(name); }
+  void field(const char* name, std::string& v) { v = text(name); }
 
   // Throws unless every field and byte has been read.
   void done() const;
@@ -94,7 +96,7 @@ class FieldReader {
   std::size_t size_, pos_ = 0;
 };
 
-// Encodes / decodes one value little-endian (used by the records of io/mpi/checkpoint.cpp).
+// Encodes / decodes one value little-endian (the checkpoint's header and records).
 void put_le(std::string& out, std::uint64_t bits, int bytes);
 std::uint64_t get_le(const char* in, int bytes);
 

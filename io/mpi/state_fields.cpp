@@ -212,61 +212,22 @@ void write_particles(const Particles& p, std::string& out, bool materials) {
   write_particles(p, 0, p.n_owned(), out, materials);
 }
 
-namespace {
-// The fields of earlier particle records that this build derives instead of reading.
-constexpr const char* kDerivedFields[] = {"inertia:f64", "inv_mass:f64", "inv_inertia:f64"};
-}  // namespace
-
-ParticleRecordReader::ParticleRecordReader(const std::string& schema, const std::string& where) {
-  // This build's properties, in order: "name:type" and size.
-  std::vector<std::string> mine;
-  std::vector<std::size_t> size;
-  {
-    Particles probe;
-    for_each_property(probe, [&](const char* name, auto& vec, Travel) {
-      using T = typename std::decay_t<decltype(vec)>::value_type;
-      mine.push_back(std::string(name) + ":" + type_of<T>());
-      size.push_back(size_of<T>());
-    });
-  }
-  std::vector<bool> seen(mine.size(), false);
-  std::size_t at = 0;
-  while (at <= schema.size()) {
-    const std::size_t end = std::min(schema.find(';', at), schema.size());
-    const std::string f = schema.substr(at, end - at);
-    at = end + 1;
-    const auto k = std::find(mine.begin(), mine.end(), f) - mine.begin();
-    if (std::size_t(k) < mine.size()) {
-      if (seen[k]) throw InputError(where + ": particle record field '" + f + "' given twice");
-      seen[k] = true;
-      fields_.push_back({int(k), size[k]});
-    } else if (std::find(std::begin(kDerivedFields), std::end(kDerivedFields), f) != std::end(kDerivedFields)) {
-      fields_.push_back({-1, 8});
-    } else {
-      throw InputError(where + ": particle record field '" + f + "' is not one this build reads (its record: '" +
-                       particle_record_schema() + "')");
-    }
-    bytes_ += fields_.back().bytes;
-  }
-  for (std::size_t k = 0; k < mine.size(); ++k)
-    if (!seen[k] && mine[k] != "material:u8")  // one material: not recorded, 0
-      throw InputError(where + ": the particle records have no field '" + mine[k] + "' (their layout: '" + schema +
-                       "')");
+std::vector<RecordedProperty> particle_properties() {
+  std::vector<RecordedProperty> out;
+  Particles probe;
+  for_each_property(probe, [&](const char* name, auto& vec, Travel) {
+    using T = typename std::decay_t<decltype(vec)>::value_type;
+    out.push_back({std::string(name) + ":" + type_of<T>(), size_of<T>()});
+  });
+  return out;
 }
 
-void ParticleRecordReader::read(const char* in, std::size_t n, Particles& p) const {
-  const std::size_t first = p.append_owned(n);
-  for (std::size_t a = first; a < first + n; ++a)
-    for (const Field& f : fields_) {
-      if (f.property < 0) {
-        in += f.bytes;
-        continue;
-      }
-      int k = 0;
-      for_each_property(p, [&](const char*, auto& vec, Travel) {
-        if (k++ == f.property) in = get_value(in, vec[a]);
-      });
-    }
+const char* read_particle_property(std::size_t k, const char* in, Particles& p, std::size_t a) {
+  std::size_t at = 0;
+  for_each_property(p, [&](const char*, auto& vec, Travel) {
+    if (at++ == k) in = get_value(in, vec[a]);
+  });
+  return in;
 }
 
 std::string contact_record_schema(bool twisting) {

@@ -31,26 +31,15 @@ std::size_t particle_record_bytes(bool materials = false);
 void write_particles(const Particles& p, std::string& out, bool materials = false);  // the owned ones
 // Owned particles [first, first + n) only.
 void write_particles(const Particles& p, std::size_t first, std::size_t n, std::string& out, bool materials = false);
-// The particle records of a checkpoint by the layout it names ('name:type;...'): this build's,
-// or an earlier one whose other fields are values this build derives (checkpoint format 6:
-// inertia, inv_mass and inv_inertia, all f64, derived from mass and radius since format 7),
-// in any order. Throws InputError naming 'where' and the field for a field of another name or
-// type, a property of this build missing, or a field twice.
-class ParticleRecordReader {
- public:
-  ParticleRecordReader(const std::string& schema, const std::string& where);
-  std::size_t bytes() const { return bytes_; }
-  // Appends n records from 'in' (n * bytes() bytes) as owned particles.
-  void read(const char* in, std::size_t n, Particles& p) const;
-
- private:
-  struct Field {
-    int property;       // index in for_each_property's order; -1: a derived value, skipped
-    std::size_t bytes;  // its size in the record
-  };
-  std::vector<Field> fields_;
-  std::size_t bytes_ = 0;
+// This build's particle properties in record order (parallel/properties.hpp), the material
+// included: "name:type" and bytes each (the readers of io/mpi/checkpoint_older.hpp).
+struct RecordedProperty {
+  std::string entry;
+  std::size_t bytes;
 };
+std::vector<RecordedProperty> particle_properties();
+// Reads property k (of that list) of particle a from 'in'; returns the byte after it.
+const char* read_particle_property(std::size_t k, const char* in, Particles& p, std::size_t a);
 
 // Contact records: the two ids (walls: -1 - wall index), the shear and rolling springs and,
 // in a scene with twisting resistance (and only there: format 9), the twisting spring.

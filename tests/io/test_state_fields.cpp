@@ -1,7 +1,8 @@
-// The particle records of a checkpoint read by the layout they name (io/mpi/state_fields.hpp
+// The particle records of a checkpoint read by the layout they name (io/mpi/checkpoint_older.hpp
 // ParticleRecordReader): this build's, format 6's with the three values this build derives,
 // and the refusals, each naming the field.
 #include "core/errors.hpp"
+#include "io/mpi/checkpoint_older.hpp"
 #include "io/mpi/state_fields.hpp"
 
 #include <gtest/gtest.h>
