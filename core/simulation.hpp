@@ -1,17 +1,26 @@
 // One DEM run on this rank: particles, periodic cell, contact lists and the time step.
-// The whole step is Simulation::step(); read it first.
+// The whole step is Simulation::step(); read it first. Simulation composes the parts of one job
+// each: the contacts and the carry of their springs (core/contact_store.hpp), the energy account
+// (core/energy_account.hpp), the guards (core/guards.hpp), the servo walls' loads
+// (core/wall_servo.hpp), the driven particles (core/driven.hpp) and the phase timers
+// (core/phase_timer.hpp).
 #pragma once
 #include "core/cell.hpp"
 #include "core/contact_list.hpp"
+#include "core/contact_store.hpp"
 #include "core/domain.hpp"
 #include "core/driven.hpp"
+#include "core/energy_account.hpp"
 #include "core/forces.hpp"
+#include "core/guards.hpp"
 #include "core/history_map.hpp"
 #include "core/integrator.hpp"
 #include "core/measures.hpp"
 #include "core/neighbor.hpp"
 #include "core/particles.hpp"
+#include "core/phase_timer.hpp"
 #include "core/serial_domain.hpp"
+#include "core/wall_servo.hpp"
 
 #include <cstdint>
 #include <optional>
@@ -60,37 +69,10 @@ struct SimulationParams {
   }
 };
 
-// Wall-clock seconds spent in each phase of step(), accumulated while enabled (benchmarks).
-struct PhaseTimes {
-  double integrate = 0;  // both half-kicks and the drift
-  double ghost = 0;      // forward ghost update
-  double check = 0;      // needs_rebuild() (one allreduce of the largest displacement)
-  double rebuild = 0;    // rebuild(), when triggered, without its communication:
-  double migrate = 0;    //   migration of particles and history, and the ghost rebuild
-  double force = 0;      // contact forces (and local damping)
-  double reduce = 0;     // reduction of the measures (measuring steps only)
-  std::int64_t steps = 0;
-};
-
 // The state a checkpoint holds (io/mpi/checkpoint.hpp): enough to rebuild a Simulation that
 // continues bit for bit, provided it was taken right after a neighbour-list rebuild
 // (Simulation::rebuilt_last_step()): the lists are then a function of the positions and of the
 // springs of the touching contacts.
-// The energy account of a Simulation (see boundary_work() and MacroState::energy_input): a
-// checkpoint carries it so that a restarted run keeps one unbroken account. The field names are
-// those the checkpoint format stores (io/mpi/checkpoint.cpp); their meaning:
-struct EnergyAccount {
-  real_t e0 = 0;    // kinetic + elastic energy at construction [J]
-  real_t work = 0;  // boundary work up to the end of the last step [J]
-  // vol_strain = (V, known, 0): the cell volume [m^3] at the end of the last step whose stress
-  // is known (known = 1), or known = 0 when the last step neither strained the cell nor measured.
-  Vec3 vol_strain = Vec3::Zero();
-  Mat3 stress_prev = Mat3::Zero();  // that stress [Pa] (its diagonal is used)
-  real_t gravity_work_local = 0;    // work of gravity on this rank's particles [J]
-  real_t wall_work = 0;             // work of the moving walls on all particles [J] (global)
-  real_t drive_work = 0;            // work of the drive of the driven particles [J] (global)
-};
-
 struct SimulationSnapshot {
   Particles particles;      // every particle (or a part, below), forces and torques included
   HistoryMap history;       // springs of every touching contact (or a part), keyed by the ids
@@ -192,12 +174,12 @@ class Simulation {
   // Moving walls: their work on the spheres, sum over steps of -F . v_wall dt (F the force on
   // the wall at the end of the step), reduced over the ranks at every step (one number), is
   // part of macro().energy_input as macro().wall_work.
-  real_t boundary_work() const { return work_; }
-  EnergyAccount energy_account() const;
+  real_t boundary_work() const { return energy_.boundary_work(); }
+  EnergyAccount energy_account() const { return energy_.record(); }
   Domain& domain() { return *domain_; }
   const Domain& domain() const { return *domain_; }
-  const PairList& pairs() const { return pairs_; }
-  const WallContactList& wall_contacts() const { return walls_; }
+  const PairList& pairs() const { return contacts_.pairs(); }
+  const WallContactList& wall_contacts() const { return contacts_.walls(); }
   const Dissipation& dissipation() const { return diss_; }
 
   std::int64_t step_count() const { return step_; }
@@ -206,7 +188,7 @@ class Simulation {
   real_t cutoff() const { return cutoff_max_; }  // 2 Rmax + skin, Rmax over every rank
   // True if the last step() (or the construction) rebuilt the lists: the moments at which a
   // checkpoint can be taken (and restored bit for bit).
-  bool rebuilt_last_step() const { return rebuilt_last_; }
+  bool rebuilt_last_step() const { return lists_step_ == step_; }
 
   // The guard of every step (in the displacement check every step makes anyway, in its one
   // reduction): empty, or - when the force loop of the previous step found an overlap beyond
@@ -219,51 +201,23 @@ class Simulation {
   // no longer above 2 (2 Rmax + skin), a shrinking cell - "the run cannot go on at step N: the
   // periodic cell has shrunk to ...". The same on every rank; the executables
   // stop the run with it (and save the state, OUT/blowup.ckpt).
-  const std::string& step_guard() const { return guard_; }
+  const std::string& step_guard() const { return guards_.message(); }
 
   // Calls fn(id_a, id_b, history) once per touching contact over all ranks: here, those whose
   // lower-id body is owned by this rank (walls: b = -1 - wall index).
   template <class F>
   void for_each_contact(F&& fn) const {
-    for (std::size_t q = 0; q < pairs_.size(); ++q)
-      if (pairs_.touching[q] && std::size_t(pairs_.i[q]) < p_.n_owned())
-        fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]], pair_history(q));
-    for (std::size_t q = 0; q < walls_.size(); ++q)
-      if (walls_.touching[q]) fn(p_.id[walls_.i[q]], GlobalId(-1 - walls_.wall[q]), wall_history(q));
+    contacts_.for_each(p_, fn);
   }
-
   // Contacts [first, first + n) of for_each_contact's order. 'at' carries the place in the
   // lists from one call to the next (start with {}): ranges taken in order, as a checkpoint
   // writes its blocks, cost one pass over the lists in all, not one pass per range.
-  struct ContactCursor {
-    std::size_t q = 0;    // the next entry of the pair list, then of the wall list
-    std::uint64_t k = 0;  // the contacts before it
-  };
+  using ContactCursor = ContactStore::Cursor;
   template <class F>
   void for_each_contact_in(std::uint64_t first, std::uint64_t n, ContactCursor& at, F&& fn) const {
-    if (first < at.k) at = {};
-    const std::size_t np = pairs_.size(), nq = np + walls_.size();
-    for (; at.q < nq && at.k < first + n; ++at.q) {
-      const std::size_t q = at.q;
-      if (q < np) {
-        if (!pairs_.touching[q] || std::size_t(pairs_.i[q]) >= p_.n_owned()) continue;
-        if (at.k++ >= first) fn(p_.id[pairs_.i[q]], p_.id[pairs_.j[q]], pair_history(q));
-      } else {
-        const std::size_t w = q - np;
-        if (!walls_.touching[w]) continue;
-        if (at.k++ >= first) fn(p_.id[walls_.i[w]], GlobalId(-1 - walls_.wall[w]), wall_history(w));
-      }
-    }
+    contacts_.for_each_in(p_, first, n, at, fn);
   }
 
-  // True once particles (on any rank) have moved, or the cell has strained, enough that a pair
-  // outside the list could be touching. Collective. 'motion': this rank's largest
-  // displacement^2 since the last rebuild and speed^2 (kick_drift_check, or local_motion()).
-  bool needs_rebuild(const StepStart& motion);
-  StepStart local_motion() const;                    // the maxima of StepStart by a loop of their own
-  void set_step_guard(real_t max_v2, real_t bound);  // guard_ = the message (collective)
-  void set_overlap_guard(real_t max_ratio);          // the same for the overlap (collective)
-  void check_cell_still_fits();                      // guard_ = the message once a cell length is <= 2 cutoffs
   // New lists: the springs carried by global ids, the particles migrated and sorted in space,
   // the ghosts, the neighbour search, the springs attached. 'forces_spent': the force and
   // torque accumulators hold nothing the run needs (step(): the first pass has zeroed them, or
@@ -273,87 +227,60 @@ class Simulation {
 
   // Optional phase timers for step(): off by default (then each phase costs one predictable
   // branch). Enabling resets the sums.
-  void enable_phase_timers(bool on) {
-    timing_ = on;
-    times_ = PhaseTimes{};
-  }
-  const PhaseTimes& phase_times() const { return times_; }
+  void enable_phase_timers(bool on) { timer_.enable(on); }
+  const PhaseTimes& phase_times() const { return timer_.times(); }
 
  private:
   Simulation(const Simulation&) = default;  // member-wise, for the branching constructor only
 
-  // The springs of touching pair q and wall contact q (those the law keeps; the others zero).
-  ContactHistory pair_history(std::size_t q) const {
-    return {pairs_.shear_spring(q), pairs_.rolling_spring(q), pairs_.twisting_spring(q)};
-  }
-  ContactHistory wall_history(std::size_t q) const {
-    return {walls_.fs[q], walls_.mr.size() == walls_.size() ? walls_.mr[q] : Vec3(Vec3::Zero()),
-            walls_.mt.size() == walls_.size() ? walls_.mt[q] : 0.0};
-  }
+  // True once particles (on any rank) have moved, or the cell has strained, enough that a pair
+  // outside the list could be touching; the guards of the motion on the way. Collective.
+  // 'motion': this rank's largest displacement^2 since the last rebuild and speed^2
+  // (kick_drift_check, or local_motion()).
+  bool needs_rebuild(const StepStart& motion);
+  StepStart local_motion() const;  // the maxima of StepStart by a loop of their own
 
   // Forces at the current positions; the contact springs advance by the relative motion over
   // dt (0 for the initial forces, which must not change the contact history).
-  // 'virial_only': with 'measure', only the contact virial is summed (ForceContext).
-  void compute(bool measure, real_t dt, bool virial_only = false);
+  // 'virial_only': with 'measure', only the contact virial is summed; 'owned_ready': the owned
+  // f and t hold their starting values (ForceContext).
+  void compute(bool measure, real_t dt, bool virial_only = false, bool owned_ready = false);
 
   void measure_and_reduce(const Vec3& strain_increment);  // of the step just done
-  // Adds the boundary work of the step just done (its strain increment edot dt, with the
-  // diagonal stress at its end and the one remembered from its start) and remembers the end.
-  void account_step(const Vec3& strain_increment, const Vec3& stress_end);
-  // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in carry_.
-  void rebuild_lists(bool forces_spent = false);
-  // Part of step 3: the carried springs into the new pair list (slots in list order).
-  void attach_springs();
-  // Sets the driven particles' velocity and spin after a half-kick of dt_half; returns the work
-  // of the force that holds them over it (local): -(f . v + t . w) dt_half, f and t the force
-  // and torque of the half-kick (contacts and gravity), v and w the prescribed motion.
-  real_t impose_driven(real_t dt_half);
+  // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in the carry.
+  // 'work': per owned particle, the work over the last list by which the domain may balance its
+  // decomposition (none at the first list, and on one rank).
+  void rebuild_lists(bool forces_spent = false, std::vector<std::int32_t>* work = nullptr);
 
   Domain* domain_;       // never null: the caller's domain, or serial_domain()
   mutable Particles p_;  // mutable: settle() from particles() const
   // The owned positions were handed out for change (particles() not const) since the last
   // ghost update: the next one sends them rather than letting the ghosts drift.
   bool positions_exposed_ = true;
+  // The last step's closing half kick is still to apply (step() leaves it to the next step's
+  // first pass); settle() applies it.
+  mutable bool kick_pending_ = false;
+  void settle() const;
   PeriodicCell cell_;
   SimulationParams par_;
   NeighborSearch search_;
-  PairList pairs_;
-  WallContactList walls_;
-  HistoryMap carry_;
-  // Per owned particle, from rebuild() to migrate(); none at the first list (and on one rank).
-  std::optional<std::vector<std::int32_t>> particle_work_;
+  ContactStore contacts_;
   Dissipation diss_;
   ContactSums sums_;
   MacroState macro_;
-  std::vector<Vec3> s_ref_;  // reduced positions x / L at the last rebuild
-  Vec3 L_ref_;
-  real_t cutoff_max_ = 0;  // 2 Rmax + skin
+  // The rebuild criterion's reference, made at each rebuild.
+  std::vector<Vec3> s_ref_;     // reduced positions x / L
+  Vec3 L_ref_;                  // cell lengths
+  std::vector<Vec3> wall_ref_;  // wall points
+  real_t cutoff_max_ = 0;       // 2 Rmax + skin
   std::int64_t step_ = 0, rebuilds_ = 0;
+  std::int64_t lists_step_ = 0;  // the step at whose end positions the lists were built
   real_t time_ = 0;
-  // Energy account (see boundary_work above).
-  real_t e0_ = 0;                                       // kinetic + elastic energy at construction [J]
-  real_t work_ = 0;                                     // boundary work up to the end of the last step [J]
-  Vec3 stress_prev_ = Vec3::Zero();                     // diagonal stress at the end of the last known step [Pa]
-  real_t volume_prev_ = 0;                              // cell volume then [m^3]
-  bool stress_known_ = false;                           // the last step (or the construction) knows it
-  real_t gravity_work_local_ = 0;                       // work of gravity on the owned particles [J]
-  ExactSums wall_sums_;                                 // servo walls: the exact sums of push and stiffness per wall
-  std::vector<double> wall_load_;                       // their values (the last step)
-  real_t wall_work_ = 0;                                // work of the moving walls [J] (global: reduced each step)
-  real_t drive_work_ = 0;                               // work of the drive [J] (global: reduced each step)
-  std::vector<std::pair<Index, std::int32_t>> driven_;  // owned driven particles and their set
-                                                        // (rebuilt with the lists)
-  std::vector<Vec3> wall_ref_;                          // wall points at the last rebuild
-  bool timing_ = false;
-  bool rebuilt_last_ = true;
-  bool owned_ready_ = false;           // the owned f and t hold their starting values (ForceContext)
-  mutable bool kick_pending_ = false;  // the last step's closing half kick is still to apply
-  void settle() const;                 // applies it
-  std::string guard_;                  // step_guard()
-  real_t guard_rmin_ = 0;              // the smallest radius over all ranks (set at the first check)
-  OverlapAlarm overlap_;               // the largest overlap beyond the limit in the last force computation
-  double last_migrate_seconds_ = 0;    // communication time of the last rebuild (when timing)
-  PhaseTimes times_;
+  EnergyBook energy_;     // see boundary_work above
+  ServoWallLoads servo_;  // the servo walls' push and stiffness (the last step)
+  DrivenMembers driven_;  // the owned driven particles (found with the lists)
+  StepGuards guards_;     // step_guard()
+  PhaseTimer timer_;      // enable_phase_timers()
 };
 
 }  // namespace fabrica

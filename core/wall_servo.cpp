@@ -28,4 +28,19 @@ void update_servo_walls(std::vector<Wall>& walls, std::span<const double> load, 
   }
 }
 
+ExactSums* ServoWallLoads::start(std::size_t n_walls) {
+  if (sums_.slots() != 2 * n_walls) sums_ = ExactSums(2 * n_walls);
+  std::fill(sums_.words().begin(), sums_.words().end(), 0);
+  return &sums_;
+}
+
+void ServoWallLoads::finish(Domain& domain, std::vector<Wall>& walls, const PeriodicCell& cell, real_t dt) {
+  sums_.normalize();
+  domain.sum_all(sums_.words());
+  sums_.normalize();
+  load_.resize(sums_.slots());
+  for (std::size_t k = 0; k < sums_.slots(); ++k) load_[k] = sums_.value(k);
+  update_servo_walls(walls, load_, cell, dt);
+}
+
 }  // namespace fabrica

@@ -17,6 +17,8 @@
 #pragma once
 #include "core/cell.hpp"
 #include "core/contact_list.hpp"
+#include "core/domain.hpp"
+#include "core/exact_sum.hpp"
 
 #include <span>
 #include <vector>
@@ -32,5 +34,20 @@ void update_servo_walls(std::vector<Wall>& walls, std::span<const double> load, 
 
 // The normal speed the servo gives one wall (the formula above).
 real_t servo_speed(const Wall& w, real_t push, real_t stiffness, real_t area, real_t dt);
+
+// The servo walls' loads over one force computation: the exact sums of push and stiffness per
+// wall (ForceContext::wall_load), kept between steps so that a step allocates nothing.
+class ServoWallLoads {
+ public:
+  // The sums, zero, for 'n_walls' walls.
+  ExactSums* start(std::size_t n_walls);
+  // The sums reduced over the ranks, then update_servo_walls: the walls' velocities for the next
+  // step, the same on every rank and rank count.
+  void finish(Domain& domain, std::vector<Wall>& walls, const PeriodicCell& cell, real_t dt);
+
+ private:
+  ExactSums sums_;
+  std::vector<double> load_;  // their values (the last step)
+};
 
 }  // namespace fabrica

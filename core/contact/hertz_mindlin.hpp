@@ -155,8 +155,8 @@ struct HertzMindlin {
       fn = select(T{} < trial, trial, T{});
       // On the step it forms, the dashpot's force rose from 0 at the start of the step: its work
       // is booked with the mean of the two, as the cell's boundary work takes the mean stress
-      // (core/simulation.cpp account_step). Booked whole, a loose specimen's first contact
-      // showed twice the boundary work it was given and met the kinetic-runaway guard.
+      // (EnergyBook::close_step, core/energy_account.cpp). Booked whole, a loose specimen's first
+      // contact showed twice the boundary work it was given and met the kinetic-runaway guard.
       const T w = select(up > 0.0, T{} + 1.0, T{} + 0.5);
       r.e_viscous = r.e_viscous + w * ((fn - fn_el) * (-vn) * dt);
     }
