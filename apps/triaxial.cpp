@@ -22,6 +22,7 @@ MpiDomainOptions domain_options(const Scene& scene) {
   o.rebalance_threshold = scene.parallel.rebalance_threshold;
   o.rebalance_interval = int(scene.parallel.rebalance_interval);
   o.balance_work = scene.parallel.cut == "work";
+  o.balance = scene.parallel.balance;
   return o;
 }
 

@@ -59,7 +59,7 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
         "(it needs lateral rates of about half the axial rate, more while the specimen "
         "dilates); raise max_strain_rate\n",
         scene.path, tx.max_strain_rate, tx.axial_strain_rate, tx.confining_pressure);
-  domain_ = make_domain(mpi, scene);
+  std::unique_ptr<Domain> domain = make_domain(mpi, scene);
   t0_ = clock::now();
   if (restart_) read_restart();
   start_case_ = current_case_;
@@ -68,10 +68,11 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
   // into prepared_, which that case takes over again (run_case).
   const bool with_prep = restart_ && start_case_ >= 0 && restart_->has("prep.global");
   if (with_prep) case_snapshot_ = restart_->simulation("sim", mpi.comm());
-  prepared_ = !restart_
-      ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain_.get(), s.holding)
-      : std::make_unique<Simulation>(restart_->simulation(with_prep ? "prep" : "sim", mpi.comm()), domain_.get());
-  current_ = prepared_.get();
+  std::unique_ptr<Simulation> sim = !restart_
+      ? std::make_unique<Simulation>(std::move(s.particles), s.cell, s.params, domain.get(), s.holding)
+      : std::make_unique<Simulation>(restart_->simulation(with_prep ? "prep" : "sim", mpi.comm()), domain.get());
+  prepared_ = BranchPoint({std::move(domain), std::move(sim)});
+  current_ = &prepared_.state();
   restart_step_ = restart_ ? restart_->header().step : 0;
   if (output_ && restart_) {  // run.h5: what the run wrote after the checkpoint goes
     std::vector<std::string> names{"consolidation"};
@@ -95,7 +96,8 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
     current_fabric_ = &*cons_fabric_;
   }
   ckpt_.emplace(
-      mpi.comm(), scene, out_.string(), "triaxial", prepared_->step_count(), [this] { flush_files(); }, log_, "  ");
+      mpi.comm(), scene, out_.string(), "triaxial", prepared_.state().step_count(), [this] { flush_files(); }, log_,
+      "  ");
 }
 
 void TriaxialSweep::read_restart() {
@@ -133,7 +135,7 @@ void TriaxialSweep::flush_files() {
 // The current simulation, and inside a case the consolidated one every later case branches from.
 AppCheckpoint::Sims TriaxialSweep::sims() const {
   AppCheckpoint::Sims v{{"sim", current_}};
-  if (current_case_ >= 0 && !prep_taken_) v.push_back({"prep", prepared_.get()});
+  if (current_case_ >= 0 && prepared_.alive()) v.push_back({"prep", &prepared_.state()});
   return v;
 }
 
@@ -172,13 +174,26 @@ void TriaxialSweep::consolidate(TriaxialRun& prep) {
   prep.on_step(nullptr);
   // Every case branches from here. A rebuild of the lists makes this state one that a
   // checkpoint restores exactly (docs/checkpoint.md), for the cases after a restart.
-  prepared_->rebuild();
+  prepared_.state().rebuild();
   t_cons_ = std::chrono::duration<double>(clock::now() - t0_).count();
   cons_series_->close();  // complete on disk before any checkpoint of a case
   agree(mpi_.comm(), [&] { cons_fabric_->close(); });
   current_series_ = nullptr;
   current_fabric_ = nullptr;
   cons_fabric_.reset();
+}
+
+BranchPoint::State TriaxialSweep::case_state(std::size_t i, bool resuming, bool replay) {
+  const bool last = i + 1 == cases_.size();
+  if (resuming && case_snapshot_) {  // its own state, read apart: the consolidated one lives on
+    BranchPoint::State own;
+    own.domain = prepared_.domain() ? prepared_.domain()->clone() : nullptr;
+    own.sim = std::make_unique<Simulation>(std::move(*case_snapshot_), own.domain.get());
+    return own;
+  }
+  if (!replay) return prepared_.branch(last);  // resumed without "prep": prepared_ holds the case
+  if (last) prepared_.release();
+  return shared_->state.branch(last);
 }
 
 void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
@@ -190,23 +205,9 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   const bool keep = equilibrate && !shared_ && i + 1 < cases_.size() &&
       scene_.triaxial.equilibration == TriaxialSpec::Equilibration::Common;
   const auto t1 = clock::now();
-  const Domain* from = replay ? shared_->domain.get() : domain_.get();
-  std::unique_ptr<Domain> d2 = from ? from->clone() : nullptr;
-  // No later case branches from the consolidated state once the last case has started: that
-  // case takes prepared_ over (or, when it shares another case's re-equilibration, lets it
-  // go) rather than keeping a second copy of the specimen's state in memory for the whole case
-  // and in its checkpoints. Resumed from such a checkpoint, prepared_ holds the case itself.
-  const bool last = i + 1 == cases_.size() && !(resuming && case_snapshot_);
-  std::unique_ptr<Simulation> simp;
-  if (resuming && case_snapshot_) simp = std::make_unique<Simulation>(std::move(*case_snapshot_), d2.get());
-  else if (replay) simp = std::make_unique<Simulation>(*shared_->sim, d2.get());
-  else if (last) simp = std::make_unique<Simulation>(std::move(*prepared_), d2.get());
-  else simp = std::make_unique<Simulation>(*prepared_, d2.get());
-  if (last && replay) {  // its memory goes now (prepared_ stays, emptied: 'prep' refers to it)
-    const Simulation released(std::move(*prepared_), nullptr);
-  }
-  prep_taken_ = last;
-  Simulation& sim = *simp;
+  const BranchPoint::State state = case_state(i, resuming, replay);
+  const std::unique_ptr<Domain>& d2 = state.domain;
+  Simulation& sim = *state.sim;
   SeriesFile series(mpi_.comm(), (out_ / tc.name / "series.csv").string(), header_, 1, resuming ? restart_step_ : -1);
   std::optional<FabricFiles> fabric;
   agree(mpi_.comm(), [&] {
@@ -236,7 +237,7 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
     equil_ = shared_->result;
     shared_->record.replay(series.stream(), fabric->streams(), output_, header_, shared_->source_case, tc.name);
     check_rows();
-    if (i + 1 == cases_.size()) shared_.reset();  // the last case: its copy is made
+    if (i + 1 == cases_.size()) shared_.reset();  // the last case: it took the state over
   }
   try {
     if (resuming && at_.stage == kShear) {
@@ -252,8 +253,7 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
         if (kept) {
           kept->source_case = tc.name;
           kept->record.last_step = sim.step_count();
-          kept->domain = d2 ? d2->clone() : nullptr;
-          kept->sim = std::make_unique<Simulation>(sim, kept->domain.get());
+          kept->state = BranchPoint(sim, d2.get());
           kept->account = run.account();
           kept->result = equil_;
           shared_ = std::move(kept);
@@ -294,14 +294,15 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
   series.close();
   agree(mpi_.comm(), [&] { fabric->close(); });
   write_summary();
-  current_ = prepared_.get();  // the case's simulation and files end here
+  current_ = &prepared_.state();  // the case's simulation and files end here
   current_series_ = nullptr;
   current_fabric_ = nullptr;
 }
 
 int TriaxialSweep::run() {
   try {
-    TriaxialRun prep(scene_, *prepared_, d_mean_, density_, cons_series_ ? cons_series_->stream() : nullptr, log_);
+    TriaxialRun prep(scene_, prepared_.state(), d_mean_, density_, cons_series_ ? cons_series_->stream() : nullptr,
+                     log_);
     if (cons_fabric_) prep.set_fabric_output(cons_fabric_->streams());
     prep.set_output(output_, "consolidation");
     prep.on_row([this] { check_rows(); });

@@ -6,8 +6,16 @@
 // OUT/summary.csv (rank 0), with 'output' the same series and the snapshots into run.h5 (cases
 // "consolidation" and each case's name), and checkpoints ([run] checkpoint_every /
 // checkpoint_seconds) that a restart continues from in any stage of any case.
+//
+// The states the cases branch from form a tree with explicit lifetimes (apps/branch_point.hpp):
+// the consolidated state is the root, alive until the last case starts (a restart inside a
+// case re-equilibrates the next one from it); under equilibration = "common" the first case's
+// re-equilibrated state is a second one, alive until the last case. The last case takes the
+// state it branches from over, and lets the consolidated state go if it branches from the
+// re-equilibration.
 #pragma once
 #include "apps/app_checkpoint.hpp"
+#include "apps/branch_point.hpp"
 #include "apps/fabric_files.hpp"
 #include "apps/series_file.hpp"
 #include "apps/stage_record.hpp"
@@ -35,6 +43,9 @@ class TriaxialSweep {
   void read_restart();  // the case, cursor, accounts and results a checkpoint holds
   void consolidate(TriaxialRun& prep);
   void run_case(std::size_t i, const TriaxialRun& prep);
+  // Case i's simulation and domain: its own state on a restart inside it, else a branch of the
+  // common re-equilibration ('replay') or of the consolidated state.
+  BranchPoint::State case_state(std::size_t i, bool resuming, bool replay);
   void write_summary();
   // The checkpoint's content: the simulations and the application's fields at 'cur'.
   AppCheckpoint::Sims sims() const;
@@ -53,7 +64,6 @@ class TriaxialSweep {
   std::ostream* log_;
   std::vector<TriaxialCase> cases_;
   real_t d_mean_ = 0, density_ = 0;
-  std::unique_ptr<Domain> domain_;
   std::chrono::steady_clock::time_point t0_;
   // Where the protocol is (and, on a restart, was): the case (-1: consolidation), the cursor of
   // the stage, the consolidated state's account, the results so far, the finished cases' rows.
@@ -64,10 +74,9 @@ class TriaxialSweep {
   double t_cons_ = 0;
   std::string summary_rows_;
   std::optional<SimulationSnapshot> case_snapshot_;
-  std::unique_ptr<Simulation> prepared_;  // the consolidation's simulation; the cases branch off it
-  // The last case took prepared_ over or let it go (no later case branches from it):
-  // checkpoints leave "prep" out.
-  bool prep_taken_ = false;
+  // The consolidation's simulation, which the cases branch from; checkpoints inside a case hold
+  // it ("prep") while it is alive.
+  BranchPoint prepared_;
   // Under equilibration = "common", the re-equilibrated state every case shears from: the first
   // case that runs the re-equilibration from its start keeps its end state, its account and
   // what it wrote, and every later case starts from a copy (the same trajectory, bit for bit,
@@ -75,8 +84,7 @@ class TriaxialSweep {
   // which the next case re-equilibrates and keeps it again).
   struct SharedEquilibration {
     std::string source_case;  // whose snapshots the later cases link to
-    std::unique_ptr<Domain> domain;
-    std::unique_ptr<Simulation> sim;
+    BranchPoint state;
     StageCursor account;  // the run's strain reference and energy put in, at its end
     StageResult result;
     StageRecord record;

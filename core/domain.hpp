@@ -108,6 +108,11 @@ class Domain {
   virtual void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
                        const std::vector<std::int32_t>* work) = 0;
 
+  // Whether the decomposition is balanced by measured time ([parallel] balance = "time"): then
+  // Simulation::step reports the seconds of each force phase to note_force_seconds.
+  virtual bool wants_force_seconds() const { return false; }
+  virtual void note_force_seconds(double /*seconds*/) {}
+
   // Before: no ghosts, owned particles in their subdomain. After: every particle of another
   // rank within 'cutoff' (2 Rmax + skin, a lower bound on the decomposition bin edge) of this
   // subdomain is a ghost here, at its owner's (wrapped) position, with every property set.

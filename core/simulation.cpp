@@ -99,7 +99,10 @@ void Simulation::step(bool measure) {
     timer_.lap_rebuild();
   }
   const bool strains = !rate.isZero();
+  const bool timed = domain_->wants_force_seconds();  // a decomposition balanced by time
+  const auto f0 = timed ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point{};
   compute(measure || strains, dt, !measure, owned_ready);  // a straining step needs the contact virial (boundary work)
+  if (timed) domain_->note_force_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - f0).count());
   timer_.lap(&PhaseTimes::force);
   if (!measure && driven_.empty()) kick_pending_ = true;  // to the next step's first pass (or settle())
   else half_kick(p_, dt);

@@ -32,7 +32,7 @@ struct HistoryRecord {
 
 }  // namespace
 
-MpiDomain::MpiDomain(MPI_Comm comm, MpiDomainOptions opt) : comm_(comm), opt_(opt) {
+MpiDomain::MpiDomain(MPI_Comm comm, MpiDomainOptions opt) : comm_(comm), balance_(comm, opt) {
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &size_);
 }
@@ -58,90 +58,6 @@ void MpiDomain::sum_all(std::span<std::int64_t> values) {
   MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_INT64_T, MPI_SUM, comm_);
 }
 
-double MpiDomain::load_imbalance(const Particles& p) {
-  double n = double(p.n_owned()), mx = 0, sum = 0;
-  MPI_Allreduce(&n, &mx, 1, MPI_DOUBLE, MPI_MAX, comm_);
-  MPI_Allreduce(&n, &sum, 1, MPI_DOUBLE, MPI_SUM, comm_);
-  return sum > 0 ? mx / (sum / size_) : 1.0;
-}
-
-std::vector<double> MpiDomain::global_bin_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d) {
-  std::vector<double> work(d.bins(), 0.0);
-  for (std::size_t a = 0; a < p.n_owned(); ++a) work[d.bin_of(p.x[a], cell.lengths())] += 1.0;
-  MPI_Allreduce(MPI_IN_PLACE, work.data(), int(work.size()), MPI_DOUBLE, MPI_SUM, comm_);
-  return work;
-}
-
-PlaneWork MpiDomain::global_plane_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d,
-                                       const std::vector<std::int32_t>& work) {
-  const std::array<int, 3>& n = d.dims();
-  std::vector<std::int64_t> flat(std::size_t(n[0] + n[1] + n[2]), 0);  // axis 0, then 1, then 2
-  for (std::size_t a = 0; a < p.n_owned(); ++a) {
-    const int bin = d.bin_of(p.x[a], cell.lengths());
-    const int c[3] = {bin % n[0], (bin / n[0]) % n[1], bin / (n[0] * n[1])};
-    flat[c[0]] += work[a];
-    flat[n[0] + c[1]] += work[a];
-    flat[n[0] + n[1] + c[2]] += work[a];
-  }
-  MPI_Allreduce(MPI_IN_PLACE, flat.data(), int(flat.size()), MPI_INT64_T, MPI_SUM, comm_);
-  PlaneWork w;
-  for (int k = 0, at = 0; k < 3; at += n[k++]) w[k].assign(flat.begin() + at, flat.begin() + at + n[k]);
-  return w;
-}
-
-void MpiDomain::decompose(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>* work) {
-  if (opt_.kind == DecompositionKind::Cartesian) {
-    decomposed_for_ = cell.lengths();
-    if (opt_.balance_work && work) {  // work is null on every rank or on none
-      const Decomposition shape = Decomposition::shape(DecompositionKind::Cartesian, cell.lengths(), cutoff_);
-      set_decomposition(
-          Decomposition::by_work(size_, cell.lengths(), cutoff_, global_plane_work(p, cell, shape, *work)));
-    } else {
-      set_decomposition(Decomposition::cartesian(size_, cell.lengths(), cutoff_));
-    }
-  } else {
-    // Bin work from the current owners (the bins of the new decomposition).
-    const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, cell.lengths(), cutoff_);
-    set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_, global_bin_work(p, cell, shape), comm_));
-  }
-}
-
-void MpiDomain::balance_cuts(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>& work) {
-  // The runs the current work gives, on the bins of the current decomposition (made for
-  // decomposed_for_, so the same bins).
-  Decomposition next =
-      Decomposition::by_work(size_, decomposed_for_, cutoff_, global_plane_work(p, cell, *dec_, work), &dec_->cuts());
-  // Each rank's work with the current runs and with the new ones, summed exactly (integers):
-  // every rank takes the same decision.
-  std::vector<std::int64_t> load(2 * std::size_t(size_), 0);
-  for (std::size_t a = 0; a < p.n_owned(); ++a) {
-    const int bin = dec_->bin_of(p.x[a], cell.lengths());
-    load[dec_->owner(bin)] += work[a];
-    load[size_ + next.owner(bin)] += work[a];
-  }
-  MPI_Allreduce(MPI_IN_PLACE, load.data(), int(load.size()), MPI_INT64_T, MPI_SUM, comm_);
-  std::int64_t total = 0, now = 0, then = 0;
-  for (int r = 0; r < size_; ++r) {
-    total += load[r];
-    now = std::max(now, load[r]);
-    then = std::max(then, load[size_ + r]);
-  }
-  ++stats_.cut_checks;
-  auto imbalance = [&](std::int64_t most) { return total > 0 ? double(most) * size_ / double(total) : 1.0; };
-  stats_.work_imbalance_before = stats_.work_imbalance = imbalance(now);
-  // Moved when the busiest rank has more than 2 % above the mean and the new runs lighten it
-  // by at least 1 %.
-  if (100 * now * size_ > 102 * total && 100 * then <= 99 * now) {
-    set_decomposition(std::move(next));
-    // Runs moved by a few planes send the particles between them to partners of the new
-    // decomposition (symmetric, so point to point works); a destination that is not one sets the
-    // all-to-all flag in migrate() anyway. No forced all-to-all, unlike a new set of bins.
-    redecomposed_ = false;
-    stats_.work_imbalance = imbalance(then);
-    ++stats_.cuts_moved;
-  }
-}
-
 void MpiDomain::set_decomposition(Decomposition d) {
   dec_ = std::move(d);
   partners_ = dec_->partners(rank_);
@@ -150,50 +66,14 @@ void MpiDomain::set_decomposition(Decomposition d) {
   redecomposed_ = true;
 }
 
-DecompositionRecord MpiDomain::decomposition_record() const {
-  DecompositionRecord r;
-  if (opt_.kind != DecompositionKind::Cartesian) return r;
-  r.lengths = decomposed_for_;
-  r.since_check = rebuilds_since_cut_check_;
-  for (const std::vector<int>& axis : dec_->cuts())
-    for (int c : axis) r.cuts.push_back(std::int32_t(c));
-  return r;
-}
+DecompositionRecord MpiDomain::decomposition_record() const { return balance_.record(*dec_); }
 
 void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff, const DecompositionRecord* decomposed_as,
                       Holding holding, HistoryMap* history) {
-  cutoff_ = cutoff;
   rmax_ = 0;
   for (std::size_t a = 0; a < p.n_owned(); ++a) rmax_ = std::max(rmax_, p.radius[a]);
   MPI_Allreduce(MPI_IN_PLACE, &rmax_, 1, MPI_DOUBLE, MPI_MAX, comm_);
-  if (opt_.kind == DecompositionKind::Cartesian) {
-    decomposed_for_ = decomposed_as ? decomposed_as->lengths : cell.lengths();
-    rebuilds_since_cut_check_ = decomposed_as ? decomposed_as->since_check : -1;
-    if (decomposed_as && !decomposed_as->cuts.empty()) {  // the saved runs
-      const Decomposition shape = Decomposition::cartesian(size_, decomposed_for_, cutoff_);
-      CartesianCuts cuts;
-      std::size_t next = 0;
-      for (int k = 0; k < 3; ++k)
-        for (int j = 0; j < shape.rank_grid()[k] && next < decomposed_as->cuts.size(); ++j)
-          cuts[k].push_back(decomposed_as->cuts[next++]);
-      if (next != decomposed_as->cuts.size())
-        throw std::runtime_error("the saved decomposition has " + std::to_string(decomposed_as->cuts.size()) +
-                                 " cuts, not one per run of the rank grid");
-      set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_, cuts));
-    } else {
-      set_decomposition(Decomposition::cartesian(size_, decomposed_for_, cutoff_));
-    }
-  } else {
-    const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, cell.lengths(), cutoff_);
-    std::vector<double> work;
-    if (holding == Holding::Share) {
-      work = global_bin_work(p, cell, shape);
-    } else {  // every rank holds every particle: bin work is local knowledge, no reduction
-      work.assign(shape.bins(), 0.0);
-      for (std::size_t a = 0; a < p.n_owned(); ++a) work[shape.bin_of(p.x[a], cell.lengths())] += 1;
-    }
-    set_decomposition(Decomposition::metis(size_, cell.lengths(), cutoff_, work, comm_));
-  }
+  set_decomposition(balance_.first(p, cell, cutoff, decomposed_as, holding));
   redecomposed_ = false;  // the particles go to their owners here
   if (holding == Holding::Share) {
     gather_share(p, cell, history);
@@ -299,26 +179,13 @@ void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap*
 void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
                         const std::vector<std::int32_t>* work) {
   p.clear_ghosts();
-  // The bins must stay at least one cutoff wide as the cell deforms; METIS partitions are
-  // refreshed when the load has drifted, and Cartesian runs follow the work (checked at the
-  // first rebuild whose work is known, then every rebalance_interval rebuilds). 'work' is null
-  // on every rank or on none, so every rank calls the same collectives.
-  if (!dec_->fits(cell.lengths(), cutoff_)) {
-    decompose(p, cell, work);
-  } else if (opt_.kind == DecompositionKind::Cartesian && opt_.balance_work && work &&
-             (rebuilds_since_cut_check_ < 0 || ++rebuilds_since_cut_check_ >= opt_.rebalance_interval)) {
-    rebuilds_since_cut_check_ = 0;
-    balance_cuts(p, cell, *work);
-  }
-  if (opt_.kind == DecompositionKind::Metis && ++rebuilds_since_check_ >= opt_.rebalance_interval) {
-    rebuilds_since_check_ = 0;
-    stats_.imbalance = load_imbalance(p);
-    if (stats_.imbalance > opt_.rebalance_threshold) {
-      stats_.imbalance_before = stats_.imbalance;
-      decompose(p, cell, work);
-      ++stats_.rebalances;
-      stats_.imbalance_after = -1;  // measured after the particles have moved, below
-    }
+  // The decomposition may move first (parallel/rebalancer.hpp): with new bins the particles may
+  // go to any rank; with runs moved by a few planes, to partners of the new decomposition
+  // (symmetric, so point to point works; a destination that is not one sets the all-to-all
+  // flag below anyway).
+  if (std::optional<Rebalancer::Change> change = balance_.at_rebuild(p, cell, *dec_, work, stats_)) {
+    set_decomposition(std::move(change->next));
+    redecomposed_ = change->new_bins;
   }
 
   // Particles leaving, by destination.
@@ -395,7 +262,7 @@ void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& hist
     }
   }
   ++stats_.migrations;
-  if (stats_.imbalance_after < 0) stats_.imbalance_after = load_imbalance(p);
+  balance_.after_migration(p, stats_);
 }
 
 void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) {

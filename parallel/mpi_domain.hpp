@@ -1,5 +1,7 @@
 // The MPI implementation of core/domain.hpp: spatial decomposition (parallel/decomposition.hpp),
-// ghosts, migration with contact history, reductions and load balance.
+// ghosts, migration with contact history and reductions: the data movement. When and where the
+// decomposition moves (load balance) is the rebalancer's (parallel/rebalancer.hpp), and what a
+// rank's load is weighed by a policy's (parallel/balance_policy.hpp).
 //
 // Contacts between an owned particle and a ghost are computed on both ranks, identically
 // (same inputs, bitwise: the ghost is an exact copy, the pair is oriented by global id), and
@@ -11,6 +13,7 @@
 #include "core/domain.hpp"
 #include "parallel/decomposition.hpp"
 #include "parallel/exchange.hpp"
+#include "parallel/rebalancer.hpp"
 
 #include <mpi.h>
 
@@ -18,17 +21,7 @@
 
 namespace fabrica {
 
-struct MpiDomainOptions {
-  DecompositionKind kind = DecompositionKind::Cartesian;
-  double rebalance_threshold = 1.10;  // repartition (METIS) when max/mean work exceeds this
-  int rebalance_interval = 10;        // check the imbalance every this many rebuilds
-  // Cartesian: place the runs of bins by the particles' work (1 + list pairs) rather than in
-  // equal lengths; checked at the first rebuild and every rebalance_interval rebuilds, and
-  // moved when the busiest rank has 2 % more than the mean and new runs would lighten it by 1 %.
-  bool balance_work = true;
-};
-
-struct DomainStats {
+struct DomainStats : BalanceStats {
   std::int64_t migrations = 0;             // rebuilds with migration
   std::int64_t migrations_all_to_all = 0;  // of which after a new decomposition (all ranks)
   std::int64_t particles_migrated = 0;     // sent by this rank
@@ -36,14 +29,6 @@ struct DomainStats {
   std::int64_t bytes_ghost_build = 0;      // sent by this rank at ghost creation
   std::int64_t bytes_forward = 0;          // sent by this rank in forward updates
   std::int64_t forward_updates = 0;
-  std::int64_t rebalances = 0;
-  double imbalance_before = 1, imbalance_after = 1;  // last rebalance (max/mean owned particles)
-  double imbalance = 1;                              // at the last check
-  // Cartesian runs by work, at the last check: max/mean of the ranks' work (1 + list pairs per
-  // owned particle) with the runs in use before it and with those kept after it; the number of
-  // checks and of times the runs were moved.
-  double work_imbalance_before = 1, work_imbalance = 1;
-  std::int64_t cut_checks = 0, cuts_moved = 0;
 };
 
 class MpiDomain final : public Domain {
@@ -62,6 +47,8 @@ class MpiDomain final : public Domain {
   void migrate(Particles& p, const PeriodicCell& cell, HistoryMap& history,
                const std::vector<std::int32_t>* work) override;
   void build_ghosts(Particles& p, const PeriodicCell& cell, real_t cutoff) override;
+  bool wants_force_seconds() const override { return balance_.timed(); }
+  void note_force_seconds(double seconds) override { balance_.note_force_seconds(seconds); }
   std::unique_ptr<Domain> clone() const override { return std::make_unique<MpiDomain>(*this); }
   int rank() const override { return rank_; }
   int size() const override { return size_; }
@@ -71,28 +58,17 @@ class MpiDomain final : public Domain {
   const std::vector<int>& partners() const { return partners_; }
   const DomainStats& stats() const { return stats_; }
   // max/mean of the owned particle count over ranks (collective).
-  double load_imbalance(const Particles& p);
+  double load_imbalance(const Particles& p) const { return balance_.load_imbalance(p); }
 
  private:
-  void decompose(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>* work);
-  // The Cartesian runs by work (MpiDomainOptions::balance_work); collective (two allreduces).
-  void balance_cuts(const Particles& p, const PeriodicCell& cell, const std::vector<std::int32_t>& work);
-  // Per axis of d's bins, the owned particles' work summed over each bin plane and over all
-  // ranks (exact integers: the same on every rank); one allreduce of dims[0] + dims[1] + dims[2]
-  // values.
-  PlaneWork global_plane_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d,
-                              const std::vector<std::int32_t>& work);
   void set_decomposition(Decomposition d);  // and its partner ranks
   // adopt() of a share: particles to their owners, springs to the owners of their bodies.
   void gather_share(Particles& p, const PeriodicCell& cell, HistoryMap* history);
-  std::vector<double> global_bin_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d);
 
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
-  MpiDomainOptions opt_;
-  real_t cutoff_ = 0;
-  real_t rmax_ = 0;                     // the largest radius of all ranks (cutoff_ = 2 rmax_ + skin)
-  Vec3 decomposed_for_ = Vec3::Zero();  // cell lengths of the last Cartesian decomposition
+  Rebalancer balance_;
+  real_t rmax_ = 0;  // the largest radius of all ranks (the cutoff is 2 rmax_ + skin)
   std::optional<Decomposition> dec_;
   std::vector<int> partners_;      // dec_->partners(rank_)
   std::vector<int> partner_slot_;  // per rank: its index in partners_, or -1
@@ -103,8 +79,6 @@ class MpiDomain final : public Domain {
   NeighbourExchange forward_;
   std::vector<std::vector<BytePiece>> forward_recv_pieces_;  // per recv rank, this update's places
   std::optional<GhostDrift> forward_drift_;                  // the drift end_ghost_update applies (begin's)
-  std::int64_t rebuilds_since_check_ = 0;
-  std::int64_t rebuilds_since_cut_check_ = -1;  // -1: not checked yet
   DomainStats stats_;
 };
 

@@ -885,6 +885,7 @@ void parse_parallel(const toml::table& root, const std::string& path, Scene& sc)
   if (ps.rebalance_interval <= 0)
     M.fail("rebalance_interval", std::to_string(ps.rebalance_interval), "must be positive");
   ps.cut = M.string("cut").value_or(ps.cut);
+  ps.balance = M.string("balance").value_or(ps.balance);
   if (const toml::node* n = table("parallel") ? table("parallel")->get("groups") : nullptr) {
     M.mark_used("groups");
     if (n->is_string() && *n->value<std::string>() == "auto") ps.groups = 0;
@@ -892,6 +893,8 @@ void parse_parallel(const toml::table& root, const std::string& path, Scene& sc)
     else M.fail("groups", Section::node_text(*n), "must be a positive integer or \"auto\"");
   }
   if (ps.cut != "work" && ps.cut != "even") M.fail("cut", "\"" + ps.cut + "\"", "must be \"work\" or \"even\"");
+  if (ps.balance != "count" && ps.balance != "time")  // the policies of parallel/balance_policy.cpp
+    M.fail("balance", "\"" + ps.balance + "\"", "must be \"count\" or \"time\"");
   M.reject_unknown();
 }
 

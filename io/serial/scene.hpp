@@ -111,6 +111,7 @@ struct ParallelSpec {
   double rebalance_threshold = 1.10;        // max/mean owned particles that triggers METIS
   std::int64_t rebalance_interval = 10;     // neighbour rebuilds between imbalance checks
   std::string cut = "work";                 // Cartesian runs of bins: "work" or "even"
+  std::string balance = "count";            // what "work" weighs: "count" or "time" (parallel/balance_policy.hpp)
   // Groups of ranks that run different realisations at once (0: "auto", the most groups that
   // divide the ranks and have a realisation each); 1: every realisation on all ranks in turn.
   std::int64_t groups = 1;

@@ -165,6 +165,10 @@ TEST(Scene, ParallelKeys) {
   const Scene s = parse_scene("[parallel]\ncut = \"even\"\nrebalance_interval = 4\n", "ok.toml");
   EXPECT_EQ(s.parallel.cut, "even");
   EXPECT_EQ(s.parallel.rebalance_interval, 4);
+  EXPECT_EQ(d.parallel.balance, "count");
+  EXPECT_EQ(parse_scene("[parallel]\nbalance = \"time\"\n", "ok.toml").parallel.balance, "time");
+  expect_error("[parallel]\nbalance = \"speed\"\n",
+               {"bad.toml", "[parallel] balance = \"speed\"", "\"count\" or \"time\""});
   expect_error("[parallel]\ncut = \"weight\"\n", {"[parallel] cut = \"weight\"", "\"work\" or \"even\""});
   expect_error("[parallel]\ncut = 1\n", {"[parallel]", "cut"});
   expect_error("[parallel]\nrebalance_interval = 0\n", {"[parallel] rebalance_interval = 0", "positive"});

@@ -15,6 +15,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -623,4 +624,48 @@ TEST(Decomposition, RunsByPlaneWorkAndFromCuts) {
     short_w[2].pop_back();
     EXPECT_THROW(Decomposition::by_work(ranks, L, cutoff, short_w), std::logic_error);
   }
+}
+
+// [parallel] balance = "time" (parallel/balance_time.cpp) against "count": the runs of bins
+// follow the ranks' measured force-phase time, and the trajectory is still the serial one bit
+// for bit, as with the count. Rank 0 is made to look three times as slow as it is (its force
+// seconds noted three times), so that the time policy must move the runs away from where the
+// count puts them (registered on 2, 3, 4 and 8 ranks).
+TEST(Decomposition, TimeBalanceKeepsTheTrajectory) {
+  if (comm_size() == 1) GTEST_SKIP() << "needs several ranks";
+  fabrica::Setup s = dense_setup();
+  Simulation serial(s.particles, s.cell, s.params);
+  for (int k = 1; k <= 600; ++k) serial.step(k % 300 == 0);
+  double share0[2] = {0, 0};  // rank 0's share of the list pairs at the end, by policy
+  for (const char* policy : {"count", "time"}) {
+    MpiDomainOptions opt;
+    opt.balance = policy;
+    opt.rebalance_interval = 2;
+    MpiDomain domain(MPI_COMM_WORLD, opt);
+    EXPECT_EQ(domain.wants_force_seconds(), std::string(policy) == "time");
+    Simulation par(s.particles, s.cell, s.params, &domain);
+    for (int k = 1; k <= 600; ++k) {
+      const auto t0 = std::chrono::steady_clock::now();
+      par.step(k % 300 == 0);
+      // The step's seconds twice more on rank 0 (an upper bound of its force phase's).
+      if (comm_rank() == 0 && domain.wants_force_seconds())
+        domain.note_force_seconds(2 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    const Diff d = compare(par, serial);
+    EXPECT_EQ(d.compared, std::int64_t(s.particles.n_owned()));
+    EXPECT_EQ(d.x, 0.0) << policy;
+    EXPECT_EQ(d.v, 0.0) << policy;
+    EXPECT_EQ(d.w, 0.0) << policy;
+    EXPECT_EQ(par.rebuild_count(), serial.rebuild_count());
+    EXPECT_GE(domain.stats().cut_checks, 1) << policy;
+    const double mine = double(par.pairs().size());
+    share0[std::string(policy) == "time"] = (comm_rank() == 0 ? mine : 0.0) / sum_all(mine);
+    share0[std::string(policy) == "time"] = max_all(share0[std::string(policy) == "time"]);
+    if (std::string(policy) == "time") { EXPECT_GE(domain.stats().cuts_moved, 1); }
+  }
+  if (comm_rank() == 0)
+    std::printf("ranks %d: rank 0's share of the list pairs: count %.4f, time %.4f\n", comm_size(), share0[0],
+                share0[1]);
+  // The rank that looks slow holds fewer pairs under the time policy than under the count.
+  EXPECT_LT(share0[1], share0[0]);
 }
