@@ -16,10 +16,8 @@
 #include <functional>
 #include <limits>
 #include <new>
-#include <numeric>
 #include <numbers>
 #include <optional>
-#include <sstream>
 
 namespace fabrica {
 
