@@ -78,7 +78,7 @@ struct PhaseTimes {
 // springs of the touching contacts.
 // The energy account of a Simulation (see boundary_work() and MacroState::energy_input): a
 // checkpoint carries it so that a restarted run keeps one unbroken account. The field names are
-// those the checkpoint format stores (io/mpi/checkpoint.cpp); their meaning:
+// those the checkpoint format stores (io/mpi/simulation_fields.cpp); their meaning:
 struct EnergyAccount {
   real_t e0 = 0;    // kinetic + elastic energy at construction [J]
   real_t work = 0;  // boundary work up to the end of the last step [J]
