@@ -1,7 +1,7 @@
 // The energy account of a Simulation: the energy put into the system since its construction, as
 // MacroState::energy_input reports it (the terms are explained at Simulation::boundary_work()).
 // EnergyBook keeps it from step to step; EnergyAccount is its record, the fields a checkpoint
-// stores (io/mpi/checkpoint.cpp), so that a restarted run keeps one unbroken account.
+// stores (io/mpi/simulation_fields.cpp), so that a restarted run keeps one unbroken account.
 #pragma once
 #include "core/types.hpp"
 
