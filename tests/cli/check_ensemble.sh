@@ -17,19 +17,7 @@ grep -q "2 run(s) (seeds 3 4) in 2 group(s) of 1 rank(s)" "$work/np2.log" || { e
 "$fabrica" run "$scene" -o "$work/np1" > "$work/np1.log" 2>&1 || { cat "$work/np1.log"; exit 1; }
 sed 's/^realisations = 2.*/seeds = [4]/' "$scene" > "$work/alone.toml"
 "$fabrica" run "$work/alone.toml" -o "$work/alone" > "$work/alone.log" 2>&1 || { cat "$work/alone.log"; exit 1; }
-same() {  # two output directories' CSV files
-  local a=$1 b=$2 f n=0
-  for f in $(cd "$a" && find . -name '*.csv' | sort); do
-    if [ "$(basename "$f")" = summary.csv ]; then
-      cmp -s <(rev "$a/$f" | cut -d, -f2- | rev) <(rev "$b/$f" | cut -d, -f2- | rev) || { echo "DIFFERS: $a/$f $b/$f"; return 1; }
-    else
-      cmp -s "$a/$f" "$b/$f" || { echo "DIFFERS: $a/$f $b/$f"; return 1; }
-    fi
-    n=$((n + 1))
-  done
-  [ "$n" -ge 5 ] || { echo "only $n CSV files in $a"; return 1; }
-  echo "same: $n CSV files of $a and $b"
-}
+. "$(dirname "$0")/same_csv.sh"  # same A B: the CSV files of two output directories
 same "$work/np2/seed_3" "$work/np1/seed_3"
 same "$work/np2/seed_4" "$work/np1/seed_4"
 same "$work/np2/seed_4" "$work/alone"

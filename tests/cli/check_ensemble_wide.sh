@@ -25,19 +25,7 @@ for n in 8 16; do
 done
 sed 's/^realisations = 2.*/seeds = [5]/' "$scene" > "$work/alone.toml"
 "$mpiexec" --oversubscribe -np 2 "$fabrica" run "$work/alone.toml" -o "$work/alone" > "$work/alone.log" 2>&1 || { cat "$work/alone.log"; exit 1; }
-same() {  # two output directories' CSV files
-  local a=$1 b=$2 f n=0
-  for f in $(cd "$a" && find . -name '*.csv' | sort); do
-    if [ "$(basename "$f")" = summary.csv ]; then
-      cmp -s <(rev "$a/$f" | cut -d, -f2- | rev) <(rev "$b/$f" | cut -d, -f2- | rev) || { echo "DIFFERS: $a/$f $b/$f"; return 1; }
-    else
-      cmp -s "$a/$f" "$b/$f" || { echo "DIFFERS: $a/$f $b/$f"; return 1; }
-    fi
-    n=$((n + 1))
-  done
-  [ "$n" -ge 5 ] || { echo "only $n CSV files in $a"; return 1; }
-  echo "same: $n CSV files of $a and $b"
-}
+. "$(dirname "$0")/same_csv.sh"  # same A B: the CSV files of two output directories
 for s in 3 4 5 6; do same "$work/np8/seed_$s" "$work/np16/seed_$s"; done
 same "$work/np16/seed_5" "$work/alone"
 [ "$(tail -n +2 "$work/np16/summary.csv" | cut -d, -f1 | tr '\n' ' ')" = "3 3 4 4 5 5 6 6 7 7 8 8 9 9 10 10 " ] \
