@@ -2,6 +2,7 @@
 // pair closer than R_i + skin, each with its contact history. Rebuilt only when particles have
 // moved far enough (see neighbor.hpp); between rebuilds only the springs change.
 #pragma once
+#include "core/cell.hpp"
 #include "core/contact_law.hpp"
 
 #include <cstdint>
@@ -13,6 +14,10 @@ namespace fabrica {
 inline int image_code(int s0, int s1, int s2) { return (s0 + 1) + 3 * (s1 + 1) + 9 * (s2 + 1); }
 inline Vec3 image_offset(int code, const Vec3& L) {
   return Vec3((code % 3 - 1) * L[0], (code / 3 % 3 - 1) * L[1], (code / 9 - 1) * L[2]);
+}
+// The shift of image 'code' in a cell of any shape (orthorhombic: the same bits as above).
+inline Vec3 image_offset(int code, const PeriodicCell& cell) {
+  return cell.image_shift(code % 3 - 1, code / 3 % 3 - 1, code / 9 - 1);
 }
 inline constexpr int kNoImage = 13;  // image_code(0, 0, 0)
 

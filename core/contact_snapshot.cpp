@@ -13,7 +13,7 @@ void contact_records_of(Model, const Particles& p, const PeriodicCell& cell, con
                         const Materials* materials, const PairList& pairs,
                         const std::function<void(const ContactRecord&)>& fn) {
   std::array<Vec3, 27> shift;
-  for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
+  for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell);
   const bool mixed = materials && !materials->empty();
   for (std::size_t q = 0; q < pairs.size(); ++q) {
     const Index i = pairs.i[q], j = pairs.j[q];

@@ -123,7 +123,7 @@ void ContactStore::attach_springs(const Particles& p, const PeriodicCell& cell, 
   std::size_t expect = used;
   if (used == 0) {
     std::array<Vec3, 27> shift;
-    for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell.lengths());
+    for (int c = 0; c < 27; ++c) shift[c] = image_offset(c, cell);
     for (std::size_t q = 0; q < np; ++q) {
       const Index i = pairs_.i[q], j = pairs_.j[q];
       const real_t sum_r = p.radius[i] + p.radius[j];

@@ -35,12 +35,12 @@ struct DecompositionRecord {
   bool empty() const { return lengths.isZero(); }
 };
 
-// The drift of a step (x <- x + dt v, then scaled by the cell's deformation 'scale' when
-// 'deform'), which a forward ghost update may apply to the ghosts instead of carrying their
-// positions (Domain::begin_ghost_update).
+// The drift of a step (x <- x + dt v, then mapped by the cell's deformation when 'deform'),
+// which a forward ghost update may apply to the ghosts instead of carrying their positions
+// (Domain::begin_ghost_update).
 struct GhostDrift {
   real_t dt = 0;
-  Vec3 scale = Vec3::Ones();
+  CellStep deformation;
   bool deform = false;
 };
 

@@ -44,6 +44,9 @@ class EnergyBook {
   // boundary work, by its strain increment edot dt and the diagonal stress at its end and at its
   // start (the end's when the start is unknown), and remembers the end for the next step.
   void close_step(real_t volume, const Vec3& strain_increment, const Vec3& stress_end);
+  // The same in a sheared cell: by the increment D dt of the rate of deformation and the full
+  // stress (the work -V sigma : D dt, compression positive).
+  void close_step(real_t volume, const Mat3& strain_increment, const Mat3& stress_end);
   // The end of a step that neither strained the cell nor measured: its stress is unknown.
   void close_step_unknown() { last_.reset(); }
 
@@ -51,7 +54,7 @@ class EnergyBook {
   real_t e0_ = 0;    // kinetic + elastic energy at construction [J]
   real_t work_ = 0;  // boundary work up to the end of the last step [J]
   struct Known {
-    Vec3 stress;    // diagonal stress [Pa]
+    Mat3 stress;    // stress [Pa] (an orthorhombic cell's: its diagonal alone)
     real_t volume;  // cell volume [m^3]
   };
   std::optional<Known> last_;      // at the end of the last step, if it knows its stress

@@ -1,5 +1,7 @@
 #include "core/forces.hpp"
 
+#include <unsupported/Eigen/MatrixFunctions>
+
 #include "core/contact_law.hpp"
 
 #include <algorithm>
@@ -116,6 +118,11 @@ struct PairKernel {
   Vec3 edot;
   std::size_t n_owned;
   Vec3 unscale = Vec3::Ones();  // 1 / the cell's scaling of this step, exp(-edot dt)
+  // A sheared cell: the velocity gradient's off-diagonal terms (its diagonal is edot) and the
+  // inverse of the step's deformation, exp(-G dt).
+  bool sheared = false;
+  Mat3 g_off = Mat3::Zero();
+  Mat3 unmap = Mat3::Identity();
   real_t e_fric = 0, e_roll = 0, e_visc = 0;
   std::size_t next_opening = 0;  // the first opening not yet booked
   static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
@@ -373,13 +380,22 @@ struct PairKernel {
     const T a1 = Ri - 0.5 * k.un, a2 = Rj - 0.5 * k.un;
     k.w1 = gather3<T>(P.w.data(), ci);
     k.w2 = gather3<T>(P.w.data(), cj);
-    const V3<T> e_d{edot[0] * d.x, edot[1] * d.y, edot[2] * d.z};
+    V3<T> e_d{edot[0] * d.x, edot[1] * d.y, edot[2] * d.z};
+    if (sheared) [[unlikely]]  // the same for every contact: predicted
+      e_d = e_d +
+          V3<T>{g_off(0, 1) * d.y + g_off(0, 2) * d.z, g_off(1, 0) * d.x + g_off(1, 2) * d.z,
+                g_off(2, 0) * d.x + g_off(2, 1) * d.y};
     const V3<T> vj = gather3<T>(P.v.data(), cj), vi = gather3<T>(P.v.data(), ci);
     k.vrel = vj - vi + e_d - cross(a2 * k.w2 + a1 * k.w1, k.n);
     if constexpr (Model::kPreviousOverlap) {
       // The branch vector before this step's drift: positions drifted by v dt, then scaled with
       // the cell (core/integrator.cpp), so d_prev = d / s - (v_j - v_i) dt.
-      const V3<T> dp = V3<T>{d.x * unscale[0], d.y * unscale[1], d.z * unscale[2]} - (vj - vi) * ctx.dt;
+      V3<T> d0{d.x * unscale[0], d.y * unscale[1], d.z * unscale[2]};
+      if (sheared) [[unlikely]]
+        d0 = V3<T>{unmap(0, 0) * d.x + unmap(0, 1) * d.y + unmap(0, 2) * d.z,
+                   unmap(1, 0) * d.x + unmap(1, 1) * d.y + unmap(1, 2) * d.z,
+                   unmap(2, 0) * d.x + unmap(2, 1) * d.y + unmap(2, 2) * d.z};
+      const V3<T> dp = d0 - (vj - vi) * ctx.dt;
       k.un_prev = sum_r - simd::sqrt(squared_norm(dp));
     }
     // The model's constants of two spheres, lane by lane.
@@ -505,11 +521,17 @@ template <class Model, int Roll, bool Twist, bool Viscous, bool Mixed, int Measu
 void pair_forces(Particles& P, const PeriodicCell& cell, const ForceContext& ctx, PairList& pl, Dissipation& diss,
                  ContactSums* sums) {
   PairKernel<Model, Roll, Twist, Viscous, Mixed, Measure> K{P, ctx, pl, sums, {}, cell.strain_rate(), P.n_owned()};
-  for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell.lengths());
+  for (int c = 0; c < 27; ++c) K.shift[c] = image_offset(c, cell);
   K.fetch_all = ctx.fetch_ahead < 0 ? fetch_all_ahead(P.size()) : ctx.fetch_ahead > 0;
   if constexpr (Mixed) K.make_pair_lanes();
-  if constexpr (Model::kPreviousOverlap)
+  if (cell.sheared()) {
+    K.sheared = true;
+    K.g_off = cell.velocity_gradient();
+    K.g_off.diagonal().setZero();
+    if constexpr (Model::kPreviousOverlap) K.unmap = Mat3(-cell.velocity_gradient() * ctx.dt).exp();
+  } else if constexpr (Model::kPreviousOverlap) {
     for (int a = 0; a < 3; ++a) K.unscale[a] = std::exp(-K.edot[a] * ctx.dt);
+  }
   K.run();
   diss.friction += K.e_fric;
   diss.rolling += K.e_roll;

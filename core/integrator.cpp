@@ -17,21 +17,28 @@ void half_kick(Particles& p, real_t dt) {
   }
 }
 
-Vec3 drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
+CellStep drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt) {
   const std::size_t n = p.n_owned();
-  if (cell.strain_rate().isZero()) {
+  if (!cell.deforming()) {
     for (std::size_t a = 0; a < n; ++a) p.x[a] = drifted<false>(p.x[a], p.v[a], dt, Vec3::Ones());
-    return Vec3::Ones();
+    return CellStep{};
   }
-  const Vec3 s = cell.deform(dt);
-  for (std::size_t a = 0; a < n; ++a) p.x[a] = drifted<true>(p.x[a], p.v[a], dt, s);
-  return s;
+  const CellStep step = cell.deform(dt);
+  if (step.sheared)
+    for (std::size_t a = 0; a < n; ++a) p.x[a] = drifted_sheared(p.x[a], p.v[a], dt, step.F);
+  else
+    for (std::size_t a = 0; a < n; ++a) p.x[a] = drifted<true>(p.x[a], p.v[a], dt, step.scale);
+  return step;
 }
 
 namespace {
-template <bool Deform, bool Gravity, bool Pending>
-StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt, const std::vector<Vec3>& s_ref,
-                           const Vec3& g) {
+// Deform: 0 none, 1 orthorhombic (the step's scale factors), 2 sheared (its matrix F; the
+// references s_ref mapped by the cell matrix H).
+template <int Deform, bool Gravity, bool Pending>
+StepStart kick_drift_check(Particles& p, const CellStep& step, const PeriodicCell& cell, real_t dt,
+                           const std::vector<Vec3>& s_ref, const Vec3& g) {
+  const Vec3& L = cell.lengths();
+  const Mat3 H = cell.matrix();
   const real_t h = 0.5 * dt;
   const std::size_t n = p.n_owned();
   StepStart r;
@@ -45,9 +52,12 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
     p.v[a] = v;
     p.w[a] = w;
     if constexpr (Gravity) r.gravity_power += p.mass[a] * g.dot(v);
-    const Vec3 x = drifted<Deform>(p.x[a], v, dt, s);
+    Vec3 x;
+    if constexpr (Deform == 2) x = drifted_sheared(p.x[a], v, dt, step.F);
+    else x = drifted<Deform == 1>(p.x[a], v, dt, step.scale);
     p.x[a] = x;
-    raise_max(r.max_d2, (x - s_ref[a].cwiseProduct(L)).squaredNorm());
+    if constexpr (Deform == 2) raise_max(r.max_d2, (x - H * s_ref[a]).squaredNorm());
+    else raise_max(r.max_d2, (x - s_ref[a].cwiseProduct(L)).squaredNorm());
     raise_max(r.max_v2, v.squaredNorm());
     if constexpr (Gravity) p.f[a] = p.mass[a] * g;
     else p.f[a].setZero();
@@ -59,16 +69,18 @@ StepStart kick_drift_check(Particles& p, const Vec3& s, const Vec3& L, real_t dt
 
 StepStart kick_drift_check(Particles& p, PeriodicCell& cell, real_t dt, const std::vector<Vec3>& s_ref,
                            const Vec3& gravity, bool pending) {
-  const bool deform = !cell.strain_rate().isZero();
-  const Vec3 s = deform ? cell.deform(dt) : Vec3::Ones();
-  const Vec3& L = cell.lengths();
-  using F = StepStart (*)(Particles&, const Vec3&, const Vec3&, real_t, const std::vector<Vec3>&, const Vec3&);
-  static constexpr F table[8] = {kick_drift_check<false, false, false>, kick_drift_check<false, false, true>,
-                                 kick_drift_check<false, true, false>,  kick_drift_check<false, true, true>,
-                                 kick_drift_check<true, false, false>,  kick_drift_check<true, false, true>,
-                                 kick_drift_check<true, true, false>,   kick_drift_check<true, true, true>};
-  StepStart r = table[4 * deform + 2 * !gravity.isZero() + pending](p, s, L, dt, s_ref, gravity);
-  r.scale = s;
+  const CellStep step = cell.deforming() ? cell.deform(dt) : CellStep{};
+  // A sheared cell that does not deform still maps its references through H.
+  const int deform = cell.sheared() ? 2 : cell.deforming() ? 1 : 0;
+  using F =
+      StepStart (*)(Particles&, const CellStep&, const PeriodicCell&, real_t, const std::vector<Vec3>&, const Vec3&);
+  static constexpr F table[12] = {
+      kick_drift_check<0, false, false>, kick_drift_check<0, false, true>,  kick_drift_check<0, true, false>,
+      kick_drift_check<0, true, true>,   kick_drift_check<1, false, false>, kick_drift_check<1, false, true>,
+      kick_drift_check<1, true, false>,  kick_drift_check<1, true, true>,   kick_drift_check<2, false, false>,
+      kick_drift_check<2, false, true>,  kick_drift_check<2, true, false>,  kick_drift_check<2, true, true>};
+  StepStart r = table[4 * deform + 2 * !gravity.isZero() + pending](p, step, cell, dt, s_ref, gravity);
+  r.deformation = step;
   return r;
 }
 

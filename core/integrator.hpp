@@ -45,6 +45,11 @@ inline Vec3 drifted(Vec3 x, const Vec3& v, real_t dt, const Vec3& s) {
   if constexpr (Deform) x = x.cwiseProduct(s);
   return x;
 }
+// The same in a sheared cell: x advanced, then mapped by the step's deformation F.
+inline Vec3 drifted_sheared(Vec3 x, const Vec3& v, real_t dt, const Mat3& F) {
+  x += dt * v;
+  return F * x;
+}
 
 // m = the larger of m and x, a non-finite x counting as infinity (so that the maximum over the
 // ranks is exact and the same on each): the rebuild check's maxima.
@@ -57,22 +62,22 @@ inline void raise_max(real_t& m, real_t x) {
 void half_kick(Particles& p, real_t dt);
 
 // x += dt v (owned particles), then the cell deforms by dt and positions follow affinely;
-// returns the deformation's scale factors (ones if the cell does not strain).
-Vec3 drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt);
+// returns the cell's deformation over the step (scale factors of ones if it does not strain).
+CellStep drift_and_deform(Particles& p, PeriodicCell& cell, real_t dt);
 
 // What the start of a step measures on the way (kick_drift_check).
 struct StepStart {
-  real_t max_d2 = 0;          // the largest |x - ref|^2 since the last rebuild (non-finite: infinity)
-  real_t max_v2 = 0;          // the largest |v|^2 after the kick (non-finite: infinity)
-  real_t gravity_power = 0;   // sum of m g . v after the kick [W]
-  Vec3 scale = Vec3::Ones();  // the cell's deformation over the step (drifted())
+  real_t max_d2 = 0;         // the largest |x - ref|^2 since the last rebuild (non-finite: infinity)
+  real_t max_v2 = 0;         // the largest |v|^2 after the kick (non-finite: infinity)
+  real_t gravity_power = 0;  // sum of m g . v after the kick [W]
+  CellStep deformation;      // the cell's deformation over the step (drifted())
 };
 
 // The start of a step in one pass over the owned particles, for a run without driven
 // particles: with 'pending', first the previous step's closing half_kick (left to this pass,
 // Simulation::step), then half_kick, then gravity's power with the kicked velocity, then
 // drift_and_deform, then the rebuild check's maxima (the reference positions s_ref are
-// fractions of the cell, compared with x at the deformed cell's lengths); last, f = m g and
+// fractions of the cell, compared with x at the deformed cell's edges); last, f = m g and
 // t = 0, the values the force computation starts from (ForceContext::owned_ready). The same
 // values, bit for bit, as those loops one after another: each particle's arithmetic is the
 // same and the power is summed in the same order. At 10^6 spheres the arrays leave the cache,

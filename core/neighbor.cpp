@@ -12,23 +12,41 @@ namespace fabrica {
 
 void check_cell_size(const PeriodicCell& cell, real_t max_radius, real_t skin) {
   const real_t need = 2.0 * (2.0 * max_radius + skin);
+  const Vec3 h = cell.heights();
   for (int k = 0; k < 3; ++k) {
-    if (!(cell.lengths()[k] > need)) {
-      throw std::invalid_argument("periodic cell length L" + std::to_string(k + 1) + " = " +
-                                  std::to_string(cell.lengths()[k]) + " m must exceed 2 (2 Rmax + skin) = " +
-                                  std::to_string(need) + " m so that every pair has a single periodic image");
+    if (!(h[k] > need)) {
+      if (cell.sheared())
+        throw std::invalid_argument("sheared periodic cell height h" + std::to_string(k + 1) + " = " +
+                                    std::to_string(h[k]) + " m must exceed 2 (2 Rmax + skin) = " +
+                                    std::to_string(need) + " m so that every pair has a single periodic image");
+      throw std::invalid_argument("periodic cell length L" + std::to_string(k + 1) + " = " + std::to_string(h[k]) +
+                                  " m must exceed 2 (2 Rmax + skin) = " + std::to_string(need) +
+                                  " m so that every pair has a single periodic image");
     }
   }
 }
 
 namespace {
 
+// Cells of the cell's fractional coordinates: an orthorhombic cell's boxes of edge L_k / n_k,
+// a sheared cell's parallelepipeds of height h_k / n_k (two points closer than that height are
+// in neighbouring cells whatever the shear).
 struct Grid {
   std::array<int, 3> n{};
-  Vec3 inv_h;
+  Vec3 inv_h;            // orthorhombic: n_k / L_k
+  bool sheared = false;  // else: the fractional coordinates H^-1 x, times n_k
+  Mat3 to_cells;         // sheared: diag(n) H^-1
+  void coords(const Vec3& x, int c[3]) const {
+    if (sheared) {
+      const Vec3 f = to_cells * x;
+      for (int k = 0; k < 3; ++k) c[k] = std::min(n[k] - 1, std::max(0, int(f[k])));
+    } else {
+      for (int k = 0; k < 3; ++k) c[k] = std::min(n[k] - 1, std::max(0, int(x[k] * inv_h[k])));
+    }
+  }
   int index(const Vec3& x) const {
     int c[3];
-    for (int k = 0; k < 3; ++k) c[k] = std::min(n[k] - 1, std::max(0, int(x[k] * inv_h[k])));
+    coords(x, c);
     return c[0] + n[0] * (c[1] + n[1] * c[2]);
   }
   // Distinct cell indices along axis k around c (periodic), at most 3.
@@ -47,8 +65,9 @@ struct Grid {
 // Cells of edge at least `edge`, and at most 16 per sphere of the grid (65,536 at least): a
 // dilute specimen would otherwise ask for up to (L / edge)^3 cells (2.8e10 for 1-cm spheres in
 // a 64 m cell, beyond the memory and an int). Wider cells find the same pairs.
-Grid make_grid(const Vec3& L, real_t edge, std::size_t spheres) {
+Grid make_grid(const PeriodicCell& cell, real_t edge, std::size_t spheres) {
   const double most = std::max(65536.0, 16.0 * double(spheres));
+  const Vec3 L = cell.heights();  // orthorhombic: the lengths
   Grid g;
   for (real_t e = edge;; e *= 1.25) {
     double cells = 1;
@@ -59,6 +78,10 @@ Grid make_grid(const Vec3& L, real_t edge, std::size_t spheres) {
     if (cells <= most) break;
   }
   for (int k = 0; k < 3; ++k) g.inv_h[k] = g.n[k] / L[k];
+  if (cell.sheared()) {
+    g.sheared = true;
+    g.to_cells = Vec3(g.n[0], g.n[1], g.n[2]).asDiagonal() * cell.matrix().inverse();
+  }
   return g;
 }
 
@@ -99,18 +122,21 @@ void make_room(std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::
 // bits as d = x_b - x_a + s L.
 template <bool kImagePerCandidate>
 std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, bool same_class, const Grid& g,
-                      const Vec3& L, real_t skin, real_t margin, const NeighborSearch::CellCopies& cb, std::size_t m,
-                      std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::uint8_t>& timg) {
+                      const PeriodicCell& cell, real_t skin, real_t margin, const NeighborSearch::CellCopies& cb,
+                      std::size_t m, std::vector<Index>& ti, std::vector<Index>& tj, std::vector<std::uint8_t>& timg) {
   const Index n_owned = Index(p.n_owned());
   const Vec3* px = p.x.data();
   const real_t* pr = p.radius.data();
   const float skin_lo = float(skin - margin), skin_hi = float(skin + margin);
+  const Vec3& L = cell.lengths();
+  std::array<Vec3, 27> shifts;  // of image_code(s0, s1, s2)
+  for (int c = 0; c < 27; ++c) shifts[c] = image_offset(c, cell);
   for (Index a : members_a) {
     const Vec3 xa = p.x[a];
     const real_t ra = p.radius[a];
     const bool a_ghost = a >= n_owned;
     int c[3];
-    for (int k = 0; k < 3; ++k) c[k] = std::min(g.n[k] - 1, std::max(0, int(xa[k] * g.inv_h[k])));
+    g.coords(xa, c);
     int cells[3][3], shift[3][3], count[3];
     for (int k = 0; k < 3; ++k) {
       if constexpr (kImagePerCandidate) {
@@ -132,8 +158,8 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
     // The candidates cb.item[q0 .. q1), seen through the periodic image (s0, s1, s2).
     auto scan = [&](std::size_t q0, std::size_t q1, int s0, int s1, int s2) {
       make_room(ti, tj, timg, m + (q1 - q0));
-      const real_t sh0 = s0 * L[0], sh1 = s1 * L[1], sh2 = s2 * L[2];
       const std::uint8_t code = std::uint8_t(image_code(s0, s1, s2));
+      const real_t sh0 = shifts[code][0], sh1 = shifts[code][1], sh2 = shifts[code][2];
       Index* __restrict out_i = ti.data();
       Index* __restrict out_j = tj.data();
       std::uint8_t* __restrict out_img = timg.data();
@@ -147,10 +173,18 @@ std::size_t scan_grid(const Particles& p, const std::vector<Index>& members_a, b
         for (std::size_t q = q0; q < q1; ++q) {
           const Index b = cb.item[q];
           real_t d0 = px[b][0] - xa[0], d1 = px[b][1] - xa[1], d2 = px[b][2] - xa[2];
-          const int t0 = -int(std::nearbyint(d0 / L[0]));
-          const int t1 = -int(std::nearbyint(d1 / L[1]));
-          const int t2 = -int(std::nearbyint(d2 / L[2]));
-          d0 += t0 * L[0], d1 += t1 * L[1], d2 += t2 * L[2];
+          int t0, t1, t2;
+          if (g.sheared) {  // the nearest image from the fractional difference, then its shift
+            const Vec3 f = cell.fractional(Vec3(d0, d1, d2));
+            t0 = -int(std::nearbyint(f[0])), t1 = -int(std::nearbyint(f[1])), t2 = -int(std::nearbyint(f[2]));
+            const Vec3& sh = shifts[image_code(t0, t1, t2)];
+            d0 += sh[0], d1 += sh[1], d2 += sh[2];
+          } else {
+            t0 = -int(std::nearbyint(d0 / L[0]));
+            t1 = -int(std::nearbyint(d1 / L[1]));
+            t2 = -int(std::nearbyint(d2 / L[2]));
+            d0 += t0 * L[0], d1 += t1 * L[1], d2 += t2 * L[2];
+          }
           out_i[m] = a;
           out_j[m] = b;
           out_img[m] = std::uint8_t(image_code(t0, t1, t2));
@@ -231,20 +265,22 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
   // Room for about as many pairs as last time, so that the buffers do not double past need.
   std::size_t m = 0;
   make_room(tmp_i_, tmp_j_, tmp_img_, last_pairs_ + last_pairs_ / 16);
-  const Vec3& L = cell.lengths();
+  // The largest coordinate of a wrapped position (orthorhombic: the largest length).
+  const Mat3 H = cell.matrix();
+  const real_t extent = cell.sheared() ? H.cwiseAbs().rowwise().sum().maxCoeff() : cell.lengths().maxCoeff();
   // The single-precision copies' rounding: each of x_b, x_a and the shift rounded once (at most
   // 2^-24 of L each), the two sums rounded once more (2^-24 of 2 L each), the squares, the sum
   // of radii and the skin likewise relative to the cutoff: 2^-18 (64 u) of the largest cell
   // length plus the largest cutoff bounds every error of |d| and of the cutoff with room to
   // spare.
-  const real_t margin = std::ldexp(L.maxCoeff() + 2 * rmax + skin, -18);
+  const real_t margin = std::ldexp(extent + 2 * rmax + skin, -18);
   CellCopies cb;
   for (int b_class = 0; b_class < nclass; ++b_class) {
     const std::vector<Index>& mb = members[b_class];
     if (mb.empty()) continue;
     for (int a_class = 0; a_class <= b_class; ++a_class) {
       if (members[a_class].empty()) continue;
-      const Grid g = make_grid(L, cls_rmax[a_class] + cls_rmax[b_class] + skin, mb.size());
+      const Grid g = make_grid(cell, cls_rmax[a_class] + cls_rmax[b_class] + skin, mb.size());
       const int ncell = g.n[0] * g.n[1] * g.n[2];
       // Counting sort of class-b spheres into cells, with their positions and radii.
       cb.start.assign(ncell + 1, 0);
@@ -272,8 +308,9 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
         }
       }
       const bool same = a_class == b_class;
-      if (copies) m = scan_grid<false>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_, tmp_img_);
-      else m = scan_grid<true>(p, members[a_class], same, g, L, skin, margin, cb, m, tmp_i_, tmp_j_, tmp_img_);
+      if (copies)
+        m = scan_grid<false>(p, members[a_class], same, g, cell, skin, margin, cb, m, tmp_i_, tmp_j_, tmp_img_);
+      else m = scan_grid<true>(p, members[a_class], same, g, cell, skin, margin, cb, m, tmp_i_, tmp_j_, tmp_img_);
     }
   }
   cb = CellCopies();  // free before the sort (memory at large N)
@@ -288,11 +325,11 @@ void NeighborSearch::build(const Particles& p, const PeriodicCell& cell, real_t 
 
   std::vector<int>().swap(cls_);  // the class grids are done with: free before the sort
   last_pairs_ = m;
-  order_pairs(p, L, m, out);
+  order_pairs(p, cell, m, out);
 }
 
 // Moves the m pairs found (tmp_i_, tmp_j_, tmp_img_) into 'out' in the space-filling-curve order.
-void NeighborSearch::order_pairs(const Particles& p, const Vec3& L, std::size_t m, PairList& out) {
+void NeighborSearch::order_pairs(const Particles& p, const PeriodicCell& cell, std::size_t m, PairList& out) {
   const std::size_t n = p.size();
   // Order the pairs along the space-filling curve (core/space_order.hpp): by the place of body
   // i in the (Morton key, id) order, then by that of body j. The order compares two particles
@@ -300,7 +337,7 @@ void NeighborSearch::order_pairs(const Particles& p, const Vec3& L, std::size_t 
   // same order whatever the rank count or the local storage order: force sums, and so
   // trajectories, are bitwise the same on any number of ranks. And it follows space, so the
   // force loop walks memory nearly in order at any specimen size.
-  space_ranks(p, n, L, rank_);
+  space_ranks(p, n, cell, rank_);
   // A counting sort by the place of i (the places are 0 .. n-1), then each run of one i
   // ordered by the place of j: the (place i, place j) order without a sort buffer per pair
   // (memory at large N: 4 bytes per particle instead of 16 per pair). Every pair is listed
@@ -355,7 +392,7 @@ void NeighborSearch::build_walls(const Particles& p, const std::vector<Wall>& wa
 std::vector<Index> NeighborSearch::spatial_order(const Particles& p, const PeriodicCell& cell) const {
   std::vector<std::uint32_t> rank;
   std::vector<Index> order;
-  space_ranks(p, p.n_owned(), cell.lengths(), rank, &order);
+  space_ranks(p, p.n_owned(), cell, rank, &order);
   return order;
 }
 

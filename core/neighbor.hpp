@@ -6,8 +6,9 @@
 // spheres with cell edge >= Rmax_a + Rmax_b + skin; a sphere of class a scans the 27 cells
 // around it in that grid only. Candidates within R_i + R_j + skin join the list.
 //
-// Requirement: every cell length exceeds 2 (2 Rmax + skin), so that a pair within the cutoff
-// has exactly one periodic image (checked by check_cell_size).
+// Requirement: every cell length (a sheared cell: every height between opposite faces) exceeds
+// 2 (2 Rmax + skin), so that a pair within the cutoff has exactly one periodic image (checked
+// by check_cell_size). A sheared cell's grids are cut along its fractional coordinates.
 #pragma once
 #include "core/cell.hpp"
 #include "core/contact_list.hpp"
@@ -39,7 +40,7 @@ class NeighborSearch {
   struct CellCopies;  // one grid's spheres in cell order (neighbor.cpp)
 
  private:
-  void order_pairs(const Particles& p, const Vec3& L, std::size_t m, PairList& out);
+  void order_pairs(const Particles& p, const PeriodicCell& cell, std::size_t m, PairList& out);
   std::vector<int> cls_;           // size class of each particle
   std::vector<Index> cell_start_;  // counting-sort buffer of the pair order
   std::vector<Index> tmp_i_, tmp_j_;

@@ -23,7 +23,7 @@ Simulation::Simulation(Particles particles, PeriodicCell cell, SimulationParams 
     domain_->update_ghosts(p_);  // the ghosts' copies too (collective: every rank has the sets)
   }
   compute(true, 0.0);  // initial forces: no time passes, so the springs must not advance
-  measure_and_reduce(Vec3::Zero());
+  measure_and_reduce(Vec3::Zero(), 0.0);
   energy_.open(macro_.kinetic + macro_.e_normal + macro_.e_shear + macro_.e_rolling);
   macro_.energy_input = energy_.e0() + macro_.gravity_work;
 }
@@ -57,11 +57,11 @@ void Simulation::step(bool measure) {
   const Vec3 rate = cell_.strain_rate();
   StepStart motion;
   double drive = 0;
-  Vec3 scale;
+  CellStep deformation;
   if (driven_.empty()) {  // one pass: [the last step's closing kick,] kick, gravity's power,
                           // drift, the check's maxima, f and t
     motion = kick_drift_check(p_, cell_, dt, s_ref_, par_.gravity, kick_pending_);
-    scale = motion.scale;
+    deformation = motion.deformation;
     kick_pending_ = false;
     if (!par_.gravity.isZero()) energy_.add_gravity_work(motion.gravity_power * dt);
   } else {
@@ -73,7 +73,7 @@ void Simulation::step(bool measure) {
       for (std::size_t a = 0; a < p_.n_owned(); ++a) gv += p_.mass[a] * par_.gravity.dot(p_.v[a]);
       energy_.add_gravity_work(gv * dt);
     }
-    scale = drift_and_deform(p_, cell_, dt);
+    deformation = drift_and_deform(p_, cell_, dt);
   }
   for (Wall& w : par_.walls) w.point += w.velocity * dt;
   timer_.lap(&PhaseTimes::integrate);
@@ -81,7 +81,7 @@ void Simulation::step(bool measure) {
   // (the messages can progress during its reduction). It carries v and w, and the ghosts'
   // positions take the step's drift on arrival, unless the owned positions were open to
   // change since the ghosts last had them (particles() not const): then they travel too.
-  const GhostDrift drift{dt, scale, !rate.isZero()};
+  const GhostDrift drift{dt, deformation, cell_.deforming()};
   domain_->begin_ghost_update(p_, positions_exposed_ ? nullptr : &drift);
   positions_exposed_ = false;
   timer_.lap(&PhaseTimes::ghost);
@@ -98,7 +98,7 @@ void Simulation::step(bool measure) {
     rebuild(true);  // f and t: zero (owned_ready) or reset by compute() below
     timer_.lap_rebuild();
   }
-  const bool strains = !rate.isZero();
+  const bool strains = cell_.deforming();
   const bool timed = domain_->wants_force_seconds();  // a decomposition balanced by time
   const auto f0 = timed ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point{};
   compute(measure || strains, dt, !measure, owned_ready);  // a straining step needs the contact virial (boundary work)
@@ -113,7 +113,12 @@ void Simulation::step(bool measure) {
   }
   timer_.lap(&PhaseTimes::integrate);
   if (measure) {
-    measure_and_reduce(rate * dt);
+    measure_and_reduce(rate * dt, dt);
+  } else if (strains && cell_.sheared()) {
+    Mat3 fb = sums_.fb;  // the contact virial's stress on every component (sigma : D)
+    domain_->sum_all(std::span<double>(fb.data(), 9));
+    const real_t V = cell_.volume();
+    energy_.close_step(V, rate_of_deformation() * dt, Mat3(fb / V));
   } else if (strains) {
     double d[3] = {sums_.fb(0, 0), sums_.fb(1, 1), sums_.fb(2, 2)};
     domain_->sum_all(std::span<double>(d, 3));
@@ -152,10 +157,16 @@ void Simulation::compute(bool measure, real_t dt, bool virial_only, bool owned_r
   if (par_.local_damping > 0) diss_.local += apply_local_damping(p_, par_.local_damping, dt);
 }
 
-void Simulation::measure_and_reduce(const Vec3& strain_increment) {
+Mat3 Simulation::rate_of_deformation() const {
+  const Mat3 g = cell_.velocity_gradient();
+  return 0.5 * (g + g.transpose());
+}
+
+void Simulation::measure_and_reduce(const Vec3& strain_increment, real_t dt) {
   sums_.work_gravity = energy_.gravity_work_local();
   macro_ = reduce_macro_state(p_, cell_, sums_, diss_, *domain_);
-  energy_.close_step(cell_.volume(), strain_increment, macro_.stress.diagonal());
+  if (cell_.sheared()) energy_.close_step(cell_.volume(), Mat3(rate_of_deformation() * dt), macro_.stress);
+  else energy_.close_step(cell_.volume(), strain_increment, macro_.stress.diagonal());
   macro_.wall_work = energy_.wall_work();
   macro_.drive_work = energy_.drive_work();
   macro_.energy_input = energy_.input(macro_.gravity_work);
@@ -197,10 +208,9 @@ void Simulation::set_laws(const ContactLawParams& law, const Materials& material
 }
 
 StepStart Simulation::local_motion() const {
-  const Vec3& L = cell_.lengths();
   StepStart r;
   for (std::size_t a = 0; a < p_.n_owned(); ++a) {
-    raise_max(r.max_d2, (p_.x[a] - s_ref_[a].cwiseProduct(L)).squaredNorm());
+    raise_max(r.max_d2, (p_.x[a] - cell_.cartesian(s_ref_[a])).squaredNorm());
     raise_max(r.max_v2, p_.v[a].squaredNorm());
   }
   return r;
@@ -215,7 +225,10 @@ bool Simulation::needs_rebuild(const StepStart& motion) {
   double m[3] = {motion.max_d2, motion.max_v2, guards_.overlap().ratio};
   domain_->max_all(std::span<double>(m, 3));
   guards_.check_motion(m[1], m[2], m[0] != inf, p_, *domain_, step_, par_.dt);
-  const real_t strain = (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
+  // The largest stretch of a branch vector by the cell's deformation since the rebuild (sheared:
+  // the Frobenius norm of H H_ref^-1 - I, a bound on it).
+  const real_t strain = cell_.sheared() ? (cell_.matrix() * H_ref_.inverse() - Mat3::Identity()).norm()
+                                        : (L.cwiseQuotient(L_ref_) - Vec3::Ones()).cwiseAbs().maxCoeff();
   // A moving wall and a sphere approach by at most the wall's travel plus the sphere's.
   real_t wall_travel = 0;
   for (std::size_t w = 0; w < par_.walls.size() && w < wall_ref_.size(); ++w)
@@ -247,6 +260,9 @@ void Simulation::rebuild_lists(bool forces_spent, std::vector<std::int32_t>* wor
   // 2. Wrap into the cell, move particles that left this subdomain (with their springs), sort
   //    the owned ones in space, and bring in the ghosts.
   p_.clear_ghosts();
+  // A sheared cell leaning past its flip ratio is flipped here, where the particles are wrapped
+  // and the lists and the decomposition remade anyway (the same on every rank: the cell is).
+  cell_.reduce();
   for (std::size_t a = 0; a < p_.n_owned(); ++a) p_.x[a] = cell_.wrap(p_.x[a]);
   const auto t0 = timer_.now();
   domain_->migrate(p_, cell_, contacts_.carry(), work);
@@ -266,10 +282,10 @@ void Simulation::rebuild_lists(bool forces_spent, std::vector<std::int32_t>* wor
   if (forces_spent) p_.zero_forces();
 
   // 4. Reference for the displacement criterion, and the driven particles now owned here.
-  const Vec3& L = cell_.lengths();
   s_ref_.resize(p_.n_owned());
-  for (std::size_t a = 0; a < p_.n_owned(); ++a) s_ref_[a] = p_.x[a].cwiseQuotient(L);
-  L_ref_ = L;
+  for (std::size_t a = 0; a < p_.n_owned(); ++a) s_ref_[a] = cell_.fractional(p_.x[a]);
+  L_ref_ = cell_.lengths();
+  H_ref_ = cell_.matrix();
   driven_.find(p_, par_.driven);
   wall_ref_.resize(par_.walls.size());
   for (std::size_t w = 0; w < par_.walls.size(); ++w) wall_ref_[w] = par_.walls[w].point;

@@ -246,7 +246,9 @@ class Simulation {
   // f and t hold their starting values (ForceContext).
   void compute(bool measure, real_t dt, bool virial_only = false, bool owned_ready = false);
 
-  void measure_and_reduce(const Vec3& strain_increment);  // of the step just done
+  // Of the step just done, of length dt (orthorhombic: its strain increment edot dt).
+  void measure_and_reduce(const Vec3& strain_increment, real_t dt);
+  Mat3 rate_of_deformation() const;  // D = (G + G^T) / 2 of the cell
   // Steps 2-4 of rebuild(): new lists from the positions, with the springs held in the carry.
   // 'work': per owned particle, the work over the last list by which the domain may balance its
   // decomposition (none at the first list, and on one rank).
@@ -271,6 +273,7 @@ class Simulation {
   // The rebuild criterion's reference, made at each rebuild.
   std::vector<Vec3> s_ref_;     // reduced positions x / L
   Vec3 L_ref_;                  // cell lengths
+  Mat3 H_ref_;                  // cell matrix (sheared cells)
   std::vector<Vec3> wall_ref_;  // wall points
   real_t cutoff_max_ = 0;       // 2 Rmax + skin
   std::int64_t step_ = 0, rebuilds_ = 0;

@@ -17,18 +17,25 @@ std::uint64_t spread3(std::uint64_t v) {
 }
 }  // namespace
 
-std::uint64_t morton_key(const Vec3& x, const Vec3& L) {
+namespace {
+// The key of fractional coordinates f (each in [0, 1), clamped).
+std::uint64_t fractional_key(const Vec3& f) {
   constexpr real_t cells = real_t(1u << kMortonBits);
   std::uint64_t key = 0;
   for (int k = 0; k < 3; ++k) {
-    const real_t s = x[k] / L[k] * cells;
+    const real_t s = f[k] * cells;
     const std::uint64_t c = s <= 0 ? 0 : (s >= cells ? (1u << kMortonBits) - 1 : std::uint64_t(s));
     key |= spread3(c) << k;
   }
   return key;
 }
+}  // namespace
 
-void space_ranks(const Particles& p, std::size_t n, const Vec3& L, std::vector<std::uint32_t>& rank,
+std::uint64_t morton_key(const Vec3& x, const Vec3& L) { return fractional_key(x.cwiseQuotient(L)); }
+
+std::uint64_t morton_key(const Vec3& x, const PeriodicCell& cell) { return fractional_key(cell.fractional(x)); }
+
+void space_ranks(const Particles& p, std::size_t n, const PeriodicCell& L, std::vector<std::uint32_t>& rank,
                  std::vector<Index>* order) {
   struct Item {
     std::uint64_t key;

@@ -11,12 +11,11 @@ namespace {
 template <class Model, bool Viscous>
 void add_response(const Particles& P, const PairList& pl, const PeriodicCell& cell, const ContactLawParams& scene_law,
                   const Materials* materials, double* m) {
-  const Vec3& L = cell.lengths();
   const bool mixed = materials && !materials->empty();
   for (std::size_t q = 0; q < pl.size(); ++q) {
     if (!pl.touching[q] || std::size_t(pl.i[q]) >= P.n_owned()) continue;
     const Index i = pl.i[q], j = pl.j[q];
-    const Vec3 d = P.x[j] + image_offset(pl.image[q], L) - P.x[i];
+    const Vec3 d = P.x[j] + image_offset(pl.image[q], cell) - P.x[i];
     const real_t d2 = d.squaredNorm();
     if (d2 == 0) continue;
     const real_t dist = std::sqrt(d2);

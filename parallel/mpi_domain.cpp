@@ -385,10 +385,13 @@ void MpiDomain::end_ghost_update(Particles& p) {
   forward_drift_.reset();
   for (const int r : forward_.recv_ranks) {
     const std::size_t first = ghost_recv_first_[r], end = first + ghost_recv_count_[r];
-    if (d.deform)
-      for (std::size_t a = first; a < end; ++a) p.x[a] = drifted<true>(p.x[a], p.v[a], d.dt, d.scale);
+    const CellStep& s = d.deformation;
+    if (d.deform && s.sheared)
+      for (std::size_t a = first; a < end; ++a) p.x[a] = drifted_sheared(p.x[a], p.v[a], d.dt, s.F);
+    else if (d.deform)
+      for (std::size_t a = first; a < end; ++a) p.x[a] = drifted<true>(p.x[a], p.v[a], d.dt, s.scale);
     else
-      for (std::size_t a = first; a < end; ++a) p.x[a] = drifted<false>(p.x[a], p.v[a], d.dt, d.scale);
+      for (std::size_t a = first; a < end; ++a) p.x[a] = drifted<false>(p.x[a], p.v[a], d.dt, s.scale);
   }
 }
 

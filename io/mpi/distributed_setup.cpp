@@ -89,7 +89,7 @@ class CommRanks final : public SetupRanks {
     NeighborSearch search;
     PairList pairs;
     search.build(p, cell, 0.0, pairs);
-    const OverlapReport r = largest_overlap(p, pairs, cell.lengths());
+    const OverlapReport r = largest_overlap(p, pairs, cell);
     p.clear_ghosts();
     return r;
   }

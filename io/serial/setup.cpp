@@ -51,14 +51,14 @@ OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell) {
   NeighborSearch search;
   PairList pairs;
   search.build(w, cell, 0.0, pairs);
-  return largest_overlap(w, pairs, cell.lengths());
+  return largest_overlap(w, pairs, cell);
 }
 
-OverlapReport largest_overlap(const Particles& p, const PairList& pairs, const Vec3& L) {
+OverlapReport largest_overlap(const Particles& p, const PairList& pairs, const PeriodicCell& cell) {
   OverlapReport r;
   for (std::size_t q = 0; q < pairs.size(); ++q) {
     const Index i = pairs.i[q], j = pairs.j[q];
-    const real_t un = p.radius[i] + p.radius[j] - (p.x[j] + image_offset(pairs.image[q], L) - p.x[i]).norm();
+    const real_t un = p.radius[i] + p.radius[j] - (p.x[j] + image_offset(pairs.image[q], cell) - p.x[i]).norm();
     const real_t ratio = un / std::min(p.radius[i], p.radius[j]);
     if (un > 0 && ratio > r.ratio) r = {ratio, un, p.id[i], p.id[j]};
   }

@@ -40,7 +40,7 @@ struct OverlapReport {
 };
 OverlapReport largest_overlap(const Particles& p, const PeriodicCell& cell);
 // The same over the given pairs of p (owned and ghosts) in a cell of lengths L.
-OverlapReport largest_overlap(const Particles& p, const PairList& pairs, const Vec3& L);
+OverlapReport largest_overlap(const Particles& p, const PairList& pairs, const PeriodicCell& cell);
 
 // [particles] placement = "regions": the gradation, the expected cell and its cut into regions
 // (from the expected solid volume, so the same before any diameter is drawn), and the cell for

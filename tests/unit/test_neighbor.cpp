@@ -50,7 +50,7 @@ std::vector<Pair> list_pairs(const Particles& p, const PeriodicCell& cell, const
   for (std::size_t q = 0; q < pl.size(); ++q) {
     const Index i = pl.i[q], j = pl.j[q];
     EXPECT_LT(p.id[i], p.id[j]);
-    const Vec3 d = p.x[j] + image_offset(pl.image[q], cell.lengths()) - p.x[i];
+    const Vec3 d = p.x[j] + image_offset(pl.image[q], cell) - p.x[i];
     const Vec3 dmin = cell.minimum_image(p.x[j] - p.x[i]);
     EXPECT_LT((d - dmin).norm(), 1e-12 * cell.lengths().maxCoeff()) << "wrong image";
     out.emplace_back(p.id[i], p.id[j]);
@@ -328,7 +328,7 @@ TEST(Neighbor, VerletListKeepsEveryTouchingPairUnderDeformation) {
     for (std::size_t k = 0; k < sim.pairs().size(); ++k) {
       const Index i = sim.pairs().i[k], j = sim.pairs().j[k];
       listed.emplace(q.id[i], q.id[j]);
-      const Vec3 dd = q.x[j] + image_offset(sim.pairs().image[k], sim.cell().lengths()) - q.x[i];
+      const Vec3 dd = q.x[j] + image_offset(sim.pairs().image[k], sim.cell()) - q.x[i];
       if (dd.norm() < q.radius[i] + q.radius[j]) {
         // A listed pair that touches must use the minimum image.
         EXPECT_LT((dd - sim.cell().minimum_image(q.x[j] - q.x[i])).norm(), 1e-12);
