@@ -1,5 +1,7 @@
 #include "parallel/decomposition.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <metis.h>
 
 #include <algorithm>
@@ -9,6 +11,16 @@
 #include <string>
 
 namespace fabrica {
+
+BinFrame::BinFrame(const PeriodicCell& cell) : sheared(cell.sheared()), L(cell.lengths()) {
+  if (!sheared) return;
+  L = cell.heights();
+  const Mat3 inv = cell.matrix().inverse();
+  to_bin = L.asDiagonal() * inv;
+  Mat3 n = inv;  // rows: the face normals, made unit
+  for (int k = 0; k < 3; ++k) n.row(k).normalize();
+  normal_spread = Eigen::SelfAdjointEigenSolver<Mat3>(n * n.transpose()).eigenvalues().maxCoeff();
+}
 
 std::array<int, 3> Decomposition::bin_dims(const Vec3& L, real_t cutoff, DecompositionKind kind) {
   // Bins made kSlack wider than needed, so that a decomposition stays valid (fits()) while an

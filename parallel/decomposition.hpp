@@ -1,7 +1,7 @@
 // Domain decomposition of the periodic cell over MPI ranks.
 //
-// The cell is divided into bins in reduced coordinates (x_k / L_k), so subdomain bounds follow
-// the cell as it deforms. A bin's edge is at least half the interaction cutoff (2 Rmax + skin;
+// The cell is divided into bins in reduced coordinates (x_k / L_k; a sheared cell's fractional
+// coordinates, BinFrame), so subdomain bounds follow the cell as it deforms. A bin's edge is at least half the interaction cutoff (2 Rmax + skin;
 // made 1.25 times that, so that it stays so while an axis of the cell shrinks by 20 %),
 // so every pair that can interact lies within two bins of each other along every axis
 // (kReach = 2: the 124 neighbours of a bin, periodic). Half-cutoff bins let the subdomains be
@@ -20,6 +20,7 @@
 //     bin, on every rank, so its bins are coarsened to at most 32,768 (docs/large.md).
 // The map is computed identically on every rank (METIS on rank 0, then broadcast).
 #pragma once
+#include "core/cell.hpp"
 #include "core/types.hpp"
 
 #include <mpi.h>
@@ -32,6 +33,22 @@
 namespace fabrica {
 
 enum class DecompositionKind { Cartesian, Metis };
+
+// The coordinates bins are cut in. An orthorhombic cell: positions and lengths themselves. A
+// sheared cell: y_k = s_k h_k, the fractional coordinates times the heights between opposite
+// faces, so that y_k is a distance from the face s_k = 0 along its normal, and a bin is the
+// parallelepiped between two planes of each family; the same on every rank (the same bits of
+// the cell).
+struct BinFrame {
+  bool sheared = false;
+  Vec3 L;       // the lengths the bins divide: orthorhombic, the edges; sheared, the heights
+  Mat3 to_bin;  // sheared: diag(h) H^-1
+  // The largest eigenvalue of N N^T, N the unit face normals as rows (1 when orthogonal): the
+  // per-axis distances d_k from a point to a bin bound its distance D by sum d_k^2 <= this D^2.
+  real_t normal_spread = 1;
+  explicit BinFrame(const PeriodicCell& cell);
+  Vec3 coords(const Vec3& x) const { return sheared ? Vec3(to_bin * x) : x; }
+};
 
 inline constexpr int kReach = 2;  // bins per cutoff
 
@@ -87,7 +104,9 @@ class Decomposition {
   const std::array<int, 3>& rank_grid() const { return grid_; }  // Cartesian only
   const CartesianCuts& cuts() const { return cuts_; }            // Cartesian only
 
-  // Bin of a position wrapped into [0, L).
+  // Bin of a position wrapped into the cell (any shape).
+  int bin_of(const Vec3& x, const BinFrame& f) const { return bin_of(f.coords(x), f.L); }
+  // Bin of a position wrapped into [0, L) (an orthorhombic cell, or BinFrame coordinates).
   int bin_of(const Vec3& x, const Vec3& L) const {
     int c[3];
     for (int k = 0; k < 3; ++k) {

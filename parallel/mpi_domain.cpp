@@ -80,14 +80,15 @@ void MpiDomain::adopt(Particles& p, const PeriodicCell& cell, real_t cutoff, con
     return;
   }
   std::vector<Index> keep;  // every rank keeps its own share: nothing to send
+  const BinFrame frame(cell);
   for (std::size_t a = 0; a < p.n_owned(); ++a)
-    if (dec_->owner(dec_->bin_of(p.x[a], cell.lengths())) == rank_) keep.push_back(Index(a));
+    if (dec_->owner(dec_->bin_of(p.x[a], frame)) == rank_) keep.push_back(Index(a));
   p.permute_owned(keep);
 }
 
 void MpiDomain::gather_share(Particles& p, const PeriodicCell& cell, HistoryMap* history) {
   // 1. Particles to their owners: one all-to-all (at start-up only).
-  const Vec3& L = cell.lengths();
+  const BinFrame L(cell);
   std::vector<std::vector<Index>> leave(size_);
   std::vector<Index> keep;
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
@@ -189,7 +190,7 @@ void MpiDomain::migrate(Particles& p, const PeriodicCell& cell, HistoryMap& hist
   }
 
   // Particles leaving, by destination.
-  const Vec3& L = cell.lengths();
+  const BinFrame L(cell);
   std::vector<std::vector<Index>> leave(size_);
   std::vector<Index> keep;
   std::unordered_map<GlobalId, int> dest;
@@ -271,14 +272,16 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
   // bin, and the list takes the pair only within R_a + R_j + skin. Small particles thus travel
   // only from a thinner layer than the cutoff; the bins alone (each at least cutoff / kReach
   // wide) would send every particle of the two boundary bins.
-  const Vec3& L = cell.lengths();
+  const BinFrame frame(cell);
+  const Vec3& L = frame.L;
   const std::array<int, 3>& dims = dec_->dims();
   const real_t beyond = cutoff - rmax_ + 1e-9 * cutoff;  // Rmax + skin, and a rounding margin
   ghost_send_idx_.assign(size_, {});
   std::vector<char> near(size_, 0);
   constexpr int kSpan = 2 * kReach + 1;
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
-    const int bin = dec_->bin_of(p.x[a], L);
+    const Vec3 y = frame.coords(p.x[a]);
+    const int bin = dec_->bin_of(y, L);
     const std::vector<int>& partners = dec_->neighbour_ranks(bin);
     if (partners.empty()) continue;
     // Per axis: the squared distance from x_a to the slab of the bin at each offset, and that
@@ -287,7 +290,7 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
     real_t d2[3][kSpan];
     int w[3][kSpan];
     for (int k = 0; k < 3; ++k) {
-      const real_t edge = L[k] / dims[k], x = p.x[a][k];
+      const real_t edge = L[k] / dims[k], x = y[k];
       for (int o = -kReach; o <= kReach; ++o) {
         const real_t lo = (c[k] + o) * edge, hi = lo + edge;
         const real_t d = o == 0 ? 0.0 : std::max<real_t>(0.0, std::max(lo - x, x - hi));
@@ -295,7 +298,9 @@ void MpiDomain::build_ghosts(Particles& p, const PeriodicCell& cell, real_t cuto
         w[k][o + kReach] = ((c[k] + o) % dims[k] + dims[k]) % dims[k];
       }
     }
-    const real_t lim = p.radius[a] + beyond, lim2 = lim * lim;
+    // A sheared cell's per-axis distances are along non-orthogonal normals: their squares sum
+    // to at most normal_spread times the squared distance (1 when orthogonal).
+    const real_t lim = p.radius[a] + beyond, lim2 = frame.sheared ? lim * lim * frame.normal_spread : lim * lim;
     for (int oz = 0; oz < kSpan; ++oz)
       for (int oy = 0; oy < kSpan; ++oy) {
         const real_t dyz = d2[2][oz] + d2[1][oy];

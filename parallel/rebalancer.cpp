@@ -22,18 +22,20 @@ double Rebalancer::load_imbalance(const Particles& p) const {
 
 std::vector<double> Rebalancer::global_bin_work(const Particles& p, const PeriodicCell& cell,
                                                 const Decomposition& d) const {
+  const BinFrame frame(cell);
   std::vector<double> work(d.bins(), 0.0);
-  for (std::size_t a = 0; a < p.n_owned(); ++a) work[d.bin_of(p.x[a], cell.lengths())] += 1.0;
+  for (std::size_t a = 0; a < p.n_owned(); ++a) work[d.bin_of(p.x[a], frame)] += 1.0;
   MPI_Allreduce(MPI_IN_PLACE, work.data(), int(work.size()), MPI_DOUBLE, MPI_SUM, comm_);
   return work;
 }
 
 PlaneWork Rebalancer::global_plane_work(const Particles& p, const PeriodicCell& cell, const Decomposition& d,
                                         const std::vector<std::int64_t>& weight) const {
+  const BinFrame frame(cell);
   const std::array<int, 3>& n = d.dims();
   std::vector<std::int64_t> flat(std::size_t(n[0] + n[1] + n[2]), 0);  // axis 0, then 1, then 2
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
-    const int bin = d.bin_of(p.x[a], cell.lengths());
+    const int bin = d.bin_of(p.x[a], frame);
     const int c[3] = {bin % n[0], (bin / n[0]) % n[1], bin / (n[0] * n[1])};
     flat[c[0]] += weight[a];
     flat[n[0] + c[1]] += weight[a];
@@ -47,9 +49,10 @@ PlaneWork Rebalancer::global_plane_work(const Particles& p, const PeriodicCell& 
 
 Decomposition Rebalancer::first(const Particles& p, const PeriodicCell& cell, real_t cutoff,
                                 const DecompositionRecord* saved, Holding holding) {
+  const BinFrame frame(cell);
   cutoff_ = cutoff;
   if (opt_.kind == DecompositionKind::Cartesian) {
-    decomposed_for_ = saved ? saved->lengths : cell.lengths();
+    decomposed_for_ = saved ? saved->lengths : frame.L;
     rebuilds_since_cut_check_ = saved ? saved->since_check : -1;
     if (!saved || saved->cuts.empty()) return Decomposition::cartesian(size_, decomposed_for_, cutoff_);
     const Decomposition shape = Decomposition::cartesian(size_, decomposed_for_, cutoff_);  // the saved runs
@@ -63,35 +66,37 @@ Decomposition Rebalancer::first(const Particles& p, const PeriodicCell& cell, re
                                " cuts, not one per run of the rank grid");
     return Decomposition::cartesian(size_, decomposed_for_, cutoff_, cuts);
   }
-  const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, cell.lengths(), cutoff_);
+  const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, frame.L, cutoff_);
   std::vector<double> work;
   if (holding == Holding::Share) {
     work = global_bin_work(p, cell, shape);
   } else {  // every rank holds every particle: bin work is local knowledge, no reduction
     work.assign(shape.bins(), 0.0);
-    for (std::size_t a = 0; a < p.n_owned(); ++a) work[shape.bin_of(p.x[a], cell.lengths())] += 1;
+    for (std::size_t a = 0; a < p.n_owned(); ++a) work[shape.bin_of(p.x[a], frame)] += 1;
   }
-  return Decomposition::metis(size_, cell.lengths(), cutoff_, work, comm_);
+  return Decomposition::metis(size_, frame.L, cutoff_, work, comm_);
 }
 
 Decomposition Rebalancer::decompose(const Particles& p, const PeriodicCell& cell,
                                     const std::vector<std::int32_t>* work) {
+  const BinFrame frame(cell);
   if (opt_.kind == DecompositionKind::Cartesian) {
-    decomposed_for_ = cell.lengths();
+    decomposed_for_ = frame.L;
     if (!opt_.balance_work || !work)  // work is null on every rank or on none
-      return Decomposition::cartesian(size_, cell.lengths(), cutoff_);
-    const Decomposition shape = Decomposition::shape(DecompositionKind::Cartesian, cell.lengths(), cutoff_);
-    return Decomposition::by_work(size_, cell.lengths(), cutoff_,
+      return Decomposition::cartesian(size_, frame.L, cutoff_);
+    const Decomposition shape = Decomposition::shape(DecompositionKind::Cartesian, frame.L, cutoff_);
+    return Decomposition::by_work(size_, frame.L, cutoff_,
                                   global_plane_work(p, cell, shape, policy_->weigh(*work, force_seconds_)));
   }
   // Bin work from the current owners (the bins of the new decomposition).
-  const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, cell.lengths(), cutoff_);
-  return Decomposition::metis(size_, cell.lengths(), cutoff_, global_bin_work(p, cell, shape), comm_);
+  const Decomposition shape = Decomposition::shape(DecompositionKind::Metis, frame.L, cutoff_);
+  return Decomposition::metis(size_, frame.L, cutoff_, global_bin_work(p, cell, shape), comm_);
 }
 
 std::optional<Decomposition> Rebalancer::balance_cuts(const Particles& p, const PeriodicCell& cell,
                                                       const Decomposition& current,
                                                       const std::vector<std::int64_t>& weight, BalanceStats& stats) {
+  const BinFrame frame(cell);
   // The runs the current weights give, on the bins of the current decomposition (made for
   // decomposed_for_, so the same bins).
   Decomposition next = Decomposition::by_work(size_, decomposed_for_, cutoff_,
@@ -100,7 +105,7 @@ std::optional<Decomposition> Rebalancer::balance_cuts(const Particles& p, const 
   // every rank takes the same decision.
   std::vector<std::int64_t> load(2 * std::size_t(size_), 0);
   for (std::size_t a = 0; a < p.n_owned(); ++a) {
-    const int bin = current.bin_of(p.x[a], cell.lengths());
+    const int bin = current.bin_of(p.x[a], frame);
     load[current.owner(bin)] += weight[a];
     load[size_ + next.owner(bin)] += weight[a];
   }
@@ -125,9 +130,10 @@ std::optional<Decomposition> Rebalancer::balance_cuts(const Particles& p, const 
 std::optional<Rebalancer::Change> Rebalancer::at_rebuild(const Particles& p, const PeriodicCell& cell,
                                                          const Decomposition& current,
                                                          const std::vector<std::int32_t>* work, BalanceStats& stats) {
+  const BinFrame frame(cell);
   // 'work' is null on every rank or on none, so every rank calls the same collectives.
   std::optional<Change> change;
-  if (!current.fits(cell.lengths(), cutoff_)) {
+  if (!current.fits(frame.L, cutoff_)) {
     change = Change{decompose(p, cell, work), true};
   } else if (opt_.kind == DecompositionKind::Cartesian && opt_.balance_work && work &&
              (rebuilds_since_cut_check_ < 0 || ++rebuilds_since_cut_check_ >= opt_.rebalance_interval)) {
