@@ -11,7 +11,8 @@
 //    (each bond's spring force from the affine relative displacement, summed over the bonds of
 //    one sphere and divided by its volume); with the energy balance of the elastic lattice;
 //  - a pair touching across a sheared face keeps its branch vector, force and spring through
-//    a flip of the cell.
+//    a flip of the cell;
+//  - a rigid rotation of a sheared specimen rotates its stress and keeps its invariants.
 #include "core/neighbor.hpp"
 #include "core/generate.hpp"
 #include "scene_helpers.hpp"
@@ -20,6 +21,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <utility>
 #include <vector>
 
@@ -270,6 +272,34 @@ TEST(ShearedCell, APairAcrossAShearedFaceThroughAFlip) {
   }
   EXPECT_TRUE(flipped) << "the cell did not flip";
   EXPECT_TRUE(rewrapped) << "the flip should wrap a sphere anew (its fractional coordinates changed)";
+}
+
+// A rigid rotation Q of a sheared specimen (positions, and the cell's edges: H -> Q H, a cell
+// with no zero in its matrix) rotates its stress, Q sigma Q^T, and keeps p and q: the FCC
+// lattice sheared affinely by gamma = 0.3 (normal forces from its pre-overlap, the springs of
+// a fresh list zero), built again rotated by 30 degrees about (1, 2, 3).
+TEST(ShearedCell, ARigidRotationRotatesTheStress) {
+  Lattice l = fcc();
+  l.overlap = 2e-5;  // a pre-stress of a few percent of the shear stiffness times gamma
+  const Simulation upright = l.make();
+  Mat3 F = Mat3::Identity();
+  F(1, 0) = 0.3;
+  const Mat3 Q = Eigen::AngleAxisd(std::numbers::pi / 6, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  auto build = [&](const Mat3& map) {
+    Particles p;
+    const Particles& q = upright.particles();
+    for (std::size_t a = 0; a < q.n_owned(); ++a) p.add({q.id[a], q.radius[a], 2650.0, Vec3(map * q.x[a])});
+    const PeriodicCell cell = PeriodicCell::from_matrix(map * upright.cell().matrix());
+    SimulationParams sp = upright.params();
+    return Simulation(std::move(p), cell, sp);
+  };
+  const Simulation sheared = build(F), turned = build(Q * F);
+  const Mat3 s = sheared.macro().stress, t = turned.macro().stress;
+  ASSERT_GT(std::abs(s(0, 1)), 0.01 * s.norm());  // a shear stress to rotate
+  EXPECT_EQ(turned.macro().contacts, sheared.macro().contacts);
+  EXPECT_LT((t - Q * s * Q.transpose()).norm(), 1e-10 * s.norm());
+  EXPECT_NEAR(turned.macro().p, sheared.macro().p, 1e-10 * sheared.macro().p);
+  EXPECT_NEAR(turned.macro().q, sheared.macro().q, 1e-10 * sheared.macro().p);
 }
 
 }  // namespace
