@@ -21,6 +21,7 @@ bool stage_done(const StageSpec& st, const EndProbe& at) {
     if (*e.strain > 0 ? eps >= *e.strain : eps <= *e.strain) return true;
   }
   if (e.q_p && at.m->p > 0 && at.m->q / at.m->p >= *e.q_p) return true;
+  if (e.pressure && at.m->p >= *e.pressure) return true;
   if (e.cycles && at.cycles_done) return true;
   return e.at_rest && at_rest(st, at);
 }

@@ -3,6 +3,7 @@
 //   steps     the stage's step count reaches it (the driver measures at that step);
 //   strain    eps of the axis, from the stage's start, reaches the value (its sign: the way);
 //   q_p       q/p reaches the value;
+//   pressure  p reaches the value (a compression: the plain run's [compress], apps/plain_run.hpp);
 //   at_rest   every stress-controlled axis within stress_tolerance of its target (relative)
 //             and the unbalanced-force ratio below unbalanced_tolerance;
 //   cycles    a cyclic path's cycles done (apps/stage_control.hpp).

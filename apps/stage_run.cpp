@@ -186,6 +186,35 @@ void StageRun::progress(const StageSpec& st, const MacroState& m, const Vec3& ep
   log_->flush();
 }
 
+bool StageRun::row_due(const StageSpec&, std::int64_t k) const { return k % scene_.output_every == 0; }
+
+bool StageRun::measures(const StageSpec& st, std::int64_t k, bool at_row) const {
+  return at_row || k % st.servo.interval == 0 || (st.end.steps && k == *st.end.steps);
+}
+
+void StageRun::rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps) {
+  row(st, m, eps);
+  if (st.fabric == StageFabric::AtRows) fabric_row(st, eps);
+  if (output_ && output_->fields_due(k)) output_->fields(case_, sim_);  // [fields]
+  if (row_check_) row_check_();
+}
+
+void StageRun::end_rows(const StageSpec& st, std::int64_t, const MacroState& m, const Vec3& eps, bool at_row) {
+  if (!at_row) row(st, m, eps);
+  if ((!at_row && st.fabric == StageFabric::AtRows) || st.fabric == StageFabric::AtEnd) fabric_row(st, eps);
+  if (row_check_) row_check_();
+}
+
+void StageRun::unended(const StageSpec& st, const StageResult& res, const StageControl& c) const {
+  throw CollectiveError(
+      fmt::format("{}: {} = {}: the {} stage did not converge (last p = {:.6g} Pa, target {:.6g} Pa, "
+                  "s11 {:.6g}, s22 {:.6g}, s33 {:.6g} Pa, unbalanced-force ratio {:.3g}; servo {}); raise "
+                  "it or the damping",
+                  scene_.path, st.where == "[triaxial]" ? "[triaxial] max_stage_steps" : st.where + ".max_steps",
+                  st.max_steps, st.name, res.state.p, c.targets().maxCoeff(), res.state.stress(0, 0),
+                  res.state.stress(1, 1), res.state.stress(2, 2), res.state.unbalanced, c.servo().describe()));
+}
+
 StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCursor* resume) {
   using clock = std::chrono::steady_clock;
   StageControl control(st, real_t(st.servo.interval) * sim_.params().dt);
@@ -212,16 +241,9 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
   const auto t0 = clock::now();
   auto last_print = t0;
   for (;; ++k) {
-    if (k > st.max_steps)
-      throw CollectiveError(fmt::format(
-          "{}: {} = {}: the {} stage did not converge (last p = {:.6g} Pa, target {:.6g} Pa, "
-          "s11 {:.6g}, s22 {:.6g}, s33 {:.6g} Pa, unbalanced-force ratio {:.3g}; servo {}); raise "
-          "it or the damping",
-          scene_.path, st.where == "[triaxial]" ? "[triaxial] max_stage_steps" : st.where + ".max_steps", st.max_steps,
-          st.name, res.state.p, control.targets().maxCoeff(), res.state.stress(0, 0), res.state.stress(1, 1),
-          res.state.stress(2, 2), res.state.unbalanced, control.servo().describe()));
-    const bool out = k % scene_.output_every == 0;
-    const bool measure = out || k % st.servo.interval == 0 || (st.end.steps && k == *st.end.steps);
+    if (k > st.max_steps) unended(st, res, control);
+    const bool out = row_due(st, k);
+    const bool measure = measures(st, k, out);
     sim_.step(measure);  // the boundary work is the simulation's (Simulation::boundary_work)
     if (!sim_.step_guard().empty()) throw BlowUpError(sim_.step_guard());  // every step
     if (output_ && output_->snapshot_due(sim_.step_count())) output_->snapshot(case_, sim_, strain(l0_));
@@ -246,10 +268,7 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
           if (control.stress_axes()[a])
             res.max_lateral_error = std::max(res.max_lateral_error, std::abs(m.stress(a, a) - targets[a]) / targets[a]);
       }
-      if (out) row(st, m, eps);
-      if (out && st.fabric == StageFabric::AtRows) fabric_row(st, eps);
-      if (out && output_ && output_->fields_due(k)) output_->fields(case_, sim_);  // [fields]
-      if (out && row_check_) row_check_();
+      if (out) rows(st, k, m, eps);
       const Vec3 rates = update(control, st, m, eps_stage, sim_.time() - last_servo);
       sim_.cell().set_strain_rate(rates);
       last_servo = sim_.time();
@@ -264,9 +283,7 @@ StageResult StageRun::run(const StageSpec& st, std::int32_t index, const StageCu
       if (finished) {
         res.steps = k;
         res.strain = eps;
-        if (!out) row(st, m, eps);
-        if ((!out && st.fabric == StageFabric::AtRows) || st.fabric == StageFabric::AtEnd) fabric_row(st, eps);
-        if (row_check_) row_check_();
+        end_rows(st, k, m, eps, out);
         if (output_) output_->snapshot(case_, sim_, eps);  // always one at the end of a stage
         return res;
       }

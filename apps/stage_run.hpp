@@ -2,7 +2,9 @@
 // control law's strain rates (apps/stage_control.hpp) at every servo interval, the end
 // conditions (apps/stage_end.hpp), the series rows, the fabric rows, the HDF5 output and the
 // run's energy account. Every rank runs the same control flow; every decision is taken from
-// reduced (identical) values.
+// reduced (identical) values. StageRun::run is the one loop of every driver: the stage list
+// (apps/stage_driver.hpp), the triaxial test (apps/triaxial.hpp) and the plain run
+// (apps/plain_run.hpp), whose measurements and rows are its own (the virtual members below).
 #pragma once
 #include "apps/fabric_output.hpp"
 #include "apps/stage_control.hpp"
@@ -52,6 +54,7 @@ class StageRun {
   // 'series': rank 0's stream of rows (others pass null); 'log': progress lines (or null).
   StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, real_t density, std::ostream* series,
            std::ostream* log, const StageRun* parent = nullptr);
+  virtual ~StageRun() = default;
 
   // Runs stage 'st' (index 'index' of the run's list, for the cursor) to its end; with
   // 'resume' from a checkpoint's cursor (the simulation restored from it: the stage's contact
@@ -88,6 +91,20 @@ class StageRun {
   void record(StageRecord* r) { record_ = r; }
 
  protected:
+  // What a step of a stage measures and writes; a driver with rows of its own overrides them
+  // (apps/plain_run.cpp). Here those of the stage series: a row every [run] output_every steps
+  // of the stage ('k' counts them from 1)...
+  virtual bool row_due(const StageSpec& st, std::int64_t k) const;
+  // ... a measurement there, at every servo interval and at the step an end.steps names ...
+  virtual bool measures(const StageSpec& st, std::int64_t k, bool at_row) const;
+  // ... its series row, fabric rows ([fabric], as the stage says) and [fields] instant ...
+  virtual void rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps);
+  // ... and at the stage's end (its last measurement; 'at_row': rows() wrote that one's row) its
+  // last row and the fabric analysis of its end.
+  virtual void end_rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps, bool at_row);
+  // Stops the run when stage 'st' has not ended after its max_steps (every rank alike).
+  [[noreturn]] virtual void unended(const StageSpec& st, const StageResult& res, const StageControl& c) const;
+
   const Scene& scene_;
   Simulation& sim_;
 

@@ -51,6 +51,7 @@ struct StageEnd {
   std::optional<real_t> strain;       // eps of 'strain_axis' reaches this (either sign)
   int strain_axis = 0;                // 0, 1, 2
   std::optional<real_t> q_p;          // q/p reaches this
+  std::optional<real_t> pressure;     // p reaches this, Pa (a compression: [compress])
   bool at_rest = false;               // stress axes within tolerance and unbalanced below it
   bool cycles = false;                // the cyclic path's cycles done (implicit for cyclic)
 };

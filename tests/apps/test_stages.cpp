@@ -3,6 +3,7 @@
 // stiffness is M = c I, c = 4 k_n / a (k_s = k_n: a strain of one axis changes only that axis'
 // stress, by c times the strain). Friction is raised to 1e3 by the stages (no contact slides),
 // so the response is elastic. Each stage is given as a [[stage]] table and read by parse_scene.
+#include "apps/plain_run.hpp"
 #include "apps/stage_end.hpp"
 #include "apps/stage_run.hpp"
 #include "apps/triaxial.hpp"
@@ -276,6 +277,43 @@ end = { q_p = 0.2 })");
   std::printf("[stages] q/p at the end %.5f (target 0.2, %.5f per interval)\n", qp, dqp);
   EXPECT_GE(qp, 0.2);
   EXPECT_LT(qp, 0.2 + 1.5 * dqp);
+}
+
+// The plain run's compression (apps/plain_run.hpp): the three axes at the [compress] strain rate
+// until p reaches the target, seen at a measurement (here every servo interval: p rises by
+// c |rate| dt a step), in the compression's law (its friction, no rolling resistance).
+TEST(Stages, CompressionEndsAtItsPressure) {
+  const Scene scene = parse_scene(R"([contact]
+rolling_friction = 0.1
+
+[compress]
+target_pressure = 50e3
+strain_rate = -0.01
+friction = 0.2
+)",
+                                  "lattice.toml");
+  Fcc f;
+  Simulation sim = f.make();
+  const real_t p0 = sim.macro().p;
+  StageRun run(scene, sim, 2 * Fcc::R, 2650, nullptr, nullptr);
+  const StageSpec st = compress_stage(scene);
+  const StageResult r = run.run(st, 0);
+  const real_t dp = f.stiffness() * 0.01 * sim.params().dt;  // a step's rise of p
+  std::printf("[stages] compression from p %.1f Pa: %lld steps to p %.1f Pa (target 50000, %.1f Pa a step)\n", p0,
+              static_cast<long long>(r.steps), r.state.p, dp);
+  EXPECT_GE(r.state.p, 50e3);
+  EXPECT_LT(r.state.p, 50e3 + 1.5 * st.servo.interval * dp);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(sim.cell().strain_rate()[k], -0.01) << k;
+  EXPECT_EQ(sim.params().law.friction, 0.2);
+  EXPECT_EQ(sim.params().law.rolling_friction, 0.0);
+  // The end condition alone: p reaching the value from below.
+  MacroState m;
+  StageSpec end;
+  end.end.pressure = 100.0;
+  m.p = 99.9;
+  EXPECT_FALSE(stage_done(end, EndProbe{1, &m}));
+  m.p = 100.0;
+  EXPECT_TRUE(stage_done(end, EndProbe{1, &m}));
 }
 
 // A contact parameter set by a stage is the simulation's from then on.
