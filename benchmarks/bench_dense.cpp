@@ -34,8 +34,20 @@ struct RunResult {
   PhaseTimes phases;
 };
 
-RunResult run_once(const Scene& scene, const Setup& setup, bool phases) {
+// How the cell deforms during the timed steps: not at all (the default, the peers' scene), at
+// axial strain rates (-r, r/2, r/2) as in a triaxial test, or in simple shear G21 = r (a
+// sheared cell, issue 42), r making a strain of 1 % over the steps.
+enum class Deform { None, Axial, Shear };
+
+RunResult run_once(const Scene& scene, const Setup& setup, bool phases, Deform deform) {
   Simulation sim(setup.particles, setup.cell, setup.params);  // copies: same start every time
+  const real_t rate = 0.01 / (double(scene.steps) * setup.params.dt);
+  if (deform == Deform::Axial) sim.cell().set_strain_rate(Vec3(-rate, 0.5 * rate, 0.5 * rate));
+  if (deform == Deform::Shear) {
+    Mat3 g = Mat3::Zero();
+    g(1, 0) = rate;
+    sim.cell().set_velocity_gradient(g);
+  }
   RunResult r;
   r.start = sim.macro();
   sim.enable_phase_timers(phases);
@@ -60,8 +72,10 @@ int main(int argc, char** argv) {
     const int reps = argc > 1 ? std::atoi(argv[1]) : 5;
     const int phase_reps = argc > 2 ? std::atoi(argv[2]) : 1;
     const std::string path = argc > 3 ? argv[3] : std::string(FABRICA_SOURCE_DIR) + "/benchmarks/dense-13584.toml";
-    if (reps < 1 || phase_reps < 0) {
-      std::fprintf(stderr, "usage: bench_dense [REPS>=1] [PHASE_REPS>=0] [scene.toml]\n");
+    const std::string how = argc > 4 ? argv[4] : "none";
+    const Deform deform = how == "axial" ? Deform::Axial : how == "shear" ? Deform::Shear : Deform::None;
+    if (reps < 1 || phase_reps < 0 || (deform == Deform::None && how != "none")) {
+      std::fprintf(stderr, "usage: bench_dense [REPS>=1] [PHASE_REPS>=0] [scene.toml] [none|axial|shear]\n");
       return 2;
     }
     const Scene scene = load_scene(path);
@@ -77,7 +91,7 @@ int main(int argc, char** argv) {
     RunResult first;
     bool identical = true;
     for (int r = 0; r < reps; ++r) {
-      const RunResult res = run_once(scene, setup, false);
+      const RunResult res = run_once(scene, setup, false, deform);
       us.push_back(res.seconds * 1e6 / ps);
       std::printf(
           "rep %d: %.3f s loop, %.4f us/particle-step, %lld rebuilds, %lld contacts, "
@@ -90,7 +104,7 @@ int main(int argc, char** argv) {
 
     std::vector<double> ph_int, ph_chk, ph_reb, ph_frc, ph_tot;
     for (int r = 0; r < phase_reps; ++r) {
-      const RunResult res = run_once(scene, setup, true);
+      const RunResult res = run_once(scene, setup, true, deform);
       const PhaseTimes& t = res.phases;
       const double k = 1e6 / ps;
       ph_int.push_back(t.integrate * k);
@@ -131,11 +145,11 @@ int main(int argc, char** argv) {
           pct(median(ph_chk)), median(ph_reb), pct(median(ph_reb)), tot);
     }
     std::printf(
-        "RESULT bench=dense-13584 ranks=1 n=%zu steps=%lld reps=%d "
+        "RESULT bench=dense-13584 deform=%s ranks=1 n=%zu steps=%lld reps=%d "
         "us_per_particle_step_median=%.4f min=%.4f rebuilds=%lld contacts=%lld "
         "p_Pa=%.10e ke_J=%.10e ke_trans_J=%.6e p0_Pa=%.10e",
-        n, (long long)scene.steps, reps, med, mn, (long long)first.rebuilds, (long long)m.contacts, m.p, m.kinetic,
-        first.ke_trans, first.start.p);
+        how.c_str(), n, (long long)scene.steps, reps, med, mn, (long long)first.rebuilds, (long long)m.contacts, m.p,
+        m.kinetic, first.ke_trans, first.start.p);
     if (phase_reps > 0)
       std::printf(" force=%.4f integrate=%.4f check=%.4f rebuild=%.4f", median(ph_frc), median(ph_int), median(ph_chk),
                   median(ph_reb));
