@@ -75,18 +75,22 @@ void StepGuards::check_cell(const PeriodicCell& cell, real_t cutoff, real_t skin
   // the energy account fills with energy never put in). Checked at every rebuild, which is
   // enough: a pair outside the list cannot come into contact before the next one.
   if (!message_.empty()) return;
-  const Vec3& L = cell.lengths();
+  // A sheared cell: the heights between opposite faces (a shear thins them too).
+  const Vec3 L = cell.sheared() ? cell.heights() : cell.lengths();
   const real_t need = 2.0 * cutoff;
   for (int k = 0; k < 3; ++k) {
     if (L[k] > need) continue;
-    char b[600];
+    char what[160], b[600];
+    if (cell.sheared())
+      std::snprintf(what, sizeof what, "the sheared periodic cell has thinned to a height h%d = %.6g m", k + 1, L[k]);
+    else std::snprintf(what, sizeof what, "the periodic cell has shrunk to L%d = %.6g m", k + 1, L[k]);
     std::snprintf(b, sizeof b,
-                  "the run cannot go on at step %lld: the periodic cell has shrunk to L%d = %.6g m, "
+                  "the run cannot go on at step %lld: %s, "
                   "no longer above 2 (2 Rmax + skin) = %.6g m (Rmax %.6g m, skin %.6g m); two "
                   "spheres could now touch through two periodic images, which the contact search "
                   "does not follow. Use a larger specimen (more spheres, or a narrower gradation), "
                   "so that every cell length stays above that limit at the densest state",
-                  (long long)(step + 1), k + 1, L[k], need, 0.5 * (cutoff - skin), skin);
+                  (long long)(step + 1), what, need, 0.5 * (cutoff - skin), skin);
     message_ = b;
     return;
   }

@@ -13,6 +13,7 @@
 //  - a pair touching across a sheared face keeps its branch vector, force and spring through
 //    a flip of the cell;
 //  - a rigid rotation of a sheared specimen rotates its stress and keeps its invariants.
+#include "core/guards.hpp"
 #include "core/neighbor.hpp"
 #include "core/generate.hpp"
 #include "scene_helpers.hpp"
@@ -135,6 +136,18 @@ TEST(ShearedCell, TooThinAfterShearIsRefusedWithItsHeight) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("sheared periodic cell height h"), std::string::npos) << e.what();
   }
+}
+
+// The guard of every rebuild (core/guards.cpp) names a sheared cell's height.
+TEST(ShearedCell, ThinnedDuringARunStopsItWithItsHeight) {
+  StepGuards guards;
+  guards.check_cell(PeriodicCell::from_matrix(tilted(0.1, 0.3, 0, 0)), 0.02, 0.002, 41);
+  EXPECT_TRUE(guards.message().empty()) << guards.message();
+  guards.check_cell(PeriodicCell::from_matrix(tilted(0.1, 3.0, 0, 0)), 0.02, 0.002, 41);
+  EXPECT_NE(guards.message().find("at step 42: the sheared periodic cell has thinned to a height h2 = 0.0316228 m, "
+                                  "no longer above 2 (2 Rmax + skin) = 0.04 m"),
+            std::string::npos)
+      << guards.message();
 }
 
 // A lattice of cube edge a, n x n x n cubes, with basis points b (in units of a), spheres of
