@@ -161,7 +161,8 @@ std::pair<int, int> axis_pair(Table& t, const std::string& key, const toml::node
   if (n.is_integer()) v = std::to_string(*n.value<std::int64_t>());
   else if (n.is_string()) v = *n.value<std::string>();
   if (v.size() != 2 || v[0] < '1' || v[0] > '3' || v[1] < '1' || v[1] > '3' || v[0] == v[1])
-    t.fail(key, text(n), "must be two different axes among 1, 2, 3, as \"12\" (" + what + ")");
+    t.fail(key, n.is_string() ? "\"" + v + "\"" : text(n),
+           "must be two different axes among 1, 2, 3, as \"12\" (" + what + ")");
   return {v[0] - '1', v[1] - '1'};
 }
 
