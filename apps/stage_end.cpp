@@ -30,7 +30,11 @@ bool stage_done(const StageSpec& st, const EndProbe& at) {
   if (e.cycles && at.cycles_done) return true;
   if (e.shear_strain) {
     const real_t g = at.gamma[e.shear_component];
-    if (*e.shear_strain > 0 ? g >= *e.shear_strain : g <= *e.shear_strain) return true;
+    // Cyclic simple shear: either way (a single amplitude, the liquefaction criterion of
+    // laboratory practice); otherwise the value's sign is the way.
+    if (st.cyclic_shear() ? std::abs(g) >= std::abs(*e.shear_strain)
+                          : (*e.shear_strain > 0 ? g >= *e.shear_strain : g <= *e.shear_strain))
+      return true;
   }
   if (e.angle && at.angle_done) return true;
   return e.at_rest && at_rest(st, at);

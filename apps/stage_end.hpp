@@ -7,7 +7,7 @@
 //             and the unbalanced-force ratio below unbalanced_tolerance;
 //   cycles    a cyclic path's cycles done (apps/stage_control.hpp);
 //   shear_strain  the engineering shear strain of the component, from the stage's start, reaches
-//             the value (its sign: the way);
+//             the value (its sign: the way; cyclic simple shear: |gamma| reaches |value|);
 //   angle     principal_rotation's major axis turned through the stage's angle.
 // 'at_rest' also asks every stress-controlled shear component within stress_tolerance of its
 // target, relative to the control's shear scale (the targets may be zero).

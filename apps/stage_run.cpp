@@ -218,6 +218,16 @@ bool StageRun::warn_cap(const StageSpec& st, const StageControl& c, const MacroS
   for (int a = 0; a < 3; ++a) {
     if (!c.stress_axes()[a] || std::abs(rates[a]) < cap) continue;
     if (std::abs(m.stress(a, a) - t[a]) <= 10 * tol * t[a]) continue;
+    if (st.shears()) {  // the shear paths drive no axial rate
+      *log_ << fmt::format(
+          "  warning: step {}: the servo is at its rate cap ({} max_strain_rate = {} 1/s) on axis {} and s{}{} = "
+          "{:.4g} Pa is {:.1f} % from the target {:.4g} Pa: it cannot follow the shear loading; raise "
+          "max_strain_rate or lower the shear rate\n",
+          sim_.step_count(), st.where, cap, a + 1, a + 1, a + 1, m.stress(a, a),
+          100 * std::abs(m.stress(a, a) - t[a]) / t[a], t[a]);
+      log_->flush();
+      return true;
+    }
     *log_ << fmt::format(
         "  warning: step {}: the servo is at its rate cap ({} max_strain_rate = {} "
         "1/s) on axis {} and s{}{} = {:.4g} Pa is {:.1f} % from the target {:.4g} "
