@@ -536,6 +536,27 @@ TEST(Scene, ExampleScenesAreValid) {
   EXPECT_EQ(large.time_step_fraction, 0.5);  // the paper scene's settings (docs/large.md)
   EXPECT_EQ(large.skin, 0.003);
   EXPECT_EQ(large.law.youngs_modulus, paper.law.youngs_modulus);
+  // The shear examples (docs/shear.md): the study's law, a cubic cell, the paths their comments say.
+  const Scene simple = load_scene(dir + "simple_shear.toml");
+  EXPECT_EQ(simple.law.youngs_modulus, paper.law.youngs_modulus);
+  EXPECT_EQ(simple.law.friction, paper.law.friction);
+  ASSERT_EQ(simple.stages.size(), 3u);
+  const StageSpec& ss = simple.stages[2];
+  EXPECT_EQ(ss.path, StagePath::SimpleShear);
+  EXPECT_EQ(ss.shear_normal, 0);
+  EXPECT_EQ(ss.shear_direction, 1);
+  EXPECT_EQ(ss.stress[0], 100e3);
+  EXPECT_EQ(*ss.end.shear_strain, 0.3);
+  const Scene cyclic = load_scene(dir + "cyclic_simple_shear.toml");
+  EXPECT_EQ(cyclic.law.youngs_modulus, paper.law.youngs_modulus);
+  ASSERT_EQ(cyclic.stages.size(), 3u);
+  EXPECT_EQ(cyclic.stages[1].shear_mode[0], AxisMode::Stress);  // all six components controlled
+  const StageSpec& cs = cyclic.stages[2];
+  EXPECT_EQ(cs.path, StagePath::CyclicShearStress);
+  EXPECT_EQ(cs.mode, (std::array<AxisMode, 3>{AxisMode::StrainRate, AxisMode::StrainRate, AxisMode::StrainRate}));
+  EXPECT_EQ(cs.rate, Vec3::Zero());  // constant volume
+  EXPECT_EQ(cs.amplitude, 15e3);
+  EXPECT_EQ(cs.cycles, 4);
 }
 
 // Walls and driven particles do not follow a deforming cell: refused with [[stage]].
