@@ -267,7 +267,7 @@ start_angle = -30)");
     worst_angle = std::max(worst_angle, std::abs(d));
   }
   std::printf(
-      "[shear] principal rotation: %zu rows, |p - p0| <= %.3f %%, |q - q0| <= %.3f %%, |b - b0| <= %.4f, "
+      "[shear] principal rotation: %zu rows, |p - p0| <= %.3f %%, |q - q0| <= %.3f %%, |b - b0| <= %.2e, "
       "the angle within %.3f degrees, ending at %.3f\n",
       r.rows.size(), 100 * worst_p, 100 * worst_q, worst_b, worst_angle, r.rows.back()["theta_12"]);
   EXPECT_LT(worst_p, 0.01);
