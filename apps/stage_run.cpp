@@ -81,7 +81,12 @@ Vec3 StageRun::shear_strain(const Mat3& e0) const {
 void StageRun::row(const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma) {
   if (!series_ && !output_) return;
   const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
-  const real_t inertial = m.p > 0 ? std::abs(sim_.cell().strain_rate()[0]) * d_mean_ * std::sqrt(density_ / m.p) : 0;
+  real_t rate = std::abs(sim_.cell().strain_rate()[0]);
+  if (sim_.cell().sheared()) {  // the largest of |edot_1| and the engineering shear rates
+    const Mat3 G = sim_.cell().velocity_gradient();
+    for (const auto& ij : kShearPairs) rate = std::max(rate, std::abs(G(ij[0], ij[1]) + G(ij[1], ij[0])));
+  }
+  const real_t inertial = m.p > 0 ? rate * d_mean_ * std::sqrt(density_ / m.p) : 0;
   const Dissipation& d = m.dissipated;
   const real_t values[] = {sim_.time(),
                            eps[0],
