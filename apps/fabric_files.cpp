@@ -7,7 +7,7 @@ namespace fabrica {
 
 // The fabric files of one directory (rank 0 only; 'open' false: no files, null streams).
 FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins,
-                         std::int64_t resume_step) {
+                         std::int64_t resume_step, bool principal) {
   if (!open) return;
   make_output_directory(dir.string());
   const std::filesystem::path f = dir / (prefix + "fabric.csv"), s = dir / (prefix + "sff.csv"),
@@ -26,7 +26,7 @@ FabricFiles::FabricFiles(bool open, const std::filesystem::path& dir, const std:
   open_checked(sff_, paths_[1], mode);
   open_checked(rose_, paths_[2], mode);
   streams_ = {&fabric_, &sff_, &rose_};
-  if (!kept) write_fabric_headers(streams_, rose_bins);
+  if (!kept) write_fabric_headers(streams_, rose_bins, principal);
   check();
 }
 

@@ -12,11 +12,12 @@ namespace fabrica {
 
 // DIR/<prefix>fabric.csv, sff.csv, rose.csv with their headers (when 'open'; rank 0). With
 // 'resume_step' >= 0 (a restart in the stage that writes them) the existing files keep their
-// rows up to that step (the others are written again) and are appended to.
+// rows up to that step (the others are written again) and are appended to. 'principal': a run
+// that shears the cell, whose fabric.csv has the principal columns (write_fabric_headers).
 class FabricFiles {
  public:
   FabricFiles(bool open, const std::filesystem::path& dir, const std::string& prefix, int rose_bins,
-              std::int64_t resume_step = -1);
+              std::int64_t resume_step = -1, bool principal = false);
   const FabricStreams* streams() const { return streams_.fabric ? &streams_ : nullptr; }
   // Each throws a WriteError naming the file if a write so far failed (io/serial/write_check.hpp).
   void check();  // the rows so far written

@@ -1,6 +1,7 @@
 #include "apps/fabric_output.hpp"
 
 #include "core/measures.hpp"
+#include "core/principal.hpp"
 
 #include <fmt/core.h>
 
@@ -12,12 +13,15 @@ namespace {
 std::string num(real_t v) { return std::isnan(v) ? std::string("nan") : fmt::format("{:.10g}", v); }
 }  // namespace
 
-void write_fabric_headers(const FabricStreams& out, int rose_bins) {
-  if (out.fabric)
+void write_fabric_headers(const FabricStreams& out, int rose_bins, bool principal) {
+  if (out.fabric) {
     *out.fabric << "stage,step,eps1,network,count,mean_fn,zeta,gamma,xi,share,phi11,phi22,phi33,phi12,"
                    "phi23,phi13,phi_1,phi_2,phi_3,dir_1,dir_2,dir_3,a_c,a_b,a_n,a_t,ac11,ac22,"
                    "ac33,an11,an22,an33,at11,at22,at33,b0,f0,p_k,q_k,s11_k,s22_k,s33_k,s12_k,s23_k,"
-                   "s13_k,s21_k,s32_k,s31_k,nonpositive_weights,min_weight\n";
+                   "s13_k,s21_k,s32_k,s31_k,nonpositive_weights,min_weight";
+    if (principal) *out.fabric << ",noncoaxiality,ac_1,ac_2,ac_3,ab_1,ab_2,ab_3,an_1,an_2,an_3,at_1,at_2,at_3";
+    *out.fabric << '\n';
+  }
   if (out.sff) {
     *out.sff << "stage,step,eps1,contacts,mean_fn,p,q,q_p";
     for (auto name : kPartitionNames) *out.sff << ",q_p_star_" << name;
@@ -35,8 +39,9 @@ void write_fabric_headers(const FabricStreams& out, int rose_bins) {
 }
 
 void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::int64_t step, real_t eps1,
-                       const FabricResult& r) {
+                       const FabricResult& r, bool principal) {
   const std::string label = fmt::format("{},{},{}", stage, step, num(eps1));
+  const Vec3 stress_major = principal ? fabrica::principal(r.stress).major : Vec3::Zero();
   if (out.fabric) {
     for (int k = 0; k < kNetworks; ++k) {
       const NetworkFabric& n = r.net[k];
@@ -87,7 +92,13 @@ void write_fabric_rows(const FabricStreams& out, const std::string& stage, std::
                           n.stress(2, 0)};
       *out.fabric << label << ',' << kNetworkNames[k] << ',' << n.count;
       for (real_t x : v) *out.fabric << ',' << num(x);
-      *out.fabric << ',' << n.nonpositive_weights << ',' << num(n.min_weight) << '\n';
+      *out.fabric << ',' << n.nonpositive_weights << ',' << num(n.min_weight);
+      if (principal) {  // NaN for an empty network (its tensors are NaN)
+        *out.fabric << ',' << num(axes_angle(n.phi_major, stress_major));
+        for (const Mat3* a : {&n.ac, &n.ab, &n.an, &n.at})
+          for (real_t x : fabrica::principal(*a).values) *out.fabric << ',' << num(x);
+      }
+      *out.fabric << '\n';
     }
   }
   if (out.sff) {

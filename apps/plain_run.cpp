@@ -135,7 +135,7 @@ class PlainRun : public StageRun {
   bool measures(const StageSpec& st, std::int64_t k, bool at_row) const override {
     return compressing(st) ? (k - 1) % 10 == 0 : at_row || k == *st.end.steps;
   }
-  void rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3&) override {
+  void rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3&, const Vec3&) override {
     if (compressing(st)) {  // the standard output only
       print_row(sim_, m, nullptr, nullptr);
       return;
@@ -143,7 +143,8 @@ class PlainRun : public StageRun {
     series_row(m);
     if (out_ && out_->fields_due(k)) out_->fields(kCase, sim_);  // [fields]: every 'every' rows
   }
-  void end_rows(const StageSpec& st, std::int64_t, const MacroState& m, const Vec3&, bool at_row) override {
+  void end_rows(const StageSpec& st, std::int64_t, const MacroState& m, const Vec3&, const Vec3&,
+                bool at_row) override {
     if (!compressing(st) && !at_row) series_row(m);
   }
   [[noreturn]] void unended(const StageSpec& st, const StageResult& res, const StageControl& c) const override {

@@ -32,6 +32,11 @@ void write_cursor(FieldWriter& w, const StageCursor& c) {
   write_result(w, c.result);
   w.vec3("cursor.l0", c.l0).vec3("cursor.stage_l0", c.stage_l0);
   w.f64("cursor.input_positive", c.input_positive).f64("cursor.input_seen", c.input_seen);
+  // A run whose cell has been sheared: its strain references and the shear servo (absent from
+  // every other checkpoint, so that those keep their bytes and older ones read as before).
+  if (c.sheared_lengths.isZero()) return;
+  w.vec3("cursor.sheared_lengths", c.sheared_lengths).mat3("cursor.e0", c.e0).mat3("cursor.stage_e0", c.stage_e0);
+  w.vec3("cursor.shear_integral", c.control.shear_integral).vec3("cursor.result_gamma", c.result.gamma);
 }
 
 StageCursor read_cursor(FieldReader& r) {
@@ -47,6 +52,12 @@ StageCursor read_cursor(FieldReader& r) {
   c.stage_l0 = r.vec3("cursor.stage_l0");
   c.input_positive = r.f64("cursor.input_positive");
   c.input_seen = r.f64("cursor.input_seen");
+  if (!r.next_is("cursor.sheared_lengths")) return c;
+  c.sheared_lengths = r.vec3("cursor.sheared_lengths");
+  c.e0 = r.mat3("cursor.e0");
+  c.stage_e0 = r.mat3("cursor.stage_e0");
+  c.control.shear_integral = r.vec3("cursor.shear_integral");
+  c.result.gamma = r.vec3("cursor.result_gamma");
   return c;
 }
 

@@ -5,6 +5,7 @@
 #include "apps/stage_cursor.hpp"
 #include "apps/stage_run.hpp"
 #include "apps/triaxial.hpp"
+#include "core/principal.hpp"
 #include "io/mpi/checkpoint.hpp"
 #include "io/mpi/distributed_setup.hpp"
 #include "io/mpi/run_output.hpp"
@@ -28,10 +29,19 @@ const char* const kCase = "stages";  // the case of run.h5
 const char* const kSummaryHeader =
     "stage,name,steps,end_step,p,q,q_p,eps1,eps2,eps3,epsv,void_ratio,Z,peak_q_p,"
     "max_stress_error,max_energy_error\n";
+// A run that shears the cell: the shear stresses and strains, the principal stresses and the
+// major direction's angle follow (docs/output.md).
+const char* const kSummaryShear = ",s12,s13,s23,gamma_12,gamma_13,gamma_23,sigma_1,sigma_2,sigma_3,theta_12";
 
-std::string series_header() {
+std::string summary_header(bool shear) {
+  std::string h = kSummaryHeader;
+  if (shear) h.insert(h.size() - 1, kSummaryShear);
+  return h;
+}
+
+std::string series_header(bool shear) {
   std::ostringstream h;
-  write_series_header(h);
+  write_series_header(h, shear);
   return h.str();
 }
 
@@ -42,13 +52,20 @@ FieldWriter app_fields(const StageCursor& at, const std::string& summary) {
   return w;
 }
 
-std::string summary_row(int index, const StageSpec& st, const StageResult& r, std::int64_t step) {
+std::string summary_row(int index, const StageSpec& st, const StageResult& r, std::int64_t step, bool shear) {
   const MacroState& m = r.state;
-  return fmt::format(
+  std::string row = fmt::format(
       "{},{},{},{},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},"
-      "{:.10g},{:.10g},{:.10g},{:.10g}\n",
+      "{:.10g},{:.10g},{:.10g},{:.10g}",
       index + 1, st.name, r.steps, step, m.p, m.q, m.p > 0 ? m.q / m.p : 0.0, r.strain[0], r.strain[1], r.strain[2],
       r.strain.sum(), m.void_ratio, m.coordination, r.peak_q_p, r.max_lateral_error, r.max_energy_error);
+  if (shear) {
+    const Principal pr = principal(m.stress);
+    for (real_t x : {m.stress(0, 1), m.stress(0, 2), m.stress(1, 2), r.gamma[0], r.gamma[1], r.gamma[2], pr.values[0],
+                     pr.values[1], pr.values[2], pr.angle_12})
+      row += fmt::format(",{:.10g}", x);
+  }
+  return row + '\n';
 }
 
 }  // namespace
@@ -94,10 +111,12 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
   agree(mpi.comm(), [&] {  // the output directory exists before any rank writes a checkpoint
     if (root) make_output_directory(out.string());
   });
-  SeriesFile series(mpi.comm(), (out / "series.csv").string(), series_header(), 1, resume_step);
+  const bool shear = any_shears(scene.stages) || sim.cell().sheared();
+  SeriesFile series(mpi.comm(), (out / "series.csv").string(), series_header(shear), 1, resume_step);
   std::optional<FabricFiles> fabric;
-  agree(mpi.comm(),
-        [&] { fabric.emplace(root && scene.fabric.enabled, out, "", int(scene.fabric.rose_bins), resume_step); });
+  agree(mpi.comm(), [&] {
+    fabric.emplace(root && scene.fabric.enabled, out, "", int(scene.fabric.rose_bins), resume_step, shear);
+  });
   AppCheckpoint ckpt(
       mpi.comm(), scene, outdir, "stages", sim.step_count(),
       [&] {
@@ -109,7 +128,7 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
   const std::string summary_path = (out / "stages.csv").string();
   auto write_summary = [&] {
     agree(mpi.comm(), [&] {
-      if (root) write_file_atomic(summary_path, kSummaryHeader + summary);
+      if (root) write_file_atomic(summary_path, summary_header(shear) + summary);
     });
   };
   StageRun run(scene, sim, d_mean, density, series.stream(), log);
@@ -142,7 +161,7 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
             "{:.3f} %\n",
             i + 1, st.name, r.steps, sim.step_count(), r.state.p / 1e3, r.state.p > 0 ? r.state.q / r.state.p : 0,
             r.strain[0], r.strain[1], r.strain[2], r.state.void_ratio, 100 * r.max_energy_error);
-      summary += summary_row(i, st, r, sim.step_count());
+      summary += summary_row(i, st, r, sim.step_count(), shear);
       write_summary();
     }
   } catch (const BlowUpError& err) {  // every rank is here (the diagnosis is collective)
@@ -151,6 +170,8 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
   series.close();
   agree(mpi.comm(), [&] { fabric->close(); });
   if (log) *log << fmt::format("series and stage summary written to {}\n", outdir);
+  if (log && shear)  // docs/shear.md
+    *log << fmt::format("the shear figures: /usr/bin/python3 apps/plot_shear.py {}\n", outdir);
   return 0;
 }
 

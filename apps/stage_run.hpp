@@ -32,6 +32,7 @@ struct StageResult {
   real_t peak_eps1 = 0;
   real_t max_lateral_error = 0;
   real_t max_energy_error = 0;  // over the stage, relative to the energy put in (energy_in)
+  Vec3 gamma = Vec3::Zero();    // the series' engineering shear strains 12, 13, 23 at the end
 };
 
 // Where a run is inside a stage, with the run's own account: what a checkpoint saves to resume
@@ -46,6 +47,12 @@ struct StageCursor {
   Vec3 stage_l0 = Vec3::Zero();  // the stage's strain reference (end conditions)
   real_t input_positive = 0;     // J, energy_in() less the initial energy
   real_t input_seen = 0;         // J, boundary + gravity work at the last measurement
+  // Once the cell is sheared (zero before; apps/stage_cursor.cpp writes them only then): the
+  // cell lengths when it became sheared, and the cell's strain() at the series' and the stage's
+  // strain references.
+  Vec3 sheared_lengths = Vec3::Zero();
+  Mat3 e0 = Mat3::Zero();
+  Mat3 stage_e0 = Mat3::Zero();
 };
 
 class StageRun {
@@ -98,10 +105,11 @@ class StageRun {
   // ... a measurement there, at every servo interval and at the step an end.steps names ...
   virtual bool measures(const StageSpec& st, std::int64_t k, bool at_row) const;
   // ... its series row, fabric rows ([fabric], as the stage says) and [fields] instant ...
-  virtual void rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps);
+  virtual void rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps, const Vec3& gamma);
   // ... and at the stage's end (its last measurement; 'at_row': rows() wrote that one's row) its
   // last row and the fabric analysis of its end.
-  virtual void end_rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps, bool at_row);
+  virtual void end_rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps, const Vec3& gamma,
+                        bool at_row);
   // Stops the run when stage 'st' has not ended after its max_steps (every rank alike).
   [[noreturn]] virtual void unended(const StageSpec& st, const StageResult& res, const StageControl& c) const;
 
@@ -110,13 +118,28 @@ class StageRun {
 
  private:
   void apply_contact(const StageSpec& st);
-  void row(const StageSpec& st, const MacroState& m, const Vec3& eps);
+  void row(const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma);
   void fabric_row(const StageSpec& st, const Vec3& eps);
+  // The strains eps_k = ln(l0_k / l_k) from the reference lengths l0 (reference()). A sheared
+  // cell's lengths are the diagonal of its matrix, not its stretches: its strains are those of
+  // the cell's strain() (the integral of D) from the lengths it had when it became sheared.
   Vec3 strain(const Vec3& l0) const;
+  Vec3 reference() const;  // the lengths a strain is measured from, now
+  // The engineering shear strains 12, 13, 23 since the cell's strain() was e0.
+  Vec3 shear_strain(const Mat3& e0) const;
   // The rates for measurement 'm' (collective: the specimen's stiffness is reduced).
   Vec3 update(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps, real_t elapsed);
+  // The full velocity gradient for measurement 'm' (shear stages, sheared cells), set on the
+  // cell; returns its diagonal.
+  Vec3 update_gradient(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma,
+                       real_t elapsed, real_t stage_time);
+  // The cell's rates after a measurement, through update() or update_gradient().
+  Vec3 drive(StageControl& c, const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma,
+             real_t elapsed, real_t stage_time);
   bool warn_cap(const StageSpec& st, const StageControl& c, const MacroState& m, const Vec3& rates);
-  void progress(const StageSpec& st, const MacroState& m, const Vec3& eps, double secs, std::int64_t steps);
+  void progress(const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma, double secs,
+                std::int64_t steps);
+  void track(StageResult& res, const StageControl& c, const MacroState& m, const Vec3& eps) const;
   // (energy put in - stored - dissipated) / energy_in(), from the simulation's one account.
   real_t energy_error(const MacroState& m) const;
   void track_input(const MacroState& m);  // at every measurement: energy_in() grows
@@ -124,9 +147,13 @@ class StageRun {
   real_t d_mean_, density_;
   std::ostream* series_;
   std::ostream* log_;
-  Vec3 l0_;                // cell lengths at the start of the current strain reference
-  real_t in_pos_ = 0;      // J, sum of the positive increments of input_seen_
-  real_t input_seen_ = 0;  // J, boundary + gravity work at the last measurement
+  bool shear_out_;          // the run shears: the series' shear columns, fabric's principal columns
+  std::string header_;      // the series' header line
+  Vec3 l0_;                 // cell lengths at the start of the current strain reference
+  Vec3 ls_ = Vec3::Zero();  // cell lengths when it became sheared (zero before)
+  Mat3 e0_ = Mat3::Zero();  // the cell's strain() at the current strain reference
+  real_t in_pos_ = 0;       // J, sum of the positive increments of input_seen_
+  real_t input_seen_ = 0;   // J, boundary + gravity work at the last measurement
   std::function<void(const StageCursor&)> hook_;
   std::function<void()> row_check_;
   const FabricStreams* fabric_out_ = nullptr;
@@ -136,6 +163,8 @@ class StageRun {
   StageRecord* record_ = nullptr;
 };
 
-void write_series_header(std::ostream& out);
+// With 'shear' (a run whose stages shear the cell) the shear columns follow the others:
+// gamma_12, gamma_13, gamma_23, sigma_1, sigma_2, sigma_3, n1, n2, n3, theta_12 (docs/output.md).
+void write_series_header(std::ostream& out, bool shear = false);
 
 }  // namespace fabrica

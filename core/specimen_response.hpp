@@ -17,4 +17,13 @@ namespace fabrica {
 void add_specimen_response(const Particles& p, const PairList& pairs, const PeriodicCell& cell,
                            const ContactLawParams& law, double m[18], const Materials* materials = nullptr);
 
+// The same for the shear components c = 12, 13, 23 (the pairs (i, j) of kShearPairs): the
+// response of the symmetric shear stress s_ij to a rotation-free engineering shear gamma_ij
+// (D_ij = D_ji = gamma_dot / 2), the shear servo's stiffness (apps/servo.hpp):
+//   m[c]     += |d|^2 ((k_n - k_s) n_i^2 n_j^2 + k_s (n_i^2 + n_j^2) / 4)
+//   m[3 + c] += |d|^2 ((c_n - c_s) n_i^2 n_j^2 + c_s (n_i^2 + n_j^2) / 4)   (only with dashpots)
+// (an elastic FCC lattice of cube edge a: m / V = (k_n + k_s) / a, its shear modulus).
+void add_shear_response(const Particles& p, const PairList& pairs, const PeriodicCell& cell,
+                        const ContactLawParams& law, double m[6], const Materials* materials = nullptr);
+
 }  // namespace fabrica

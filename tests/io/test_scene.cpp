@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -373,6 +374,129 @@ end = { strain = -0.01, strain_axis = 1 }
   expect_error("[run]\nsteps = 5\n[[stage]]\ntype = \"hold\"\nend = { steps = 1 }\n", {"[run] steps = 5", "[[stage]]"});
 }
 
+// The shear stages (issue 42; docs/shear.md): control.shear_ij of a mixed stage, simple_shear
+// (its plane: the normal axis first, then the direction it slides along), cyclic_simple_shear,
+// principal_rotation; contradictory or incomplete controls refused naming the stage and key.
+TEST(Scene, ShearStages) {
+  const Scene s = parse_scene(R"([[stage]]
+type = "mixed"
+control.axis_1 = { stress = 1e5 }
+control.axis_2 = { stress = 1e5 }
+control.axis_3 = { strain_rate = 0.0 }
+control.shear_12 = { stress = -2e4 }
+control.shear_23 = { strain_rate = 0.01 }
+end = { at_rest = true }
+[[stage]]
+type = "simple_shear"
+pressure = 1e5
+shear_strain_rate = 0.05
+plane = "31"
+end = { shear_strain = 0.2 }
+[[stage]]
+type = "cyclic_simple_shear"
+constant_volume = true
+shear_strain_rate = 0.1
+amplitude_stress = 3e4
+cycles = 5
+[[stage]]
+type = "principal_rotation"
+pressure = 1e5
+q = 3e4
+b = 0.5
+rotation_rate = -45
+angle = 90
+end = { steps = 10 }
+[[stage]]
+type = "hold"
+end = { steps = 1 }
+)",
+                              "shear.toml");
+  ASSERT_EQ(s.stages.size(), 5u);
+  const StageSpec& m = s.stages[0];
+  EXPECT_TRUE(m.shears());
+  EXPECT_EQ(m.shear_mode[0], AxisMode::Stress);
+  EXPECT_EQ(m.shear_stress[0], -2e4);
+  EXPECT_EQ(m.shear_mode[1], AxisMode::StrainRate);
+  EXPECT_EQ(m.shear_rate[1], 0.0);
+  EXPECT_EQ(m.shear_rate[2], 0.01);
+  EXPECT_EQ(m.shear_normal, -1);  // rotation-free
+  const StageSpec& ss = s.stages[1];
+  EXPECT_EQ(ss.path, StagePath::SimpleShear);
+  EXPECT_EQ(ss.shear_normal, 2);      // planes normal to axis 3
+  EXPECT_EQ(ss.shear_direction, 0);   // slide along axis 1
+  EXPECT_EQ(ss.shear_rate[1], 0.05);  // the 13 component
+  EXPECT_EQ(ss.mode[2], AxisMode::Stress);
+  EXPECT_EQ(ss.stress[2], 1e5);
+  EXPECT_EQ(ss.mode[0], AxisMode::StrainRate);  // the lateral axes fixed
+  EXPECT_EQ(ss.rate[0], 0.0);
+  EXPECT_EQ(*ss.end.shear_strain, 0.2);
+  EXPECT_EQ(ss.end.shear_component, 1);
+  const StageSpec& c = s.stages[2];
+  EXPECT_EQ(c.path, StagePath::CyclicShearStress);
+  EXPECT_EQ(c.mode, (std::array<AxisMode, 3>{AxisMode::StrainRate, AxisMode::StrainRate, AxisMode::StrainRate}));
+  EXPECT_EQ(c.amplitude, 3e4);
+  EXPECT_EQ(c.cycles, 5);
+  EXPECT_TRUE(c.end.cycles);
+  const StageSpec& r = s.stages[3];
+  EXPECT_EQ(r.path, StagePath::PrincipalRotation);
+  EXPECT_NEAR(r.rotation_rate, -std::numbers::pi / 4, 1e-15);
+  EXPECT_NEAR(r.angle, std::numbers::pi / 2, 1e-15);
+  EXPECT_TRUE(r.end.angle);
+  // At the start angle 0: s11 = s1, s22 = s3, s33 = s2 = s3 + b (s1 - s3), p and q as given.
+  const Vec3 sp = principal_stresses(1e5, 3e4, 0.5);
+  EXPECT_NEAR(sp.sum() / 3, 1e5, 1e-9);
+  EXPECT_NEAR(std::sqrt(0.5 *
+                        ((sp[0] - sp[1]) * (sp[0] - sp[1]) + (sp[1] - sp[2]) * (sp[1] - sp[2]) +
+                         (sp[2] - sp[0]) * (sp[2] - sp[0]))),
+              3e4, 1e-9);
+  EXPECT_NEAR(r.stress[0], sp[0], 1e-9);
+  EXPECT_NEAR(r.stress[1], sp[2], 1e-9);
+  EXPECT_NEAR(r.stress[2], sp[1], 1e-9);
+  EXPECT_FALSE(s.stages[4].shears());
+  EXPECT_TRUE(any_shears(s.stages));
+
+  const std::string mixed =
+      "[[stage]]\ntype = \"mixed\"\ncontrol.axis_1 = { stress = 1e5 }\ncontrol.axis_2 = { stress = 1e5 }\n"
+      "control.axis_3 = { stress = 1e5 }\n";
+  expect_error(mixed + "control.shear_12 = { stress = 1e4, strain_rate = 0.1 }\nend = { steps = 1 }\n",
+               {"stage[1].control.shear_12", "contradictory controls"});
+  expect_error(mixed + "control.shear_13 = { }\nend = { steps = 1 }\n", {"stage[1].control.shear_13", "give"});
+  expect_error(mixed + "control.shear_21 = { stress = 1e4 }\nend = { steps = 1 }\n",
+               {"stage[1].control.shear_21", "unknown key"});
+  expect_error(mixed + "control.shear_12 = { strain_rate = 2.0 }\nend = { steps = 1 }\n",
+               {"stage[1].control.shear_12.strain_rate = 2", "max_strain_rate"});
+  expect_error(mixed + "control.shear_12 = { strain_rate = -0.1 }\nend = { shear_strain = 0.1 }\n",
+               {"stage[1].end.shear_strain = 0.1", "never reached"});
+  expect_error(mixed + "end = { shear_strain = 0.1 }\n",
+               {"stage[1].end.shear_strain = 0.1", "controls no shear component"});
+  expect_error(mixed + "control.shear_12 = { strain_rate = 0.1 }\n", {"stage[1].end", "no end condition"});
+  const std::string simple = "[[stage]]\ntype = \"simple_shear\"\nshear_strain_rate = 0.1\n";
+  expect_error(simple + "constant_volume = true\npressure = 1e5\nend = { shear_strain = 0.1 }\n",
+               {"stage[1].pressure = 100000", "contradictory controls"});
+  expect_error(simple + "end = { shear_strain = 0.1 }\n", {"stage[1].pressure", "(missing)"});
+  expect_error(simple + "pressure = 1e5\nplane = \"11\"\nend = { shear_strain = 0.1 }\n",
+               {"stage[1].plane = \"11\"", "two different axes"});
+  expect_error(simple + "pressure = 1e5\nend = { shear_strain = -0.1 }\n",
+               {"stage[1].end.shear_strain = -0.1", "never reached"});
+  expect_error(simple +
+                   "pressure = 1e5\nlateral = \"pressure\"\nconstant_volume = false\namplitude = 0.1\n"
+                   "end = { shear_strain = 0.1 }\n",
+               {"stage[1].amplitude", "not used"});
+  expect_error(
+      "[[stage]]\ntype = \"cyclic_simple_shear\"\nshear_strain_rate = 0.1\nconstant_volume = true\n"
+      "amplitude = 0.01\namplitude_stress = 1e4\ncycles = 2\n",
+      {"stage[1].amplitude_stress = 10000", "contradictory controls"});
+  expect_error(
+      "[[stage]]\ntype = \"cyclic_simple_shear\"\nshear_strain_rate = 0.1\nconstant_volume = true\n"
+      "cycles = 2\n",
+      {"stage[1].amplitude", "(missing)"});
+  const std::string rot = "[[stage]]\ntype = \"principal_rotation\"\npressure = 1e5\nb = 0.5\n";
+  expect_error(rot + "q = 3e4\nangle = 90\n", {"stage[1].rotation_rate", "(missing)"});
+  expect_error(rot + "q = 3e5\nrotation_rate = 10\nangle = 90\n", {"stage[1].q = 300000", "too large"});
+  expect_error("[[stage]]\ntype = \"hold\"\nshear_strain_rate = 0.1\nend = { steps = 1 }\n",
+               {"stage[1].shear_strain_rate", "not used"});
+}
+
 // Without the key, a generated specimen is placed sequentially below 200,000 spheres (the
 // study's specimens unchanged) and by regions from 200,000 on; the key overrides either way.
 TEST(Scene, PlacementDefaultsToRegionsForLargeSpecimens) {
@@ -412,6 +536,27 @@ TEST(Scene, ExampleScenesAreValid) {
   EXPECT_EQ(large.time_step_fraction, 0.5);  // the paper scene's settings (docs/large.md)
   EXPECT_EQ(large.skin, 0.003);
   EXPECT_EQ(large.law.youngs_modulus, paper.law.youngs_modulus);
+  // The shear examples (docs/shear.md): the study's law, a cubic cell, the paths their comments say.
+  const Scene simple = load_scene(dir + "simple_shear.toml");
+  EXPECT_EQ(simple.law.youngs_modulus, paper.law.youngs_modulus);
+  EXPECT_EQ(simple.law.friction, paper.law.friction);
+  ASSERT_EQ(simple.stages.size(), 3u);
+  const StageSpec& ss = simple.stages[2];
+  EXPECT_EQ(ss.path, StagePath::SimpleShear);
+  EXPECT_EQ(ss.shear_normal, 0);
+  EXPECT_EQ(ss.shear_direction, 1);
+  EXPECT_EQ(ss.stress[0], 100e3);
+  EXPECT_EQ(*ss.end.shear_strain, 0.3);
+  const Scene cyclic = load_scene(dir + "cyclic_simple_shear.toml");
+  EXPECT_EQ(cyclic.law.youngs_modulus, paper.law.youngs_modulus);
+  ASSERT_EQ(cyclic.stages.size(), 3u);
+  EXPECT_EQ(cyclic.stages[1].shear_mode[0], AxisMode::Stress);  // all six components controlled
+  const StageSpec& cs = cyclic.stages[2];
+  EXPECT_EQ(cs.path, StagePath::CyclicShearStress);
+  EXPECT_EQ(cs.mode, (std::array<AxisMode, 3>{AxisMode::StrainRate, AxisMode::StrainRate, AxisMode::StrainRate}));
+  EXPECT_EQ(cs.rate, Vec3::Zero());  // constant volume
+  EXPECT_EQ(cs.amplitude, 15e3);
+  EXPECT_EQ(cs.cycles, 4);
 }
 
 // Walls and driven particles do not follow a deforming cell: refused with [[stage]].

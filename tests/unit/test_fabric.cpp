@@ -9,14 +9,18 @@
 //  - the exact shares of p (p_k / p) weigh the branch lengths that xi leaves out: with them the
 //    partition's first-order (q/p)* of two networks of different branch lengths is within its
 //    truncation of q/p, with xi it is not (the dense-13584 packing: test_fabric_dense.cpp);
+//  - a rigid rotation of the specimen keeps the signed indices, the anisotropy tensors' principal
+//    values and the fabric/stress non-coaxiality, and turns the major directions;
 //  - the stress-force-fabric relation's truncation: for an exactly second-order population the
 //    measured q/p and the first-order (q/p)* against their closed forms (batch-means errors).
 // The rank-count independence is tested in tests/mpi/test_fabric_ranks.cpp.
 #include "core/exact_sum.hpp"
 #include "core/fabric.hpp"
+#include "core/principal.hpp"
 #include "core/serial_domain.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -526,6 +530,43 @@ namespace fabrica {
 namespace {
 // No contacts at all (a loose cloud): every collective is still made, counts are 0, means nan,
 // and the prediction 0.
+// Under a rigid rotation of the whole specimen (every normal, branch and tangential force turned
+// by R, as a principal-rotation path or a simple shear turns them), the signed indices
+// sign(a:s) sqrt(3/2 a:a) keep their values and signs (a:s with s the full deviatoric stress is
+// invariant), the anisotropy tensors' principal values and the fabric/stress non-coaxiality
+// (core/principal.hpp) too, and the major directions turn with R; to 1e-9 (the rotation's
+// rounding of each record).
+TEST(Fabric, RotationKeepsTheIndicesAndTheNonCoaxiality) {
+  const Sample s = make_sample(20000, 99);
+  SerialDomain serial;
+  const FabricResult r0 = analyse_fabric(s.rec, 1.0, FabricOptions{}, serial);
+  const Mat3 R = Eigen::AngleAxis<double>(0.7, Vec3(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  std::vector<ContactRecord> turned = s.rec;
+  for (ContactRecord& c : turned) {
+    c.normal = R * c.normal;
+    c.branch = R * c.branch;
+    c.ft = R * c.ft;
+  }
+  const FabricResult r1 = analyse_fabric(turned, 1.0, FabricOptions{}, serial);
+  const Principal sp0 = principal(r0.stress), sp1 = principal(r1.stress);
+  EXPECT_LT((sp1.values - sp0.values).norm(), 1e-9 * sp0.values.norm());
+  EXPECT_NEAR(std::abs(sp1.major.dot(R * sp0.major)), 1.0, 1e-9);
+  for (int k = 0; k < kNetworks; ++k) {
+    const NetworkFabric &a = r0.net[k], &b = r1.net[k];
+    if (a.count == 0) continue;
+    ASSERT_EQ(a.count, b.count) << k;
+    for (auto [x, y] : {std::pair{a.a_c, b.a_c}, {a.a_b, b.a_b}, {a.a_n, b.a_n}, {a.a_t, b.a_t}})
+      EXPECT_NEAR(x, y, 1e-9 * std::max(1.0, std::abs(x))) << kNetworkNames[k];
+    for (auto [x, y] : {std::pair{&a.ac, &b.ac}, {&a.ab, &b.ab}, {&a.an, &b.an}, {&a.at, &b.at}})
+      EXPECT_LT((principal(*x).values - principal(*y).values).norm(), 1e-9) << kNetworkNames[k];
+    EXPECT_NEAR(std::abs(b.phi_major.dot(R * a.phi_major)), 1.0, 1e-9) << kNetworkNames[k];
+    EXPECT_NEAR(axes_angle(a.phi_major, sp0.major), axes_angle(b.phi_major, sp1.major), 1e-6) << kNetworkNames[k];
+  }
+  // The sample's fabric is coaxial with its stress to within a few degrees: a_c > 0 before and after.
+  EXPECT_GT(r1.net[kAll].a_c, 0.5);
+  EXPECT_LT(axes_angle(r1.net[kAll].phi_major, sp1.major), 10.0);
+}
+
 TEST(Fabric, NoContacts) {
   SerialDomain serial;
   const FabricResult r = analyse_fabric(std::span<const ContactRecord>{}, 1.0, FabricOptions{}, serial);
