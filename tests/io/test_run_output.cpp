@@ -11,6 +11,7 @@
 #include "core/generate.hpp"
 #include "core/timestep.hpp"
 #include "io/mpi/h5.hpp"
+#include "io/mpi/run_fields.hpp"
 #include "io/mpi/run_output.hpp"
 #include "io/mpi/snapshot.hpp"
 #include "io/mpi/snapshot_writer.hpp"
@@ -285,7 +286,8 @@ TEST(RunOutput, ReaderRefusesBadFiles) {
 // the sheared output then read (ctest fixture sheared_run: cli.output.sheared_*,
 // cli.fabric.sheared_offline, cli.fields.sheared_refused). Here: every snapshot's cell_matrix is
 // the cell's matrix bit for bit (the C++ reader), its particles lie in the slanted cell; the
-// cell's sidecar run_cell.xmf has a grid per snapshot with the corners H s at full precision.
+// cell's sidecar run_cell.xmf has a grid per snapshot with the corners H s at full precision;
+// [fields] refuses the sheared cell before the run and at an instant, naming [fields].
 TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
   if (size() > 1) GTEST_SKIP() << "a sheared cell runs on one rank until parallel/ handles it";
   const std::string dir = fresh_dir("sheared");
@@ -349,6 +351,25 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
     ++grids;
   EXPECT_EQ(grids, infos.size());
   EXPECT_NE(x.find(">" + corners.str() + "</DataItem>"), std::string::npos) << corners.str();
+
+  // [fields]: refused before the run (the cell at set-up) and at an instant, naming [fields].
+  Scene fsc = sc;
+  fsc.fields.enabled = true;
+  fsc.fields.width = 0.01;
+  for (int when = 0; when < 2; ++when) {
+    try {
+      if (when == 0) check_run_fields(fsc, sim.particles(), sim.cell(), MPI_COMM_WORLD);
+      else run_fields(fsc.fields, 1.0, fsc.path, sim);
+      ADD_FAILURE() << "a sheared cell's fields were not refused";
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.rfind(fsc.path + ": [fields]", 0), 0u) << m;
+      EXPECT_NE(m.find("the periodic cell is sheared: coarse-grained fields are computed on an orthorhombic cell only"),
+                std::string::npos)
+          << m;
+      if (when == 1) EXPECT_NE(m.find("at step " + std::to_string(sim.step_count())), std::string::npos) << m;
+    }
+  }
 }
 
 }  // namespace
