@@ -577,9 +577,15 @@ void RunOutput::close_after_error() {
 
 void RunOutput::write_cell_xmf(const std::vector<std::string>& cases) const {
   // The cell's sidecar once any snapshot's cell is sheared (then of every snapshot, so that its
-  // time axis is run.xmf's); none for a run of orthorhombic cells, whose outputs stay as before.
-  if (std::none_of(xmf_.begin(), xmf_.end(), [](const XmfEntry& x) { return x.sheared; })) return;
+  // time axis is run.xmf's); none for a run of orthorhombic cells, whose outputs stay as before
+  // (a restart to before the shear removes the one it wrote).
   const std::filesystem::path dir(outdir_);
+  if (std::none_of(xmf_.begin(), xmf_.end(), [](const XmfEntry& x) { return x.sheared; })) {
+    std::error_code ec;
+    std::filesystem::remove(dir / "run_cell.xmf", ec);
+    for (const std::string& c : cases) std::filesystem::remove(dir / ("run_" + c + "_cell.xmf"), ec);
+    return;
+  }
   std::vector<CellXdmfEntry> all;
   for (const XmfEntry& x : xmf_) all.push_back({x.case_name, x.step, x.time, x.h});
   write_cell_xdmf((dir / "run_cell.xmf").string(), all);

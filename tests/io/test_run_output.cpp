@@ -351,6 +351,28 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
     ++grids;
   EXPECT_EQ(grids, infos.size());
   EXPECT_NE(x.find(">" + corners.str() + "</DataItem>"), std::string::npos) << corners.str();
+  // A restart rebuilds the sidecar from the snapshots' cell_matrix (in a copy: the directory is
+  // the fixture of the cli tests): the same text at the last step; from a checkpoint at step 800,
+  // the grids up to it, each as before; from step 0 (no sheared snapshot left), none.
+  const std::string copy = fresh_dir("sheared-restart");
+  fs::copy(dir, copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  for (const std::int64_t at : {infos.back().step, std::int64_t(800), std::int64_t(0)}) {
+    {
+      RunOutput out(MPI_COMM_WORLD, sc, copy, RunOutput::Restart{});
+      out.resume_after(at, {"shear"}, 0);
+      out.close();
+    }
+    if (at == 0) {
+      EXPECT_FALSE(fs::exists(fs::path(copy) / "run_cell.xmf")) << "a stale run_cell.xmf";
+      continue;
+    }
+    std::ifstream again(fs::path(copy) / "run_cell.xmf");
+    std::stringstream y;
+    y << again.rdbuf();
+    const std::size_t cut = x.find("      <Grid Name=\"shear_cell_000000000900\""), tail = x.rfind("    </Grid>\n");
+    ASSERT_NE(cut, std::string::npos);
+    EXPECT_EQ(y.str(), at == 800 ? x.substr(0, cut) + x.substr(tail) : x) << "run_cell.xmf after a restart at " << at;
+  }
 
   // [fields]: refused before the run (the cell at set-up) and at an instant, naming [fields].
   Scene fsc = sc;
