@@ -77,8 +77,8 @@ int fabric_offline(const MpiContext& mpi, const FabricOfflineArgs& a) {
       std::vector<ContactRecord> mine;
       for (std::size_t c = std::size_t(mpi.rank()); c < snap.contacts.size(); c += std::size_t(mpi.size()))
         if (snap.contacts[c].id2 >= 0) mine.push_back(snap.contacts[c]);
-      const Vec3& L = snap.info.cell_lengths;
-      const FabricResult res = analyse_fabric(mine, L[0] * L[1] * L[2], opt, *domain);
+      // The cell's volume: L1 L2 L3, or |det H| of a sheared cell (its cell_matrix).
+      const FabricResult res = analyse_fabric(mine, snap.info.volume(), opt, *domain);
       agree(mpi.comm(), [&] {
         if (!root) return;
         write_fabric_rows(streams, "snapshot", info.step, snap.info.strain[0], res);

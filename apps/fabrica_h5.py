@@ -8,7 +8,7 @@ reader ``io/mpi/snapshot.hpp`` and returns the same values (checked by the test
     import fabrica_h5
     run = fabrica_h5.RunFile("out/demo/run.h5")
     s = run.series("mur_0.2")                 # Series: s["eps1"], s["q_p"], s.step, s.stage
-    last = run.snapshots("mur_0.2")[-1]       # SnapshotInfo: case, step, time, strain, ...
+    last = run.snapshots("mur_0.2")[-1]       # SnapshotInfo: case, step, time, strain, cell_matrix, ...
     c = run.contacts("mur_0.2", last.step)    # Contacts: c.fn, c.normal, c.strong, ...
     strong_share = c.strong.mean()
 
@@ -61,7 +61,7 @@ class SnapshotInfo:
     case: str
     step: int
     time: float               #: s
-    cell_lengths: np.ndarray  #: (3,) m
+    cell_lengths: np.ndarray  #: (3,) m (of a sheared cell: the diagonal of cell_matrix)
     strain: np.ndarray        #: (3,) eps_i = ln(l_i0 / l_i), compression positive
     particles: int
     contacts: int
@@ -69,6 +69,30 @@ class SnapshotInfo:
     #: (empty (0, 3) without walls)
     wall_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     wall_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    #: (3, 3) m: the cell matrix H, its columns the edge vectors (a point of fractional
+    #: coordinates s is H @ s); diag(cell_lengths) for an orthorhombic cell and in files written
+    #: before the attribute ``cell_matrix``
+    cell_matrix: np.ndarray = None
+
+    def __post_init__(self):
+        if self.cell_matrix is None:
+            self.cell_matrix = np.diag(np.asarray(self.cell_lengths, dtype=np.float64))
+
+    @property
+    def sheared(self):
+        """Whether the cell is sheared (its matrix has an off-diagonal term)."""
+        return bool(np.any(self.cell_matrix[~np.eye(3, dtype=bool)] != 0))
+
+    @property
+    def volume(self):
+        """The cell's volume, m^3: L1 L2 L3 (orthorhombic), |det H| (sheared)."""
+        if self.sheared:
+            return float(abs(np.linalg.det(self.cell_matrix)))
+        return float(self.cell_lengths[0] * self.cell_lengths[1] * self.cell_lengths[2])
+
+    def fractional(self, x):
+        """Fractional coordinates s = H^-1 x of positions x (N, 3): in [0, 1) inside the cell."""
+        return np.linalg.solve(self.cell_matrix, np.asarray(x, dtype=np.float64).T).T
 
 
 @dataclass
@@ -226,12 +250,15 @@ class RunFile:
     @staticmethod
     def _info(case, g):
         a = g.attrs
+        # Files written before the cell matrix: None, then diag(cell_lengths) (__post_init__).
+        h = np.asarray(a["cell_matrix"], dtype=np.float64).reshape(3, 3) if "cell_matrix" in a else None
         return SnapshotInfo(case=case, step=int(a["step"]), time=float(a["time"]),
                             cell_lengths=np.asarray(a["cell_lengths"], dtype=np.float64),
                             strain=np.asarray(a["strain"], dtype=np.float64),
                             particles=int(a["particles"]), contacts=int(a["contacts"]),
                             wall_points=np.asarray(a.get("wall_points", []), dtype=np.float64).reshape(-1, 3),
-                            wall_normals=np.asarray(a.get("wall_normals", []), dtype=np.float64).reshape(-1, 3))
+                            wall_normals=np.asarray(a.get("wall_normals", []), dtype=np.float64).reshape(-1, 3),
+                            cell_matrix=h)
 
     def snapshots(self, case=None):
         """Every snapshot (:class:`SnapshotInfo`) of ``case``, or of every case (cases in name

@@ -134,6 +134,21 @@ void choose_snapshots(const MpiContext& mpi, const FieldsOfflineArgs& a, Snapsho
     }
   }
   if (chosen.empty()) throw InputError(fmt::format("{}: no case has a snapshot at step {}", a.file, *a.step));
+  // The grid is cut along the cell's axes: a sheared cell (a snapshot's cell_matrix with an
+  // off-diagonal term), or one that a displacement field starts from (the case's snapshot before),
+  // is refused before anything is computed.
+  for (const auto& [name, list] : chosen)
+    for (const SnapshotInfo& s : list) {
+      const SnapshotInfo* prev = nullptr;
+      for (const SnapshotInfo& e : listed.at(name))
+        if (e.step < s.step) prev = &e;
+      const SnapshotInfo* sheared = s.sheared() ? &s : prev && prev->sheared() ? prev : nullptr;
+      if (sheared)
+        throw InputError(fmt::format(
+            "{}: case \"{}\" step {}: the periodic cell is sheared (the snapshot's cell_matrix has off-diagonal "
+            "terms): coarse-grained fields are computed on an orthorhombic cell only (docs/fields.md)",
+            a.file, name, sheared->step));
+    }
 }
 
 // The radii (the same in every snapshot of a run) set the default width and the smallest width

@@ -299,8 +299,7 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   SimulationGlobal global = read_simulation_global(g, where, head_.ranks);
   const ParticleRecordReader particle_records(global.particle_record, where + ".global");
   const bool twisting = contact_records_twisting(global.contact_record, where + ".global");
-  snap.cell = PeriodicCell(global.cell_lengths);
-  snap.cell.set_strain_rate(global.cell_strain_rate);
+  snap.cell = cell_of(global);
   snap.params = std::move(global.params);
   snap.step = global.step;
   snap.rebuilds = global.rebuilds;
@@ -329,6 +328,11 @@ SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm co
   read_contacts(contacts.data(), nc, twisting, snap.history);
   read_per_rank(prefix, where, rank, size, snap);
   return snap;
+}
+
+PeriodicCell Checkpoint::cell(const std::string& prefix) const {
+  FieldReader g = fields(prefix + ".global");
+  return cell_of(read_simulation_global(g, path_ + ": section " + prefix, head_.ranks));
 }
 
 void Checkpoint::read_per_rank(const std::string& prefix, const std::string& where, int rank, int size,

@@ -149,6 +149,8 @@ class Checkpoint {
   // dissipation accumulators go to the same ranks when the rank count is unchanged, else their
   // sum goes to rank 0.
   SimulationSnapshot simulation(const std::string& prefix, MPI_Comm comm) const;
+  // The cell of the simulation saved under 'prefix' (from its global section alone).
+  PeriodicCell cell(const std::string& prefix) const;
 
  private:
   const CheckpointSection& find(const std::string& name) const;

@@ -15,8 +15,8 @@ namespace fabrica {
 // Raise the format version with any change of the file's structure. The fields of a section
 // carry their own layout (names and types), so a change of what a section holds is refused by
 // the reader naming the field, in any version.
-inline constexpr std::uint32_t kCheckpointFormat = 10;
-// The oldest format this build reads; what formats 6 to 9 lack and what this build reads in
+inline constexpr std::uint32_t kCheckpointFormat = 11;
+// The oldest format this build reads; what formats 6 to 10 lack and what this build reads in
 // its place: io/mpi/checkpoint_older.hpp.
 inline constexpr std::uint32_t kOldestCheckpointFormat = 6;
 inline constexpr std::size_t kHeaderBytes = 2048;

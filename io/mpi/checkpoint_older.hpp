@@ -1,5 +1,5 @@
 // Checkpoints of the formats before this build's (docs/checkpoint.md#format): what formats 6 to
-// 9 lack or hold otherwise, and how this build reads them. A file names its own layouts (the
+// 10 lack or hold otherwise, and how this build reads them. A file names its own layouts (the
 // fields of its global sections, the fields of its records), so each difference is read by
 // what the file says, not by its version number:
 //   6 -> 7: the particle records carry inertia, inv_mass and inv_inertia, which this build
@@ -11,7 +11,9 @@
 //     records without the twisting spring (every contact record of a scene without twisting
 //     resistance, in any format): contact_records_twisting;
 //   9 -> 10: no material in the particle records (material 0), no wall.material, no materials
-//     (io/mpi/simulation_fields.hpp kOptionalGlobalFields): a scene of one material.
+//     (io/mpi/simulation_fields.hpp kOptionalGlobalFields): a scene of one material;
+//   10 -> 11: no cell.matrix, cell.velocity_gradient, cell.strain (kOptionalGlobalFields): an
+//     orthorhombic cell of cell.lengths and cell.strain_rate, as every cell before sheared ones.
 #pragma once
 #include "core/particles.hpp"
 

@@ -10,6 +10,9 @@ namespace fabrica::layout {
 inline constexpr const char* kVersionAttr = "fabrica_version";  // marks a Fabrica file
 inline constexpr const char* kFormat = "fabrica-run-1";
 inline constexpr int kStepDigits = 12;
+// A snapshot group's attribute: the cell matrix H, 9 doubles row by row (its columns the edge
+// vectors; diag(cell_lengths) for an orthorhombic cell; absent in files written before it).
+inline constexpr const char* kCellMatrix = "cell_matrix";
 // 0, 1, 2, ... (int64, at least as long as the largest snapshot): the vertex connectivity that
 // run.xmf takes a hyperslab of, so that ParaView makes one vertex cell per particle.
 inline constexpr const char* kVertexIndex = "xdmf/vertices";

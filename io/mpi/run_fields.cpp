@@ -11,6 +11,14 @@
 
 namespace fabrica {
 
+void refuse_sheared_fields(const std::string& scene_path, const PeriodicCell& cell, std::int64_t step) {
+  if (!cell.sheared()) return;
+  throw InputError(scene_path + ": [fields]" + (step >= 0 ? " at step " + std::to_string(step) : std::string()) +
+                   ": the periodic cell is sheared: coarse-grained fields are computed on an orthorhombic cell "
+                   "only (their grid is cut along the cell's axes; docs/fields.md): leave [fields] out of a scene "
+                   "that shears its cell");
+}
+
 FieldGrid run_field_grid(const FieldsSpec& f, const Vec3& L) {
   FieldGrid g;
   g.lengths = L;
@@ -31,6 +39,7 @@ FieldKernel run_field_kernel(const FieldsSpec& f) {
 
 void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell& cell, MPI_Comm comm) {
   if (!scene.fields.enabled) return;
+  refuse_sheared_fields(scene.path, cell);
   double rmin = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < p.n_owned(); ++i) rmin = std::min(rmin, double(p.radius[i]));
   MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
@@ -56,6 +65,7 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
   // changed, and the run would then differ from one without fields.
   const Simulation& cs = sim;
   const Particles& p = cs.particles();
+  refuse_sheared_fields(scene_path, cs.cell(), cs.step_count());  // the same on every rank
   const FieldGrid grid = run_field_grid(f, cs.cell().lengths());
   const FieldKernel kernel = run_field_kernel(f);
   // A cell that has deformed since the check: the grid is checked again (the same on every rank).

@@ -45,6 +45,14 @@ std::string series_unit(const std::string& c) {
   return "1";
 }
 
+// The cell matrix H row by row, as the attribute cell_matrix holds it.
+std::array<double, 9> rows_of(const Mat3& h) {
+  std::array<double, 9> out;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out[std::size_t(3 * r + c)] = h(r, c);
+  return out;
+}
+
 std::vector<std::string> split_csv(const std::string& line) {
   std::vector<std::string> r;
   std::istringstream s(line);
@@ -208,7 +216,9 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
       }
       // Snapshots of a file written before the contact line cells existed have no contacts/ends.
       const std::int64_t m = sg.exists("contacts/ends") ? sg.attr_int("contacts") : 0;
-      entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles"), m});
+      // The cell as the reader takes it: diag(cell_lengths) in a file written before cell_matrix.
+      const Mat3 H = snapshot_cell_matrix(sg);
+      entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles"), m, rows_of(H), matrix_sheared(H)});
     }
     std::sort(entries.begin(), entries.end(), [](const XmfEntry& a, const XmfEntry& b) { return a.step < b.step; });
     xmf_.insert(xmf_.end(), entries.begin(), entries.end());
@@ -400,9 +410,12 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   h5::Group g = file_.create_group(gp);
   const Vec3 L = sim.cell().lengths();
   const double Ld[3] = {L[0], L[1], L[2]}, ed[3] = {strain[0], strain[1], strain[2]};
+  const Mat3 H = sim.cell().matrix();  // orthorhombic: diag(L)
+  const std::array<double, 9> h = rows_of(H);
   g.set_attr("step", std::int64_t(sim.step_count()));
   g.set_attr("time", double(sim.time()));
   g.set_attr("cell_lengths", std::span<const double>(Ld, 3));
+  g.set_attr(layout::kCellMatrix, std::span<const double>(h));
   g.set_attr("strain", std::span<const double>(ed, 3));
   g.set_attr("particles", std::int64_t(np));
   g.set_attr("contacts", std::int64_t(nc));
@@ -438,7 +451,8 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
     vertices_ = need;
   }
   bytes_ += bytes;
-  xmf_.push_back({case_name, sim.step_count(), double(sim.time()), std::int64_t(np), std::int64_t(nc)});
+  xmf_.push_back(
+      {case_name, sim.step_count(), double(sim.time()), std::int64_t(np), std::int64_t(nc), h, matrix_sheared(H)});
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
   flush();
 }
@@ -561,6 +575,29 @@ void RunOutput::close_after_error() {
   }
 }
 
+void RunOutput::write_cell_xmf(const std::vector<std::string>& cases) const {
+  // The cell's sidecar once any snapshot's cell is sheared (then of every snapshot, so that its
+  // time axis is run.xmf's); none for a run of orthorhombic cells, whose outputs stay as before
+  // (a restart to before the shear removes the one it wrote).
+  const std::filesystem::path dir(outdir_);
+  if (std::none_of(xmf_.begin(), xmf_.end(), [](const XmfEntry& x) { return x.sheared; })) {
+    std::error_code ec;
+    std::filesystem::remove(dir / "run_cell.xmf", ec);
+    for (const std::string& c : cases) std::filesystem::remove(dir / ("run_" + c + "_cell.xmf"), ec);
+    return;
+  }
+  std::vector<CellXdmfEntry> all;
+  for (const XmfEntry& x : xmf_) all.push_back({x.case_name, x.step, x.time, x.h});
+  write_cell_xdmf((dir / "run_cell.xmf").string(), all);
+  if (cases.size() > 1)
+    for (const std::string& c : cases) {
+      std::vector<CellXdmfEntry> one;
+      for (const CellXdmfEntry& x : all)
+        if (x.case_name == c) one.push_back(x);
+      write_cell_xdmf((dir / ("run_" + c + "_cell.xmf")).string(), one);
+    }
+}
+
 void RunOutput::write_xmf() const {
   std::vector<XdmfEntry> e, ce;
   std::vector<std::string> cases;
@@ -572,6 +609,7 @@ void RunOutput::write_xmf() const {
   const std::filesystem::path dir(outdir_);
   write_xdmf((dir / "run.xmf").string(), "run.h5", e, vertices_);
   write_contacts_xdmf((dir / "run_contacts.xmf").string(), "run.h5", ce, vertices_);
+  write_cell_xmf(cases);
   // The fields' sidecar (docs/fields.md): every case in run_fields.xmf, and with several cases
   // each in run_fields_<case>.xmf (ParaView merges the time axes of the cases of one file).
   if (!fields_xmf_.empty()) {

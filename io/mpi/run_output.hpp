@@ -1,12 +1,15 @@
 // The run's output file OUT/run.h5, written collectively by every rank with MPI-IO, and its
-// XDMF sidecar OUT/run.xmf (layout, units and guarantees in docs/output.md):
+// XDMF sidecars (layout, units and guarantees in docs/output.md):
 //   /scene                           the scene text; attribute path
+//   /snapshots/<case>/<step>         attributes step, time, cell_lengths, cell_matrix, strain, ...
 //   /snapshots/<case>/<step>/particles/{id,position,velocity,spin,radius}
 //   /snapshots/<case>/<step>/contacts/{id1,id2,normal,branch,overlap,fn,ft,mr,sliding,rolling,
 //                                      strong,ft_norm,mr_norm,ends}
 //   /series/<case>/<column>          the macro series, one extendible dataset per CSV column
-// Snapshots are stored in global id order whatever the number of ranks, written in rounds of a
-// bounded size by io/mpi/snapshot_writer.hpp; nothing is gathered on one rank.
+// and the sidecars OUT/run.xmf, OUT/run_contacts.xmf and, once a snapshot's cell is sheared,
+// OUT/run_cell.xmf (the cell's edges). Snapshots are stored in global id order whatever the
+// number of ranks, written in rounds of a bounded size by io/mpi/snapshot_writer.hpp; nothing is
+// gathered on one rank.
 // Every member function is collective: every rank calls it with the same arguments.
 #pragma once
 #include "core/coarse_grain.hpp"
@@ -17,6 +20,7 @@
 
 #include <mpi.h>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -114,7 +118,9 @@ class RunOutput {
     std::int64_t step;
     double time;
     std::int64_t particles;
-    std::int64_t contacts;  // 0: not in the contacts' sidecar
+    std::int64_t contacts;    // 0: not in the contacts' sidecar
+    std::array<double, 9> h;  // the cell matrix, row by row (the attribute cell_matrix)
+    bool sheared;             // h has an off-diagonal term: the cell's sidecar is written
   };
   void write_header(const Scene& scene);
   void write_snapshot(const std::string& case_name, const Simulation& sim, const Vec3& strain);
@@ -123,6 +129,7 @@ class RunOutput {
       const std::function<void()>& f);  // failed_ = true if f throws  // version attributes, /scene, empty groups
   void flush_series();
   void write_xmf() const;
+  void write_cell_xmf(const std::vector<std::string>& cases) const;  // run_cell.xmf, if sheared
   void write_fields(const std::string& case_name, Simulation& sim);
 
   MPI_Comm comm_;

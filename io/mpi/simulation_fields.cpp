@@ -93,6 +93,17 @@ void decomposition_fields(Io& io, R& dec, const Limits& lim) {
   io.field("decomposition_since_check", dec.since_check);
 }
 
+// A sheared cell's state (kCellMatrixField): written when 'g' is of a sheared cell, read when the
+// file names it.
+template <class Io, class G>
+void sheared_cell_fields(Io& io, G& g) {
+  if (!optional(io, kCellMatrixField, g.cell_sheared)) return;
+  io.field(kCellMatrixField.name, g.cell_matrix);
+  io.field(kCellVelocityGradientField.name, g.cell_velocity_gradient);
+  io.field(kCellStrainField.name, g.cell_strain);
+  if constexpr (!std::is_const_v<G>) g.cell_sheared = true;
+}
+
 template <class Io, class E>
 void energy_fields(Io& io, E& e) {
   io.field("energy.e0", e.e0);
@@ -110,6 +121,7 @@ void simulation_global_fields(Io& io, G& g, const Limits& lim) {
   io.field("contact_record", g.contact_record);
   io.field("cell.lengths", g.cell_lengths);
   io.field("cell.strain_rate", g.cell_strain_rate);
+  sheared_cell_fields(io, g);
   auto& par = g.params;
   part(io, par.law);
   io.field("dt", par.dt);
@@ -148,6 +160,12 @@ SimulationGlobal simulation_global(const Simulation& sim) {
   g.contact_record = contact_record_schema(g.params.twisting());
   g.cell_lengths = sim.cell().lengths();
   g.cell_strain_rate = sim.cell().strain_rate();
+  if (const PeriodicCell& c = sim.cell(); c.sheared()) {
+    g.cell_sheared = true;
+    g.cell_matrix = c.matrix();
+    g.cell_velocity_gradient = c.velocity_gradient();
+    g.cell_strain = c.strain();
+  }
   g.step = sim.step_count();
   g.rebuilds = sim.rebuild_count();
   g.time = sim.time();
@@ -155,6 +173,13 @@ SimulationGlobal simulation_global(const Simulation& sim) {
   g.decomposition = sim.domain().decomposition_record();
   g.energy = sim.energy_account();
   return g;
+}
+
+PeriodicCell cell_of(const SimulationGlobal& g) {
+  PeriodicCell cell(g.cell_lengths);
+  if (g.cell_sheared) cell.restore_sheared(g.cell_matrix, g.cell_velocity_gradient, g.cell_strain);
+  else cell.set_strain_rate(g.cell_strain_rate);
+  return cell;
 }
 
 void write_simulation_global(FieldWriter& w, const SimulationGlobal& g) {

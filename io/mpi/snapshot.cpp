@@ -50,6 +50,7 @@ SnapshotInfo info_of(const h5::Group& g, const std::string& case_name) {
   s.step = g.attr_int("step");
   s.time = g.attr_double("time");
   s.cell_lengths = attr_vec3(g, "cell_lengths");
+  s.cell_matrix = snapshot_cell_matrix(g);
   s.strain = attr_vec3(g, "strain");
   s.particles = g.attr_int("particles");
   s.contacts = g.attr_int("contacts");
@@ -65,6 +66,22 @@ h5::Group open_snapshot(const h5::File& f, const std::string& case_name, std::in
 }
 
 }  // namespace
+
+bool matrix_sheared(const Mat3& h) {
+  Mat3 off = h;
+  off.diagonal().setZero();
+  return !off.isZero(0);
+}
+
+Mat3 snapshot_cell_matrix(const h5::Object& g) {
+  if (!g.has_attr(layout::kCellMatrix)) return Mat3(attr_vec3(g, "cell_lengths").asDiagonal());
+  const std::vector<double> v = g.attr_doubles(layout::kCellMatrix);
+  if (v.size() != 9) g.fail(std::string("attribute ") + layout::kCellMatrix + " must hold 9 values");
+  Mat3 h;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) h(r, c) = v[std::size_t(3 * r + c)];
+  return h;
+}
 
 const std::vector<double>& Series::column(const std::string& name) const {
   const auto it = std::find(columns.begin(), columns.end(), name);

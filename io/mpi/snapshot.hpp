@@ -8,21 +8,42 @@
 #include "core/types.hpp"
 #include "core/errors.hpp"
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 namespace fabrica {
 
+namespace h5 {
+class Object;
+}
+
+// Whether a cell matrix has an off-diagonal term: a sheared cell's (an orthorhombic cell's
+// matrix is diagonal).
+bool matrix_sheared(const Mat3& h);
+
 // The attributes of one snapshot group /snapshots/<case>/<step>.
 struct SnapshotInfo {
   std::string case_name;
   std::int64_t step = 0;
   real_t time = 0;                   // s
-  Vec3 cell_lengths = Vec3::Zero();  // m
-  Vec3 strain = Vec3::Zero();        // eps_i = ln(l_i0 / l_i), compression positive
+  Vec3 cell_lengths = Vec3::Zero();  // m (of a sheared cell: the diagonal of its matrix)
+  // m: the cell matrix H, its columns the edge vectors (a point of fractional coordinates s is
+  // H s); diag(cell_lengths) for an orthorhombic cell, and in files written before the attribute.
+  Mat3 cell_matrix = Mat3::Zero();
+  Vec3 strain = Vec3::Zero();  // eps_i = ln(l_i0 / l_i), compression positive
   std::int64_t particles = 0, contacts = 0;
+  bool sheared() const { return matrix_sheared(cell_matrix); }
+  // m^3: L1 L2 L3 (orthorhombic, as before sheared cells), |det H| (sheared).
+  real_t volume() const {
+    return sheared() ? std::abs(cell_matrix.determinant()) : cell_lengths[0] * cell_lengths[1] * cell_lengths[2];
+  }
 };
+
+// The cell matrix of a snapshot group: its attribute cell_matrix (9 values, row by row), or
+// diag(cell_lengths) without it (a file written before it). Throws h5::Error for a malformed one.
+Mat3 snapshot_cell_matrix(const h5::Object& group);
 
 struct ContactSnapshot {
   SnapshotInfo info;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <map>
 #include <sstream>
 
 namespace fabrica {
@@ -127,6 +128,34 @@ void write_contacts_xdmf(const std::string& path, const std::string& h5file, con
                      << attribute("rolling", "UChar", 1) << attribute("strong", "UChar", 1)
                      << attribute("id1", "Int", 8) << attribute("id2", "Int", 8);
                  });
+}
+
+void write_cell_xdmf(const std::string& path, const std::vector<CellXdmfEntry>& entries) {
+  std::vector<XdmfEntry> rows;
+  std::map<std::pair<std::string, std::int64_t>, std::array<double, 9>> cells;
+  for (const CellXdmfEntry& c : entries) {
+    rows.emplace_back(c.case_name, c.step, c.time, 8);
+    cells[{c.case_name, c.step}] = c.h;
+  }
+  write_document(path, "", rows, "_cell", "", [&](std::ostringstream& x, const XdmfEntry& e, const ItemFn&) {
+    const std::array<double, 9>& h = cells.at({std::get<0>(e), std::get<1>(e)});
+    x << "        <Topology TopologyType=\"Polyline\" NumberOfElements=\"12\" NodesPerElement=\"2\">\n"
+      << "          <DataItem Dimensions=\"12 2\" NumberType=\"Int\" Precision=\"4\" Format=\"XML\">"
+      << "0 1 2 3 4 5 6 7 0 2 1 3 4 6 5 7 0 4 1 5 2 6 3 7</DataItem>\n"
+      << "        </Topology>\n"
+      << "        <Geometry GeometryType=\"XYZ\">\n"
+      << "          <DataItem Dimensions=\"8 3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">";
+    for (int k = 0; k < 8; ++k) {
+      const double s0 = k & 1, s1 = (k >> 1) & 1, s2 = (k >> 2) & 1;
+      for (int r = 0; r < 3; ++r) x << (k || r ? " " : "") << s0 * h[3 * r] + s1 * h[3 * r + 1] + s2 * h[3 * r + 2];
+    }
+    x << "</DataItem>\n"
+      << "        </Geometry>\n"
+      << "        <Attribute Name=\"edge\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
+      << "          <DataItem Dimensions=\"12\" NumberType=\"Int\" Precision=\"4\" Format=\"XML\">"
+      << "1 1 1 1 2 2 2 2 3 3 3 3</DataItem>\n"
+      << "        </Attribute>\n";
+  });
 }
 
 void write_fields_xdmf(const std::string& path, const std::string& h5file,

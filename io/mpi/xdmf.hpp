@@ -24,6 +24,20 @@ void write_xdmf(const std::string& path, const std::string& h5file, const std::v
 void write_contacts_xdmf(const std::string& path, const std::string& h5file, const std::vector<XdmfEntry>& entries,
                          std::int64_t vertices);
 
+// The periodic cell of one snapshot: (case, step, time) and its matrix H row by row (H[3 r + c];
+// the columns are the edge vectors).
+struct CellXdmfEntry {
+  std::string case_name;
+  std::int64_t step = 0;
+  double time = 0;
+  std::array<double, 9> h{};
+};
+// The cell's sidecar (a sheared cell's slanted box in ParaView): per case a temporal collection,
+// each snapshot a Polyline grid of the cell's 12 edges (two-node cells) between its 8 corners
+// H s, s in {0, 1}^3 (corner i + 2 j + 4 k at s = (i, j, k)), given inline (Format="XML"), with
+// the cell attribute 'edge' (1, 2, 3: the edge vector each line runs along).
+void write_cell_xdmf(const std::string& path, const std::vector<CellXdmfEntry>& entries);
+
 // One instant of coarse-grained fields (docs/fields.md): the group of its datasets in h5file,
 // the grid (nodes along x, y, z; spacing and first node, m) and each dataset's name and number
 // of components (1 scalar, 3 vector, 9 tensor).

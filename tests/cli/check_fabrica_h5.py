@@ -6,8 +6,8 @@ same run file, and the contact fields stored for the XDMF line cells.
 
 DUMP_RUN_H5 is tests/cli/dump_run_h5 (the C++ reader's values as %.17g text); OUT a triaxial run
 directory with run.h5 and */fabric.csv. Checked, every value with == (the text round-trips):
-the info line, every series (columns, values, steps, stages), every snapshot's attributes,
-particles and contacts. Then, per snapshot: ft_norm and mr_norm equal |ft| and |mr| to 1e-14
+the info line, every series (columns, values, steps, stages), every snapshot's attributes (the
+cell matrix: diag(cell_lengths) in this orthorhombic run), particles and contacts. Then, per snapshot: ft_norm and mr_norm equal |ft| and |mr| to 1e-14
 relative to the largest; ends[:, 0] is the centre of body 1 and ends[:, 1] = ends[:, 0] + branch
 exactly; and at the steps where the run's fabric analysis (OUT/<case>/fabric.csv) has a row,
 the stored strong / sliding / rolling flags count as many contacts as its networks sf, s, r.
@@ -56,7 +56,7 @@ def parse_dump(text):
         elif tag == "snapshot":
             v = [float(x) for x in f[2:]]
             snaps.append({"case": f[0], "step": int(f[1]), "time": v[0], "cell": v[1:4], "strain": v[4:7],
-                          "N": int(f[-2]), "M": int(f[-1]), "particles": [], "contacts": []})
+                          "matrix": v[7:16], "N": int(f[-2]), "M": int(f[-1]), "particles": [], "contacts": []})
         elif tag == "particle":
             snaps[-1]["particles"].append([float(x) for x in f])
         elif tag == "contact":
@@ -109,6 +109,9 @@ def main():
         where = f"snapshot {s['case']} step {s['step']}"
         same(f"{where} time, cell, strain, N, M", [i.time, *i.cell_lengths, *i.strain, i.particles, i.contacts],
              [s["time"], *s["cell"], *s["strain"], s["N"], s["M"]])
+        same(f"{where} cell matrix", i.cell_matrix.ravel(), s["matrix"])
+        if i.sheared:  # an orthorhombic cell's matrix is diag(cell_lengths)
+            fail(f"{where}: the cell of this run is orthorhombic, its matrix {i.cell_matrix.ravel()}")
         p = run.particles(i.case, i.step)
         cp = np.array(s["particles"]).reshape(-1, 11)
         same(f"{where} particle ids", p.id, cp[:, 0].astype(np.int64))

@@ -9,7 +9,12 @@
                                              several) is well-formed XML, lists every snapshot
                                              of run.h5 (of the case), every DataItem names an
                                              existing dataset of the stated dimensions, and the
-                                             connectivity is a hyperslab 0..N-1 of /xdmf/vertices
+                                             connectivity is a hyperslab 0..N-1 of /xdmf/vertices;
+                                             the contacts' files likewise; and the cell's files
+                                             run_cell.xmf (run_<case>_cell.xmf) exactly when a
+                                             snapshot's cell_matrix is sheared: a grid per
+                                             snapshot at its time, 12 two-node lines between the
+                                             8 corners H s, equal to the stored H bit for bit
     check_run_h5.py foreign FILE             writes an HDF5 file without Fabrica's attributes
     check_run_h5.py readable FILE MIN        opens FILE and reads every dataset of every listed
                                              snapshot; prints how many; fails below MIN
@@ -104,6 +109,55 @@ def xdmf(outdir):
         contacts.update({f"run_{c}_contacts.xmf": [c] for c in cases})
     for name, cs in contacts.items():
         _contacts_xmf_file(os.path.join(outdir, name), h5, f, cs)
+    cells = {"run_cell.xmf": cases}
+    if len(cases) > 1:
+        cells.update({f"run_{c}_cell.xmf": [c] for c in cases})
+    sheared = any((_matrix(g)[~np.eye(3, dtype=bool)] != 0).any() for c in cases for g in f["snapshots"][c].values())
+    for name, cs in cells.items():
+        path = os.path.join(outdir, name)
+        if not sheared:
+            if os.path.exists(path):
+                fail(f"{path}: a cell sidecar in a run whose cells are all orthorhombic")
+            continue
+        _cell_xmf_file(path, h5, f, cs)
+
+
+def _matrix(g):
+    """A snapshot's cell matrix H (3, 3): its attribute cell_matrix, else diag(cell_lengths)."""
+    if "cell_matrix" in g.attrs:
+        return np.asarray(g.attrs["cell_matrix"], dtype=np.float64).reshape(3, 3)
+    return np.diag(np.asarray(g.attrs["cell_lengths"], dtype=np.float64))
+
+
+EDGES = [0, 1, 2, 3, 4, 5, 6, 7, 0, 2, 1, 3, 4, 6, 5, 7, 0, 4, 1, 5, 2, 6, 3, 7]
+
+
+def _cell_xmf_file(xmf, h5, f, cases):
+    """The cell's sidecar: per snapshot 12 two-node Polyline cells on the 8 corners H s."""
+    try:
+        root = ET.parse(xmf).getroot()
+    except (ET.ParseError, OSError) as e:
+        fail(f"{xmf}: not well-formed XML: {e}")
+    grids = [g for g in root.iter("Grid") if g.get("GridType") == "Uniform"]
+    stored = [(c, s) for c in cases for s in sorted(f["snapshots"][c])]
+    if len(grids) != len(stored):
+        fail(f"{xmf}: {len(grids)} grids, {h5} holds {len(stored)} snapshots of case(s) {', '.join(cases)}")
+    for grid, (c, s) in zip(grids, stored):
+        g = f[f"snapshots/{c}/{s}"]
+        where = f"{xmf}: grid {grid.get('Name')}"
+        if grid.get("Name") != f"{c}_cell_{s}" or float(grid.find("Time").get("Value")) != float(g.attrs["time"]):
+            fail(f"{where}: not snapshot {c}/{s} at its time {g.attrs['time']}")
+        topo = grid.find("Topology")
+        if (topo.get("TopologyType"), topo.get("NumberOfElements"), topo.get("NodesPerElement")) != \
+                ("Polyline", "12", "2") or [int(v) for v in topo.find("DataItem").text.split()] != EDGES:
+            fail(f"{where}: topology {topo.attrib}, connectivity {topo.find('DataItem').text}")
+        geo = grid.find("Geometry/DataItem")
+        corners = np.array([float(v) for v in geo.text.split()]).reshape(8, 3)
+        h = _matrix(g)
+        want = np.array([(k & 1) * h[:, 0] + ((k >> 1) & 1) * h[:, 1] + ((k >> 2) & 1) * h[:, 2] for k in range(8)])
+        if geo.get("Dimensions") != "8 3" or not np.array_equal(corners, want):
+            fail(f"{where}: corners {corners.tolist()}, the cell matrix gives {want.tolist()}")
+    print(f"xdmf: {os.path.basename(xmf)} well-formed; the cells of {len(grids)} snapshots, corners H s exact")
 
 
 CELL_ARRAYS = {"fn": ("Float", "8"), "ft_norm": ("Float", "8"), "mr_norm": ("Float", "8"),

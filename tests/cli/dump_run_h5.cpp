@@ -3,7 +3,7 @@
 // apps/fabrica_h5.py reads from the same file. One record a line:
 //   info <ranks> <version> <git_describe> <scene_path>
 //   series <case> <rows> <column,column,...>      then: col <name> v v ...; step s s ...; stage ...
-//   snapshot <case> <step> <time> L1 L2 L3 e1 e2 e3 <N> <M>
+//   snapshot <case> <step> <time> L1 L2 L3 e1 e2 e3 H11 H12 H13 H21 ... H33 <N> <M>
 //   particle <id> x y z vx vy vz wx wy wz r        (N lines, after each snapshot line)
 //   contact <id1> <id2> n(3) b(3) overlap fn ft(3) mr(3) sliding rolling   (M lines)
 #include "io/mpi/snapshot.hpp"
@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
     for (const fabrica::SnapshotInfo& si : fabrica::list_snapshots(path)) {
       std::printf("snapshot %s %lld %.17g", si.case_name.c_str(), static_cast<long long>(si.step), si.time);
       vec(si.cell_lengths), vec(si.strain);
+      for (int r = 0; r < 3; ++r) vec(si.cell_matrix.row(r).transpose());
       std::printf(" %lld %lld\n", static_cast<long long>(si.particles), static_cast<long long>(si.contacts));
       const fabrica::ParticleSnapshot p = fabrica::read_particle_snapshot(path, si.case_name, si.step);
       for (std::size_t i = 0; i < p.id.size(); ++i) {

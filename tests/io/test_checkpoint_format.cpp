@@ -14,6 +14,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 
 namespace fabrica {
 namespace {
@@ -31,12 +32,20 @@ std::string format_section() {
 }
 
 // A global section with one of everything: a wall with its own law, a driven set, two
-// materials, a run of the decomposition, a wall force.
-SimulationGlobal sample(bool materials) {
+// materials, a run of the decomposition, a wall force; and, if 'sheared', a sheared cell.
+SimulationGlobal sample(bool materials, bool sheared = false) {
   SimulationGlobal g;
   g.particle_record = particle_record_schema(materials);
   g.contact_record = contact_record_schema(false);
   g.cell_lengths = Vec3(1, 2, 3);
+  if (sheared) {
+    g.cell_sheared = true;
+    g.cell_matrix << 1, 0, 0, 0.7, 2, 0, 0, 0, 3;  // edge 1 leans along axis 2
+    g.cell_velocity_gradient.setZero();
+    g.cell_velocity_gradient(1, 0) = 0.25;
+    g.cell_strain.setZero();
+    g.cell_strain(0, 1) = g.cell_strain(1, 0) = 0.35;
+  }
   g.params.dt = 1e-6;
   Wall w;
   w.own_law = true;
@@ -81,7 +90,7 @@ TEST(CheckpointFormat, HeaderAsDocumented) {
 TEST(CheckpointFormat, GlobalFieldsAsDocumented) {
   const std::string doc = format_section();
   FieldWriter w;
-  write_simulation_global(w, sample(true));
+  write_simulation_global(w, sample(true, true));
   std::set<std::string> seen;
   for (const std::string& n : names_of(w.schema())) {
     if (!seen.insert(n).second) continue;
@@ -121,11 +130,15 @@ TEST(CheckpointFormat, OptionalFieldsDocumentedWithTheirFormat) {
     if (p.since > int(kOldestCheckpointFormat)) EXPECT_EQ(format_before(p.field), p.since) << p.field;
 }
 
-// Read back as written (both with and without materials), and read again the same bytes.
+// Read back as written (with and without materials, orthorhombic and sheared), and read again
+// the same bytes.
 TEST(CheckpointFormat, GlobalRoundTrip) {
-  for (bool m : {false, true}) {
+  for (const auto& [m, sheared] : {std::pair{false, false}, {true, false}, {false, true}, {true, true}}) {
     FieldWriter w;
-    write_simulation_global(w, sample(m));
+    const SimulationGlobal written = sample(m, sheared);
+    write_simulation_global(w, written);
+    // An orthorhombic cell's section holds no field of a sheared one (as format 10 wrote it).
+    EXPECT_EQ(w.schema().find("cell.matrix") != std::string::npos, sheared);
     FieldReader r(w.schema(), w.bytes().data(), w.bytes().size(), "ck: section sim");
     const SimulationGlobal g = read_simulation_global(r, "ck: section sim", 2);
     EXPECT_EQ(g.params.materials.size(), m ? 2u : 0u);
@@ -134,6 +147,16 @@ TEST(CheckpointFormat, GlobalRoundTrip) {
     EXPECT_EQ(g.params.driven.at(0).ids.size(), 2u);
     EXPECT_EQ(g.decomposition.cuts.size(), 2u);
     EXPECT_EQ(g.macro.wall_force.size(), 1u);
+    EXPECT_EQ(g.cell_sheared, sheared);
+    const PeriodicCell cell = cell_of(g);
+    EXPECT_EQ(cell.sheared(), sheared);
+    if (sheared) {
+      EXPECT_EQ(cell.matrix(), written.cell_matrix);
+      EXPECT_EQ(cell.velocity_gradient(), written.cell_velocity_gradient);
+      EXPECT_EQ(cell.strain(), written.cell_strain);
+    } else {
+      EXPECT_EQ(cell.lengths(), written.cell_lengths);
+    }
     FieldWriter again;
     write_simulation_global(again, g);
     EXPECT_EQ(again.schema(), w.schema());

@@ -5,14 +5,18 @@
 // are), the totals equal the reduced counts, ids in increasing order; the series rows and the
 // scene text come back exactly; a second RunOutput on the same directory is refused unless
 // overwrite; the reader refuses missing, foreign and truncated files naming the file.
+// RunOutputSheared: a sheared cell's snapshots (the cell matrix, the cell's XDMF sidecar) and
+// the refusal of [fields], on one rank (ctest io.run_output.sheared, below).
 #include "core/contact_snapshot.hpp"
 #include "core/generate.hpp"
 #include "core/timestep.hpp"
 #include "io/mpi/h5.hpp"
+#include "io/mpi/run_fields.hpp"
 #include "io/mpi/run_output.hpp"
 #include "io/mpi/snapshot.hpp"
 #include "io/mpi/snapshot_writer.hpp"
 #include "parallel/mpi_domain.hpp"
+#include "tests/sheared_specimen.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,6 +25,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <sstream>
 
 namespace fabrica {
 namespace {
@@ -116,6 +121,11 @@ TEST(RunOutput, RoundTripOfEveryDataset) {
   EXPECT_EQ(ps.info.step, sim.step_count());
   EXPECT_EQ(ps.info.time, sim.time());
   EXPECT_EQ(ps.info.cell_lengths, sim.cell().lengths());
+  // An orthorhombic cell's matrix is diag(L), and the run writes no cell sidecar.
+  EXPECT_EQ(ps.info.cell_matrix, Mat3(sim.cell().lengths().asDiagonal()));
+  EXPECT_FALSE(ps.info.sheared());
+  EXPECT_EQ(ps.info.volume(), sim.cell().lengths()[0] * sim.cell().lengths()[1] * sim.cell().lengths()[2]);
+  EXPECT_FALSE(fs::exists(fs::path(dir) / "run_cell.xmf"));
   EXPECT_EQ(ps.info.strain, strain);
   for (std::size_t i = 1; i < ps.id.size(); ++i) ASSERT_LT(ps.id[i - 1], ps.id[i]);
   std::map<GlobalId, std::size_t> at;
@@ -268,6 +278,120 @@ TEST(RunOutput, ReaderRefusesBadFiles) {
   const std::string good = RunOutput::file_name(dir + "/good");
   expect_input_error([&] { read_contact_snapshot(good, "nope", 5); }, "no snapshot of case 'nope' at step 5");
   expect_input_error([&] { read_series(good, "nope"); }, "no series of case 'nope'");
+}
+
+// A sheared cell (issue 42), on one rank until parallel/ handles sheared cells: the specimen of
+// tests/sheared_specimen.hpp under simple shear past a flip, a snapshot and a series row (time,
+// p, q) every 100 steps, into fabrica-sheared-np1 under the working directory, which the tests of
+// the sheared output then read (ctest fixture sheared_run: cli.output.sheared_*,
+// cli.fabric.sheared_offline, cli.fields.sheared_refused). Here: every snapshot's cell_matrix is
+// the cell's matrix bit for bit (the C++ reader), its particles lie in the slanted cell; the
+// cell's sidecar run_cell.xmf has a grid per snapshot with the corners H s at full precision;
+// [fields] refuses the sheared cell before the run and at an instant, naming [fields].
+TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
+  if (size() > 1) GTEST_SKIP() << "a sheared cell runs on one rank until parallel/ handles it";
+  const std::string dir = fresh_dir("sheared");
+  const test::ShearedStart st = test::sheared_start(400, 7);
+  Simulation sim(st.particles, st.cell, st.params);
+  const std::int64_t steps = 1600, every = 100;
+  test::simple_shear(sim, 0.8, steps);
+  const Scene sc = test_scene();
+  std::vector<Mat3> cells;
+  bool flipped = false;
+  {
+    RunOutput out(MPI_COMM_WORLD, sc, dir, false);
+    for (std::int64_t k = 0; k <= steps; ++k) {
+      if (k > 0) {
+        const real_t tilt = sim.cell().matrix()(1, 0);
+        sim.step(k % every == 0);
+        flipped |= sim.cell().matrix()(1, 0) < tilt;
+      }
+      if (k % every) continue;
+      const double v[] = {sim.time(), sim.macro().p, sim.macro().q};
+      out.series_row("shear", "step,time,p,q\n", "", sim.step_count(), v);
+      out.snapshot("shear", sim, Vec3::Zero());
+      cells.push_back(sim.cell().matrix());
+    }
+    out.close();
+  }
+  ASSERT_TRUE(flipped) << "the cell did not flip";
+  const std::string file = RunOutput::file_name(dir);
+  const std::vector<SnapshotInfo> infos = list_snapshots(file);
+  ASSERT_EQ(infos.size(), cells.size());
+  std::ostringstream corners;  // the last snapshot's corners as the sidecar writes them
+  corners.precision(17);
+  for (std::size_t i = 0; i < infos.size(); ++i) {
+    const SnapshotInfo& info = infos[i];
+    EXPECT_EQ(info.cell_matrix, cells[i]) << "snapshot " << i;
+    EXPECT_EQ(info.cell_lengths, Vec3(cells[i].diagonal()));
+    EXPECT_EQ(info.sheared(), i > 0) << "snapshot " << i;  // at step 0 the tilt is still zero
+    const ParticleSnapshot ps = read_particle_snapshot(file, "shear", info.step);
+    const Mat3 inv = info.cell_matrix.inverse();
+    real_t lo = 1, hi = 0;  // fractional coordinates: within the drift since the last wrap
+    for (const Vec3& x : ps.position) {
+      const Vec3 f = inv * x;
+      lo = std::min(lo, f.minCoeff()), hi = std::max(hi, f.maxCoeff());
+    }
+    EXPECT_GT(lo, -0.02) << "snapshot " << i;
+    EXPECT_LT(hi, 1.02) << "snapshot " << i;
+    if (i + 1 < infos.size()) continue;
+    const Mat3& h = info.cell_matrix;
+    for (int k = 0; k < 8; ++k)
+      for (int r = 0; r < 3; ++r)
+        corners << (k || r ? " " : "") << (k & 1) * h(r, 0) + ((k >> 1) & 1) * h(r, 1) + ((k >> 2) & 1) * h(r, 2);
+  }
+  std::ifstream in(fs::path(dir) / "run_cell.xmf");
+  ASSERT_TRUE(in) << "no run_cell.xmf";
+  std::stringstream xml;
+  xml << in.rdbuf();
+  const std::string x = xml.str();
+  std::size_t grids = 0;
+  for (std::size_t at = x.find("TopologyType=\"Polyline\" NumberOfElements=\"12\""); at != std::string::npos;
+       at = x.find("TopologyType=\"Polyline\" NumberOfElements=\"12\"", at + 1))
+    ++grids;
+  EXPECT_EQ(grids, infos.size());
+  EXPECT_NE(x.find(">" + corners.str() + "</DataItem>"), std::string::npos) << corners.str();
+  // A restart rebuilds the sidecar from the snapshots' cell_matrix (in a copy: the directory is
+  // the fixture of the cli tests): the same text at the last step; from a checkpoint at step 800,
+  // the grids up to it, each as before; from step 0 (no sheared snapshot left), none.
+  const std::string copy = fresh_dir("sheared-restart");
+  fs::copy(dir, copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  for (const std::int64_t at : {infos.back().step, std::int64_t(800), std::int64_t(0)}) {
+    {
+      RunOutput out(MPI_COMM_WORLD, sc, copy, RunOutput::Restart{});
+      out.resume_after(at, {"shear"}, 0);
+      out.close();
+    }
+    if (at == 0) {
+      EXPECT_FALSE(fs::exists(fs::path(copy) / "run_cell.xmf")) << "a stale run_cell.xmf";
+      continue;
+    }
+    std::ifstream again(fs::path(copy) / "run_cell.xmf");
+    std::stringstream y;
+    y << again.rdbuf();
+    const std::size_t cut = x.find("      <Grid Name=\"shear_cell_000000000900\""), tail = x.rfind("    </Grid>\n");
+    ASSERT_NE(cut, std::string::npos);
+    EXPECT_EQ(y.str(), at == 800 ? x.substr(0, cut) + x.substr(tail) : x) << "run_cell.xmf after a restart at " << at;
+  }
+
+  // [fields]: refused before the run (the cell at set-up) and at an instant, naming [fields].
+  Scene fsc = sc;
+  fsc.fields.enabled = true;
+  fsc.fields.width = 0.01;
+  for (int when = 0; when < 2; ++when) {
+    try {
+      if (when == 0) check_run_fields(fsc, sim.particles(), sim.cell(), MPI_COMM_WORLD);
+      else run_fields(fsc.fields, 1.0, fsc.path, sim);
+      ADD_FAILURE() << "a sheared cell's fields were not refused";
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.rfind(fsc.path + ": [fields]", 0), 0u) << m;
+      EXPECT_NE(m.find("the periodic cell is sheared: coarse-grained fields are computed on an orthorhombic cell only"),
+                std::string::npos)
+          << m;
+      if (when == 1) EXPECT_NE(m.find("at step " + std::to_string(sim.step_count())), std::string::npos) << m;
+    }
+  }
 }
 
 }  // namespace

@@ -12,7 +12,12 @@
 //                                      give the same file, byte for byte, as one block;
 //   CheckpointFiles.Write / .ReadAndContinue - written by one rank count, read by another
 //                                      (ctest: written on 2 ranks, read on 1, 4, 8, 16), via the
-//                                      file named in FABRICA_CHECKPOINT_FILE.
+//                                      file named in FABRICA_CHECKPOINT_FILE;
+//   ShearedCheckpoint.ContinuesThroughAFlip - a sheared cell (format 11: H, G and the strain
+//                                      integral) under simple shear past a flip, saved before and
+//                                      after the flip: the restart continues bit for bit, the
+//                                      cell matrix included (ctest mpi.checkpoint.sheared.npN,
+//                                      on the rank counts tests/mpi/CMakeLists.txt lists).
 #include "core/simulation.hpp"
 #include "io/mpi/checkpoint.hpp"
 #include "io/serial/scene.hpp"
@@ -20,6 +25,7 @@
 #include "parallel/mpi_domain.hpp"
 
 #include "core/timestep.hpp"
+#include "tests/sheared_specimen.hpp"
 #include "tests/mpi/two_materials.hpp"
 
 #include <gtest/gtest.h>
@@ -71,8 +77,9 @@ void run_to(Simulation& sim, std::int64_t to) {
 }
 
 // 'par' against the serial reference, over all ranks: every position, velocity, spin and
-// contact spring equal bit for bit, and the same particles and contacts.
-void expect_same_trajectory(const Simulation& par, const Simulation& ref) {
+// contact spring equal bit for bit, and the same particles and contacts (more than
+// 'min_contacts' of them).
+void expect_same_trajectory(const Simulation& par, const Simulation& ref, std::size_t min_contacts = 1000) {
   const Particles& P = par.particles();
   const Particles& S = ref.particles();
   std::unordered_map<GlobalId, std::size_t> at;
@@ -98,7 +105,7 @@ void expect_same_trajectory(const Simulation& par, const Simulation& ref) {
   MPI_Allreduce(MPI_IN_PLACE, &mine, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
   EXPECT_EQ(owned, (long long)S.n_owned());
   EXPECT_EQ(mine, (long long)springs.size()) << "contacts after the restart";
-  EXPECT_GT(springs.size(), 1000u);
+  EXPECT_GT(springs.size(), min_contacts);
   EXPECT_EQ(bad[0], 0) << "positions differ";
   EXPECT_EQ(bad[1], 0) << "velocities differ";
   EXPECT_EQ(bad[2], 0) << "spins differ";
@@ -408,4 +415,100 @@ TEST(Checkpoint, KeepSeriesThrough) {
   EXPECT_EQ(s.str(), "stage,step,value\nconsolidation,100,1.5\nconsolidation,200,2.5\n");
   EXPECT_FALSE(keep_series_through(path + ".none", 1, 200));  // no file: a new series
   std::filesystem::remove(path);
+}
+
+// ---------------------------------------------------------------- a sheared cell (issue 42)
+
+namespace {
+
+using test::sheared_start;
+using test::ShearedStart;
+
+constexpr std::int64_t kShearSteps = 1600;
+constexpr real_t kShearStrain = 0.8;  // the tilt passes kFlipRatio = 0.6 of the edge at ~1200
+
+void simple_shear(Simulation& sim) { test::simple_shear(sim, kShearStrain, kShearSteps); }
+
+// Steps as run_to / run_to_rebuild; 'flipped' becomes true at a flip of the cell (its edge 1
+// made upright again: the tilt H21 falls).
+void run_sheared(Simulation& sim, std::int64_t to, bool to_rebuild, bool* flipped = nullptr) {
+  while (sim.step_count() < to || (to_rebuild && !sim.rebuilt_last_step())) {
+    const real_t tilt = sim.cell().matrix()(1, 0);
+    sim.step(sim.step_count() % 20 == 0);
+    if (flipped && sim.cell().matrix()(1, 0) < tilt) *flipped = true;
+  }
+}
+
+// Saved at the first rebuild after step 'save' of the shear, restored into a fresh Simulation and
+// continued to kShearSteps: the trajectory, the cell (matrix, velocity gradient, strain integral),
+// the time and the rebuild count bit for bit those of the uninterrupted serial run, and the
+// measures those of the uninterrupted run on this rank count. 'after_flip': the cell has flipped
+// before the checkpoint (its H is the flipped one), else it flips after the restart.
+void sheared_continues_bitwise(const ShearedStart& s, const Simulation& ref, std::int64_t save, bool after_flip) {
+  const std::string text = "sheared cell test";
+  const std::string path = checkpoint_path(after_flip ? "sheared_after_flip" : "sheared_before_flip");
+  {
+    MpiDomain domain(MPI_COMM_WORLD);
+    Simulation first(s.particles, s.cell, s.params, &domain);
+    simple_shear(first);
+    bool flipped = false;
+    run_sheared(first, save, true, &flipped);
+    EXPECT_EQ(flipped, after_flip) << "saved at step " << first.step_count();
+    CheckpointWriter w(MPI_COMM_WORLD, scene_fingerprint(text), "run");
+    w.add_simulation("sim", first);
+    w.write(path);
+  }
+  Checkpoint::Expect ex;
+  ex.scene_text = &text;
+  const Checkpoint c = Checkpoint::read(MPI_COMM_WORLD, path, ex);
+  EXPECT_EQ(c.header().format, kCheckpointFormat);
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
+  ASSERT_TRUE(restarted.cell().sheared());
+  bool flipped = false;
+  run_sheared(restarted, kShearSteps, false, &flipped);
+  EXPECT_EQ(flipped, !after_flip) << "a flip after the restart";
+  expect_same_trajectory(restarted, ref, 300);
+  EXPECT_EQ(restarted.cell().matrix(), ref.cell().matrix());
+  EXPECT_EQ(restarted.cell().velocity_gradient(), ref.cell().velocity_gradient());
+  EXPECT_EQ(restarted.cell().strain(), ref.cell().strain());
+  EXPECT_EQ(restarted.time(), ref.time());
+  EXPECT_EQ(restarted.rebuild_count(), ref.rebuild_count());
+  // The measures against an uninterrupted run on this rank count, bitwise.
+  MpiDomain domain_full(MPI_COMM_WORLD);
+  Simulation full(s.particles, s.cell, s.params, &domain_full);
+  simple_shear(full);
+  run_sheared(full, kShearSteps, false);
+  const MacroState& a = restarted.macro();
+  const MacroState& b = full.macro();
+  EXPECT_EQ(a.stress, b.stress);
+  EXPECT_EQ(a.kinetic, b.kinetic);
+  EXPECT_EQ(a.e_shear, b.e_shear);
+  EXPECT_EQ(a.e_rolling, b.e_rolling);
+  EXPECT_EQ(a.energy_input, b.energy_input);
+  EXPECT_EQ(a.dissipated.friction, b.dissipated.friction);
+  EXPECT_EQ(a.dissipated.rolling, b.dissipated.rolling);
+  EXPECT_EQ(a.contacts, b.contacts);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (comm_rank() == 0) std::filesystem::remove(path);
+}
+
+}  // namespace
+
+TEST(ShearedCheckpoint, ContinuesThroughAFlip) {
+  const ShearedStart s = sheared_start();
+  Simulation ref(s.particles, s.cell, s.params);
+  simple_shear(ref);
+  bool flipped = false;
+  std::int64_t flip_step = -1;
+  while (ref.step_count() < kShearSteps) {
+    run_sheared(ref, ref.step_count() + 1, false, &flipped);
+    if (flipped && flip_step < 0) flip_step = ref.step_count();
+  }
+  ASSERT_GT(flip_step, 0) << "the cell did not flip";
+  ASSERT_LT(flip_step + 100, kShearSteps);
+  EXPECT_LE(ref.cell().matrix()(1, 0), PeriodicCell::kFlipRatio * ref.cell().matrix()(1, 1));
+  EXPECT_GT(ref.macro().dissipated.rolling, 0.0);
+  sheared_continues_bitwise(s, ref, kShearSteps / 2, false);  // the flip comes after the restart
+  sheared_continues_bitwise(s, ref, flip_step + 50, true);    // saved with the flipped cell
 }
