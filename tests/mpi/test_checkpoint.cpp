@@ -512,3 +512,43 @@ TEST(ShearedCheckpoint, ContinuesThroughAFlip) {
   sheared_continues_bitwise(s, ref, kShearSteps / 2, false);  // the flip comes after the restart
   sheared_continues_bitwise(s, ref, flip_step + 50, true);    // saved with the flipped cell
 }
+
+// A sheared cell saved on 2 ranks after its flip (ShearedCheckpointFiles.Write, the fixture of
+// ReadAndContinue) and continued on 1, 4 and 16 ranks: the trajectory and the cell bit for bit
+// those of the uninterrupted serial run.
+TEST(ShearedCheckpointFiles, Write) {
+  const char* path = std::getenv("FABRICA_SHEARED_CHECKPOINT_FILE");
+  if (!path) GTEST_SKIP() << "FABRICA_SHEARED_CHECKPOINT_FILE not set";
+  const ShearedStart s = sheared_start();
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation sim(s.particles, s.cell, s.params, &domain);
+  simple_shear(sim);
+  bool flipped = false;
+  run_sheared(sim, kShearSteps * 7 / 8, true, &flipped);
+  ASSERT_TRUE(flipped) << "saved before the flip";
+  const std::string text = "sheared cell test";
+  CheckpointWriter w(MPI_COMM_WORLD, scene_fingerprint(text), "run");
+  w.add_simulation("sim", sim);
+  w.write(path);
+}
+
+TEST(ShearedCheckpointFiles, ReadAndContinue) {
+  const char* path = std::getenv("FABRICA_SHEARED_CHECKPOINT_FILE");
+  if (!path) GTEST_SKIP() << "FABRICA_SHEARED_CHECKPOINT_FILE not set";
+  const ShearedStart s = sheared_start();
+  Simulation ref(s.particles, s.cell, s.params);
+  simple_shear(ref);
+  run_sheared(ref, kShearSteps, false);
+  const std::string text = "sheared cell test";
+  Checkpoint::Expect ex;
+  ex.scene_text = &text;
+  const Checkpoint c = Checkpoint::read(MPI_COMM_WORLD, path, ex);
+  EXPECT_NE(c.header().ranks, comm_size()) << "meant to be read on another rank count";
+  MpiDomain domain(MPI_COMM_WORLD);
+  Simulation restarted(c.simulation("sim", MPI_COMM_WORLD), &domain);
+  run_sheared(restarted, kShearSteps, false);
+  expect_same_trajectory(restarted, ref, 300);
+  EXPECT_EQ(restarted.cell().matrix(), ref.cell().matrix());
+  EXPECT_EQ(restarted.cell().strain(), ref.cell().strain());
+  EXPECT_EQ(restarted.rebuild_count(), ref.rebuild_count());
+}
