@@ -171,7 +171,7 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
   agree(mpi.comm(), [&] { fabric->close(); });
   if (log) *log << fmt::format("series and stage summary written to {}\n", outdir);
   if (log && shear)  // docs/shear.md
-    *log << fmt::format("the shear figures: /usr/bin/python3 apps/plot_shear.py {}\n", outdir);
+    *log << fmt::format("the figures (shear.png, the series'): bash scripts/plot.sh {}\n", outdir);
   return 0;
 }
 

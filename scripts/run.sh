@@ -39,11 +39,7 @@ if [ "$mode" = demo ]; then
   out=out/demo
   echo "== running the built-in demo scene (examples/demo.toml) on 2 MPI ranks into $out"
   mpirun --oversubscribe -np 2 build/apps/fabrica run -o "$out" --overwrite
-  /usr/bin/python3 apps/plot_triaxial.py "$out"   # from out/demo/run.h5 (CSV without h5py)
-  if compgen -G "$out/*/fabric.csv" >/dev/null; then
-    /usr/bin/python3 apps/plot_fabric.py "$out"
-    /usr/bin/python3 apps/plot_paper.py "$out"   # out/demo/figures/fig03..fig12, out/demo/report.html
-  fi
+  bash scripts/plot.sh "$out"   # the run's plotting step: out/demo/*.png, figures/, report.html
 else
   echo "== running the test suite"
   # Every test removes what it writes (tests/temp_dir.hpp): the temporary directory is listed
