@@ -9,6 +9,7 @@
 #include "io/serial/setup.hpp"
 #include "parallel/mpi_domain.hpp"
 
+#include "compare_runs.hpp"
 #include "mpi_test_helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -36,27 +37,8 @@ fabrica::Setup dense_setup() {
   return make_setup(load_scene(path));
 }
 
-// Largest difference of x, v, w between the parallel owners and the serial run, over all ranks.
-struct Diff {
-  double x = 0, v = 0, w = 0;
-  std::int64_t compared = 0;
-};
-Diff compare(const Simulation& par, const Simulation& ser) {
-  const Particles& P = par.particles();
-  const Particles& S = ser.particles();
-  std::unordered_map<GlobalId, std::size_t> at;
-  for (std::size_t a = 0; a < S.n_owned(); ++a) at[S.id[a]] = a;
-  Diff d;
-  for (std::size_t a = 0; a < P.n_owned(); ++a) {
-    const std::size_t b = at.at(P.id[a]);
-    d.x = std::max(d.x, (P.x[a] - S.x[b]).cwiseAbs().maxCoeff());
-    d.v = std::max(d.v, (P.v[a] - S.v[b]).cwiseAbs().maxCoeff());
-    d.w = std::max(d.w, (P.w[a] - S.w[b]).cwiseAbs().maxCoeff());
-  }
-  d.x = max_all(d.x), d.v = max_all(d.v), d.w = max_all(d.w);
-  d.compared = std::int64_t(sum_all(double(P.n_owned())));
-  return d;
-}
+using test::compare;
+using test::Diff;
 
 class DenseRun : public ::testing::TestWithParam<DecompositionKind> {};
 
@@ -199,7 +181,7 @@ void same_trajectory_with(ContactModel model, RollingModel rolling, real_t twist
   EXPECT_GT(serial.macro().rolling, 0);  // rolling resistance was at work
   // and a spring held some contacts below their limit (the constant torque has no spring: a
   // contact that rolls at all is at its limit)
-  if (rolling != RollingModel::ConstantTorque) EXPECT_LT(serial.macro().rolling, serial.macro().contacts);
+  if (rolling != RollingModel::ConstantTorque) { EXPECT_LT(serial.macro().rolling, serial.macro().contacts); }
   EXPECT_NEAR(par.macro().p, serial.macro().p, 1e-12 * serial.macro().p);
 }
 

@@ -11,6 +11,7 @@
 #include "core/simulation.hpp"
 #include "parallel/mpi_domain.hpp"
 
+#include "compare_runs.hpp"
 #include "mpi_test_helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -56,27 +57,8 @@ Gas make_gas() {
   return g;
 }
 
-struct Diff {
-  double x = 0, v = 0, w = 0;
-  long long compared = 0;
-};
-
-Diff compare(const Simulation& par, const Simulation& ser) {
-  const Particles& P = par.particles();
-  const Particles& S = ser.particles();
-  std::unordered_map<GlobalId, std::size_t> at;
-  for (std::size_t a = 0; a < S.n_owned(); ++a) at[S.id[a]] = a;
-  Diff d;
-  for (std::size_t a = 0; a < P.n_owned(); ++a) {
-    const std::size_t b = at.at(P.id[a]);
-    d.x = std::max(d.x, (P.x[a] - S.x[b]).cwiseAbs().maxCoeff());
-    d.v = std::max(d.v, (P.v[a] - S.v[b]).cwiseAbs().maxCoeff());
-    d.w = std::max(d.w, (P.w[a] - S.w[b]).cwiseAbs().maxCoeff());
-  }
-  d.x = max_all(d.x), d.v = max_all(d.v), d.w = max_all(d.w);
-  d.compared = sum_all((long long)P.n_owned());
-  return d;
-}
+using test::compare;
+using test::Diff;
 
 class ShearedRun : public ::testing::TestWithParam<DecompositionKind> {};
 
@@ -108,7 +90,7 @@ TEST_P(ShearedRun, SameTrajectoryOnEveryRankCountThroughAFlip) {
   EXPECT_NEAR(2 * serial.cell().strain()(0, 1), 2.2, 1e-9);  // the engineering shear strain
   EXPECT_EQ(par.cell().matrix(), serial.cell().matrix());
   const Diff d = compare(par, serial);
-  EXPECT_EQ(d.compared, (long long)g.particles.n_owned());  // every particle owned exactly once
+  EXPECT_EQ(d.compared, std::int64_t(g.particles.n_owned()));  // every particle owned exactly once
   EXPECT_EQ(d.x, 0.0) << "positions differ from the serial run by " << d.x << " m";
   EXPECT_EQ(d.v, 0.0);
   EXPECT_EQ(d.w, 0.0);
