@@ -11,7 +11,8 @@ localisation_<case>.csv beside FIELDS.h5):
 - gamma(X) = sqrt(2 e':e'), e' the deviator of the strain increment at node X: the local
   equivalent shear strain of the increment (NaN nodes, out of every particle's reach, left out);
 - the localisation index: the share of sum_X gamma carried by the tenth of the nodes where gamma
-  is largest (0.1 for a homogeneous increment, towards 1 as the shear gathers in a band);
+  is largest (the ceil(n / 10) largest of the n finite values; 0.1 for a homogeneous increment,
+  towards 1 as the shear gathers in a band; the run's series column `localisation` is the same);
 - the band: a band in a periodic cell repeats with the cell, so its normal is the direction of a
   reciprocal-lattice vector q = (h/L1, k/L2, l/L3) with integers h, k, l. The mode of the
   discrete Fourier transform of gamma with the largest amplitude among |h|, |k|, |l| <= 2 (the
@@ -57,11 +58,13 @@ def shear_intensity(e):
 
 
 def localisation_index(gamma):
-    """The share of sum(gamma) in the tenth of the (defined) nodes where gamma is largest."""
+    """The share of sum(gamma) in the tenth of the (defined) nodes where gamma is largest: the
+    ceil(n / 10) largest of the n finite values, counted in integers as (n + 9) // 10 (as the run's
+    series column, core/localisation.cpp)."""
     g = np.sort(gamma[np.isfinite(gamma)].ravel())[::-1]
     if g.size == 0 or g.sum() <= 0:
         return float("nan")
-    top = max(1, int(math.ceil(0.1 * g.size)))
+    top = (g.size + 9) // 10
     return float(g[:top].sum() / g.sum())
 
 
