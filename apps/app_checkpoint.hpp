@@ -5,6 +5,7 @@
 #pragma once
 #include "core/simulation.hpp"
 #include "io/mpi/checkpoint.hpp"
+#include "io/mpi/field_history.hpp"
 #include "io/mpi/fields.hpp"
 #include "io/serial/scene.hpp"
 
@@ -20,9 +21,11 @@ class BlowUpError;
 class AppCheckpoint {
  public:
   // 'app': "run", "triaxial" or "stages" (the header's application); 'step': the step the
-  // schedule counts from; log lines start with 'indent' (rank 0's 'log', or null).
+  // schedule counts from; log lines start with 'indent' (rank 0's 'log', or null). 'fields':
+  // the run's previous field instant (RunOutput::field_history), saved with every checkpoint
+  // that it holds one (null: none).
   AppCheckpoint(MPI_Comm comm, const Scene& scene, std::string outdir, std::string app, std::int64_t step,
-                std::function<void()> flush, std::ostream* log, std::string indent);
+                std::function<void()> flush, const FieldHistory* fields, std::ostream* log, std::string indent);
   using Sims = std::vector<std::pair<std::string, const Simulation*>>;  // prefix, simulation
   // Whether one is due at the end of this step (collective: the ranks agree).
   bool due(const Simulation& sim) { return schedule_.due(sim); }
@@ -40,8 +43,20 @@ class AppCheckpoint {
   std::string outdir_, app_;
   CheckpointSchedule schedule_;
   std::function<void()> flush_;
+  const FieldHistory* fields_;
   std::ostream* log_;
   std::string indent_;
 };
+
+// The previous field instant of a run whose [fields] keeps a displacement field (docs/checkpoint.md):
+// section "fields.instant" (fields: the record layout, the instant's case, step and cell lengths)
+// and section "fields.positions" (distributed records id:i64;x:f64[3], each home rank its own),
+// when 'h' keeps an instant (the same on every rank). Collective.
+void add_field_history(CheckpointWriter& w, const FieldHistory& h);
+// The instant those sections hold into 'h', each position to its home rank on this run's ranks
+// (any rank count); a checkpoint without them (taken before the first instant, or by a build
+// before the displacement fields in the run) leaves 'h' empty: the next field instant is then
+// the first of its sequence. Collective.
+void restore_field_history(const Checkpoint& c, FieldHistory& h, MPI_Comm comm);
 
 }  // namespace fabrica

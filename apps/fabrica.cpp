@@ -6,6 +6,7 @@
 //   fabrica fields OUT/run.h5 [--case C] [--step S | --all] [--spacing H | --cells NX NY NZ]
 //                  [--kernel gaussian|lucy] [--width W] [--cutoff C] [--density RHO] [-o FILE]
 //   fabrica checkpoint-info CKPT
+#include "apps/app_checkpoint.hpp"
 #include "apps/ensemble.hpp"
 #include "apps/fabric_offline.hpp"
 #include "apps/fields_offline.hpp"
@@ -104,6 +105,9 @@ int run_scene(const MpiContext& mpi, const Scene& scene, const std::string& outd
           "-- {} did not exist: a new one is written, holding only what the restarted run "
           "writes\n",
           out->path());
+    // [fields]: the previous field instant's positions, for the next instant's displacement fields.
+    if (scene.fields.enabled && scene.fields.displacement())
+      restore_field_history(*ckpt, out->field_history(), mpi.comm());
   } else if (scene.hdf5) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, overwrite);
   }

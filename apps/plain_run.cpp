@@ -44,12 +44,15 @@ constexpr const char* kSeriesHeader =
 // contacts (counted apart from the particle contacts), the energy input, the walls' and the
 // drive's work, and each wall's force and position (the coordinate of its plane along its axis:
 // a moving or servo wall's travel).
-std::string series_header(std::size_t walls, bool driven) {
-  if (walls == 0 && !driven) return kSeriesHeader;
+// With [fields] keeping the strain increment, the column localisation ends the row (the field
+// instant's localisation index, NaN at other rows).
+std::string series_header(std::size_t walls, bool driven, bool localisation) {
+  if (walls == 0 && !driven && !localisation) return kSeriesHeader;
   std::string h(kSeriesHeader);
   h.pop_back();
-  h += ",wall_contacts,energy_input,wall_work,drive_work";
+  if (walls > 0 || driven) h += ",wall_contacts,energy_input,wall_work,drive_work";
   for (std::size_t w = 1; w <= walls; ++w) h += fmt::format(",wall{0}_fx,wall{0}_fy,wall{0}_fz,wall{0}_position", w);
+  if (localisation) h += ",localisation";
   return h + "\n";
 }
 std::vector<double> wall_columns(const Simulation& sim, const MacroState& m) {
@@ -64,7 +67,9 @@ std::vector<double> wall_columns(const Simulation& sim, const MacroState& m) {
   return v;
 }
 
-void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, RunOutput* out) {
+// 'localisation': the row's value of that column (std::nullopt: the run has none).
+void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, RunOutput* out,
+               std::optional<double> localisation) {
   const std::vector<double> walls = wall_columns(sim, m);
   if (out) {
     std::vector<double> v = {sim.time(),
@@ -90,8 +95,10 @@ void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, Ru
                              m.dissipated.local,
                              m.void_ratio};
     v.insert(v.end(), walls.begin(), walls.end());
-    out->series_row(kCase, series_header(sim.params().walls.size(), !sim.params().driven.empty()), "", sim.step_count(),
-                    v);
+    if (localisation) v.push_back(*localisation);
+    out->series_row(kCase,
+                    series_header(sim.params().walls.size(), !sim.params().driven.empty(), localisation.has_value()),
+                    "", sim.step_count(), v);
   }
   fmt::print("{:>9} {:>11.5e} {:>11.5e} {:>11.5e} {:>7.3f} {:>7.3f} {:>9} {:>11.4e} {:>11.4e}\n", sim.step_count(),
              sim.time(), m.p, m.q, m.coordination, m.mech_coordination, m.contacts, m.kinetic, m.unbalanced);
@@ -106,6 +113,7 @@ void print_row(const Simulation& sim, const MacroState& m, std::ostream* csv, Ru
         m.void_ratio);
     for (std::size_t k = 0; k < walls.size(); ++k)
       *csv << (k == 0 ? fmt::format(",{}", std::int64_t(walls[k])) : fmt::format(",{:.10e}", walls[k]));
+    if (localisation) *csv << fmt::format(",{:.10e}", *localisation);
     *csv << "\n";
   }
 }
@@ -137,15 +145,15 @@ class PlainRun : public StageRun {
   }
   void rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3&, const Vec3&) override {
     if (compressing(st)) {  // the standard output only
-      print_row(sim_, m, nullptr, nullptr);
+      print_row(sim_, m, nullptr, nullptr, std::nullopt);
       return;
     }
-    series_row(m);
-    if (out_ && out_->fields_due(k)) out_->fields(kCase, sim_);  // [fields]: every 'every' rows
+    // [fields] every 'every' rows, before the row: it carries the instant's localisation index.
+    series_row(m, out_ && out_->fields_due(k) ? out_->fields(kCase, sim_) : kNoLocalisation);
   }
   void end_rows(const StageSpec& st, std::int64_t, const MacroState& m, const Vec3&, const Vec3&,
                 bool at_row) override {
-    if (!compressing(st) && !at_row) series_row(m);
+    if (!compressing(st) && !at_row) series_row(m, kNoLocalisation);
   }
   [[noreturn]] void unended(const StageSpec& st, const StageResult& res, const StageControl& c) const override {
     if (!compressing(st)) StageRun::unended(st, res, c);
@@ -154,8 +162,9 @@ class PlainRun : public StageRun {
   }
 
  private:
-  void series_row(const MacroState& m) {
-    print_row(sim_, m, csv_.stream(), out_);
+  void series_row(const MacroState& m, double localisation) {
+    print_row(sim_, m, csv_.stream(), out_,
+              scene_.fields.localisation() ? std::optional<double>(localisation) : std::nullopt);
     csv_.check();
   }
   SeriesFile& csv_;
@@ -252,7 +261,8 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
   agree(mpi.comm(), [&] {  // the output directory exists before any rank writes to it
     if (root) make_output_directory(outdir);
   });
-  SeriesFile csv(mpi.comm(), series_path.string(), series_header(scene.walls.size(), !scene.driven.empty()), 0,
+  SeriesFile csv(mpi.comm(), series_path.string(),
+                 series_header(scene.walls.size(), !scene.driven.empty(), scene.fields.localisation()), 0,
                  ckpt ? ckpt->header().step : -1);
   const auto t0 = std::chrono::steady_clock::now();
   if (scene.compress.enabled) {  // the simulation starts in the compression's law (its initial forces)
@@ -274,7 +284,7 @@ int run_plain(const MpiContext& mpi, const Scene& scene, const std::string& outd
         csv.sync();             // on disk: a checkpoint never refers to rows that are not
         if (out) out->flush();  // nor to output that is not (collective)
       },
-      root ? &std::cout : nullptr, "-- ");
+      out ? &out->field_history() : nullptr, root ? &std::cout : nullptr, "-- ");
   const AppCheckpoint::Sims sims{{"sim", &sim}};
   PlainRun run(scene, sim, tot, csv, out);
   StageCursor account = run.account();

@@ -39,9 +39,9 @@ std::string summary_header(bool shear) {
   return h;
 }
 
-std::string series_header(bool shear) {
+std::string series_header(bool shear, bool localisation) {
   std::ostringstream h;
-  write_series_header(h, shear);
+  write_series_header(h, shear, localisation);
   return h.str();
 }
 
@@ -112,7 +112,8 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
     if (root) make_output_directory(out.string());
   });
   const bool shear = any_shears(scene.stages) || sim.cell().sheared();
-  SeriesFile series(mpi.comm(), (out / "series.csv").string(), series_header(shear), 1, resume_step);
+  SeriesFile series(mpi.comm(), (out / "series.csv").string(), series_header(shear, scene.fields.localisation()), 1,
+                    resume_step);
   std::optional<FabricFiles> fabric;
   agree(mpi.comm(), [&] {
     fabric.emplace(root && scene.fabric.enabled, out, "", int(scene.fabric.rose_bins), resume_step, shear);
@@ -124,7 +125,7 @@ int run_stages(const MpiContext& mpi, const Scene& scene, const std::string& out
         agree(mpi.comm(), [&] { fabric->flush(); });
         if (output) output->flush();  // collective
       },
-      log, "  ");
+      output ? &output->field_history() : nullptr, log, "  ");
   const std::string summary_path = (out / "stages.csv").string();
   auto write_summary = [&] {
     agree(mpi.comm(), [&] {

@@ -20,6 +20,7 @@ void StageRecord::replay(std::ostream* series_out, const FabricStreams* fabric_o
   if (!output) return;
   for (const Row& r : h5_) output->series_row(case_name, csv_header, r.stage, r.step, r.values);
   output->link_snapshots(source_case, case_name, first_step, last_step);
+  output->link_fields(source_case, case_name, first_step, last_step);
 }
 
 }  // namespace fabrica

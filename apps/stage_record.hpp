@@ -2,9 +2,9 @@
 // again for another case: under [triaxial] equilibration = "common" every case of a sweep is
 // re-equilibrated from the same consolidated state with the same parameters, so the first case
 // runs the re-equilibration once and every later case starts from a copy of its end state
-// (apps/triaxial_sweep.cpp) with these rows and links to its snapshots
-// (RunOutput::link_snapshots): the files are those a repeated re-equilibration would write,
-// character for character.
+// (apps/triaxial_sweep.cpp) with these rows and links to its snapshots and field instants
+// (RunOutput::link_snapshots, link_fields): the files are those a repeated re-equilibration would
+// write, character for character.
 #pragma once
 #include "apps/fabric_output.hpp"
 
@@ -31,8 +31,9 @@ class StageRecord {
   std::int64_t first_step = 0, last_step = 0;
 
   // Writes the rows to another case's files: 'series' and 'fabric' (rank 0's streams, null
-  // elsewhere), and with 'output' (collective) its HDF5 series rows and snapshots, the latter
-  // as links to those of 'source_case'. 'csv_header' is the series' header line.
+  // elsewhere), and with 'output' (collective) its HDF5 series rows, snapshots and field
+  // instants, the latter two as links to those of 'source_case'. 'csv_header' is the series'
+  // header line.
   void replay(std::ostream* series, const FabricStreams* fabric, RunOutput* output, const std::string& csv_header,
               const std::string& source_case, const std::string& case_name) const;
 

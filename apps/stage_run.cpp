@@ -19,12 +19,13 @@
 
 namespace fabrica {
 
-void write_series_header(std::ostream& out, bool shear) {
+void write_series_header(std::ostream& out, bool shear, bool localisation) {
   out << "stage,step,time,eps1,eps2,eps3,epsv,s11,s22,s33,s12,s23,s13,p,q,q_p,void_ratio,Z,Z_m,"
          "sliding_fraction,rolling_fraction,inertial_number,unbalanced,kinetic,e_normal,e_shear,"
          "e_rolling,diss_friction,diss_rolling,diss_viscous,diss_local,boundary_work,"
          "energy_error,mean_overlap_d,max_overlap_r";
   if (shear) out << ",gamma_12,gamma_13,gamma_23,sigma_1,sigma_2,sigma_3,n1,n2,n3,theta_12";
+  if (localisation) out << ",localisation";
   out << '\n';
 }
 
@@ -33,7 +34,7 @@ StageRun::StageRun(const Scene& scene, Simulation& sim, real_t mean_diameter, re
     : scene_(scene), sim_(sim), d_mean_(mean_diameter), density_(density), series_(series), log_(log),
       shear_out_(any_shears(scene.stages) || sim.cell().sheared()), l0_(sim.cell().lengths()) {
   std::ostringstream h;
-  write_series_header(h, shear_out_);
+  write_series_header(h, shear_out_, scene.fields.localisation());
   header_ = h.str();
   if (sim.cell().sheared()) ls_ = sim.cell().lengths();  // no better reference is known
   if (parent) {                                          // a branch of the parent's simulation: the account continues
@@ -78,7 +79,7 @@ Vec3 StageRun::shear_strain(const Mat3& e0) const {
   return Vec3(2 * d(0, 1), 2 * d(0, 2), 2 * d(1, 2));
 }
 
-void StageRun::row(const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma) {
+void StageRun::row(const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma, real_t localisation) {
   if (!series_ && !output_) return;
   const real_t nc = std::max<real_t>(1.0, real_t(m.contacts));
   real_t rate = std::abs(sim_.cell().strain_rate()[0]);
@@ -128,6 +129,7 @@ void StageRun::row(const StageSpec& st, const MacroState& m, const Vec3& eps, co
                {gamma[0], gamma[1], gamma[2], pr.values[0], pr.values[1], pr.values[2], pr.major[0], pr.major[1],
                 pr.major[2], pr.angle_12});
   }
+  if (scene_.fields.localisation()) all.push_back(localisation);  // NaN without a strain increment
   if (output_) {
     output_->series_row(case_, header_, st.name, sim_.step_count(), all);
     if (record_) record_->h5_row(st.name, sim_.step_count(), all.data(), all.size());
@@ -291,15 +293,16 @@ bool StageRun::measures(const StageSpec& st, std::int64_t k, bool at_row) const 
 }
 
 void StageRun::rows(const StageSpec& st, std::int64_t k, const MacroState& m, const Vec3& eps, const Vec3& gamma) {
-  row(st, m, eps, gamma);
+  // [fields] first: the row carries the instant's localisation index.
+  const real_t index = output_ && output_->fields_due(k) ? output_->fields(case_, sim_) : kNoLocalisation;
+  row(st, m, eps, gamma, index);
   if (st.fabric == StageFabric::AtRows) fabric_row(st, eps);
-  if (output_ && output_->fields_due(k)) output_->fields(case_, sim_);  // [fields]
   if (row_check_) row_check_();
 }
 
 void StageRun::end_rows(const StageSpec& st, std::int64_t, const MacroState& m, const Vec3& eps, const Vec3& gamma,
                         bool at_row) {
-  if (!at_row) row(st, m, eps, gamma);
+  if (!at_row) row(st, m, eps, gamma, kNoLocalisation);
   if ((!at_row && st.fabric == StageFabric::AtRows) || st.fabric == StageFabric::AtEnd) fabric_row(st, eps);
   if (row_check_) row_check_();
 }

@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <ostream>
 #include <string>
 
@@ -118,7 +119,9 @@ class StageRun {
 
  private:
   void apply_contact(const StageSpec& st);
-  void row(const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma);
+  // A series row; 'localisation': the field instant's localisation index, the last column when
+  // [fields] keeps the strain increment (kNoLocalisation, NaN, at a row without one).
+  void row(const StageSpec& st, const MacroState& m, const Vec3& eps, const Vec3& gamma, real_t localisation);
   void fabric_row(const StageSpec& st, const Vec3& eps);
   // The strains eps_k = ln(l0_k / l_k) from the reference lengths l0 (reference()). A sheared
   // cell's lengths are the diagonal of its matrix, not its stretches: its strains are those of
@@ -164,7 +167,13 @@ class StageRun {
 };
 
 // With 'shear' (a run whose stages shear the cell) the shear columns follow the others:
-// gamma_12, gamma_13, gamma_23, sigma_1, sigma_2, sigma_3, n1, n2, n3, theta_12 (docs/output.md).
-void write_series_header(std::ostream& out, bool shear = false);
+// gamma_12, gamma_13, gamma_23, sigma_1, sigma_2, sigma_3, n1, n2, n3, theta_12 (docs/output.md);
+// with 'localisation' ([fields] keeps the strain increment: FieldsSpec::localisation) the column
+// localisation ends the row, NaN (`nan` in the CSV) at rows without a field instant that has a
+// strain increment.
+void write_series_header(std::ostream& out, bool shear = false, bool localisation = false);
+
+// The series' localisation at a row without a field instant that has a strain increment.
+inline constexpr real_t kNoLocalisation = std::numeric_limits<real_t>::quiet_NaN();
 
 }  // namespace fabrica

@@ -83,7 +83,7 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
     if (root_) make_output_directory(out_.string());
   });
   std::ostringstream h;
-  write_series_header(h);
+  write_series_header(h, false, scene.fields.localisation());
   header_ = h.str();
   // The consolidation's series and fabric files; on a restart in it, rows after its step go.
   if (start_case_ < 0) {
@@ -96,8 +96,8 @@ TriaxialSweep::TriaxialSweep(const MpiContext& mpi, const Scene& scene, const st
     current_fabric_ = &*cons_fabric_;
   }
   ckpt_.emplace(
-      mpi.comm(), scene, out_.string(), "triaxial", prepared_.state().step_count(), [this] { flush_files(); }, log_,
-      "  ");
+      mpi.comm(), scene, out_.string(), "triaxial", prepared_.state().step_count(), [this] { flush_files(); },
+      output_ ? &output_->field_history() : nullptr, log_, "  ");
 }
 
 void TriaxialSweep::read_restart() {
@@ -236,6 +236,11 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
     run.set_account(shared_->account);
     equil_ = shared_->result;
     shared_->record.replay(series.stream(), fabric->streams(), output_, header_, shared_->source_case, tc.name);
+    if (output_) {  // the next field instant's displacement starts from the re-equilibration's last one
+      FieldHistory& h = output_->field_history();
+      h = shared_->fields;
+      if (h.instant() && h.instant()->case_name == shared_->source_case) h.rename(tc.name);
+    }
     check_rows();
     if (i + 1 == cases_.size()) shared_.reset();  // the last case: it took the state over
   }
@@ -256,6 +261,7 @@ void TriaxialSweep::run_case(std::size_t i, const TriaxialRun& prep) {
           kept->state = BranchPoint(sim, d2.get());
           kept->account = run.account();
           kept->result = equil_;
+          if (output_) kept->fields = output_->field_history();
           shared_ = std::move(kept);
         }
       }

@@ -88,6 +88,7 @@ class TriaxialSweep {
     StageCursor account;  // the run's strain reference and energy put in, at its end
     StageResult result;
     StageRecord record;
+    FieldHistory fields;  // [fields]: the previous field instant at its end (displacement fields)
   };
   std::unique_ptr<SharedEquilibration> shared_;
   std::string header_;

@@ -332,8 +332,9 @@ std::string check_field_grid(const FieldGrid& grid, const FieldKernel& kernel, r
 }
 
 bool field_quantity_known(const std::string& name) {
-  static const std::array<std::string_view, 8> plain = {"solid_fraction", "density", "velocity", "kinetic_stress",
-                                                        "contact_stress", "stress",  "spin",     "networks"};
+  static const std::array<std::string_view, 11> plain = {
+      "solid_fraction", "density",  "velocity",     "kinetic_stress",        "contact_stress",  "stress",
+      "spin",           "networks", "displacement", "displacement_gradient", "strain_increment"};
   if (std::find(plain.begin(), plain.end(), name) != plain.end()) return true;
   for (std::string_view k : kNetworkNames)
     if (name == "contact_density_" + std::string(k) || name == "fabric_" + std::string(k)) return true;
@@ -341,9 +342,10 @@ bool field_quantity_known(const std::string& name) {
 }
 
 double field_bytes(const FieldGrid& grid) {
-  // 79 slots of 16 bytes (the fixed-point sums: 23, and 7 for each of the 8 classes of contacts),
-  // a contact's branch weight and at most 193 doubles of result a node.
-  return double(grid.nodes()) * (79.0 * 16 + 194.0 * 8);
+  // 79 slots of 16 bytes (the fixed-point sums: 23, and 7 for each of the 8 classes of contacts;
+  // the displacement fields' 22 reuse them), a contact's branch weight and at most 208 doubles of
+  // result a node (193 of coarse_grain(), 15 of displacement_fields(), held together).
+  return double(grid.nodes()) * (79.0 * 16 + 209.0 * 8);
 }
 
 FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
@@ -520,7 +522,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
 }
 
 FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Vec3& L1,
-                                 std::span<const CgMotion> motions, Domain& reducer) {
+                                 std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle) {
   FieldsResult out;
   out.grid = grid, out.kernel = kernel;
   const std::size_t N = grid.nodes();
@@ -586,8 +588,9 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
   }
   sums.reduce(reducer);
 
-  Field disp = make_field("displacement", "m", 3, N), grad = make_field("displacement_gradient", "1", 9, N),
-        strain = make_field("strain_increment", "1", 9, N);
+  FieldMaker make(recycle);
+  Field disp = make("displacement", "m", 3, N), grad = make("displacement_gradient", "1", 9, N),
+        strain = make("strain_increment", "1", 9, N);
   for (std::size_t g = 0; g < N; ++g) {
     const double w = sums.value(g, kW);
     Vec3 sx, su;

@@ -57,7 +57,8 @@ struct FieldGrid {
 std::string check_field_grid(const FieldGrid& grid, const FieldKernel& kernel, real_t min_radius);
 
 // Whether 'name' is a field coarse_grain() computes (solid_fraction, ..., contact_density_<k>,
-// fabric_<k> for a network k of kNetworkNames), or "networks" (every network's two fields).
+// fabric_<k> for a network k of kNetworkNames), "networks" (every network's two fields), or one
+// of displacement_fields() (displacement, displacement_gradient, strain_increment).
 bool field_quantity_known(const std::string& name);
 
 // Bytes of one rank's memory for the fields of 'grid' (the fixed-point sums and the result).
@@ -133,8 +134,9 @@ struct CgMotion {
 // exact (to rounding) for a homogeneous deformation, u = A x. Fields: displacement [m] (the
 // weighted mean u_bar), displacement_gradient [1] (G, 9 values, du_i/dx_j in row i),
 // strain_increment [1] (sym G, compression negative), and NaN where C_xx is singular (fewer
-// than 4 non-coplanar particles in reach).
+// than 4 non-coplanar particles in reach). Collective, the same bits for any split of the motions
+// over the ranks (each particle once over all of them). 'recycle': as for coarse_grain().
 FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Vec3& L1,
-                                 std::span<const CgMotion> motions, Domain& reducer);
+                                 std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle = nullptr);
 
 }  // namespace fabrica

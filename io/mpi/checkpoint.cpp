@@ -62,6 +62,12 @@ void CheckpointWriter::add_fields(const std::string& name, const FieldWriter& fi
   add_global(name, std::move(b));
 }
 
+void CheckpointWriter::add_records(const std::string& name, std::uint32_t record_bytes, std::string records) {
+  if (record_bytes == 0 || records.size() % record_bytes != 0)
+    throw std::logic_error("checkpoint: section " + name + " is not a whole number of records");
+  staged_.push_back({name, SectionKind::Distributed, record_bytes, std::move(records)});
+}
+
 void CheckpointWriter::add_simulation(const std::string& prefix, const Simulation& sim) {
   if (!have_step_) {
     head_.step = sim.step_count();
@@ -289,6 +295,14 @@ FieldReader Checkpoint::fields(const std::string& name) const {
     throw InputError(where + ": no field layout at its start (corrupted)");
   const std::size_t n = std::size_t(get_le(b.data(), 8));
   return FieldReader(b.substr(8, n), b.data() + 8 + n, b.size() - 8 - n, where);
+}
+
+const std::string& Checkpoint::records(const std::string& name, std::uint32_t record_bytes) const {
+  const CheckpointSection& s = find(name);
+  if (s.kind != SectionKind::Distributed || s.record_bytes != record_bytes)
+    throw InputError(path_ + ": section " + name + " has records of " + std::to_string(s.record_bytes) +
+                     " bytes, this build reads " + std::to_string(record_bytes));
+  return chunks_.at(name).bytes;
 }
 
 SimulationSnapshot Checkpoint::simulation(const std::string& prefix, MPI_Comm comm) const {

@@ -90,6 +90,9 @@ class CheckpointWriter {
   void add_global(const std::string& name, std::string bytes);
   // Fields every rank knows identically, with their layout (read with Checkpoint::fields).
   void add_fields(const std::string& name, const FieldWriter& fields);
+  // A distributed section of this rank's records, 'record_bytes' each, already encoded (read
+  // with Checkpoint::records; any rank count reads its range of them).
+  void add_records(const std::string& name, std::uint32_t record_bytes, std::string records);
 
   static constexpr std::uint64_t kBlockRecords = std::uint64_t(1) << 16;
   // Records per block (tests: many blocks from a small specimen; the file is the same).
@@ -144,6 +147,10 @@ class Checkpoint {
   std::string section(const std::string& name) const;  // the bytes of a global section
   // The fields of a section written with CheckpointWriter::add_fields (valid while this lives).
   FieldReader fields(const std::string& name) const;
+  // This rank's range of the records of a section written with CheckpointWriter::add_records
+  // (rank r of P: records n r / P to n (r + 1) / P); an InputError if its records are not of
+  // 'record_bytes' bytes.
+  const std::string& records(const std::string& name, std::uint32_t record_bytes) const;
   // The snapshot of a simulation saved under 'prefix': this rank's range of the particles and
   // contacts (holding = Share: Simulation's constructor sends them to their owners); the
   // dissipation accumulators go to the same ranks when the rank count is unchanged, else their

@@ -92,20 +92,27 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
       &cs.params().materials);
   FieldOptions opt;
   opt.strong_ratio = strong_ratio;
-  const auto network = [](const std::string& q) {
-    return q == "networks" || q.starts_with("contact_density_") || q.starts_with("fabric_");
-  };
-  opt.networks = f.quantities.empty() || std::any_of(f.quantities.begin(), f.quantities.end(), network);
+  opt.networks = f.networks();
   FieldsResult r = coarse_grain(grid, kernel, parts, conts, opt, sim.domain(), recycle);
-  if (!f.quantities.empty()) {
-    const auto kept = [&](const Field& x) {
-      for (const std::string& q : f.quantities)
-        if (q == x.name || (q == "networks" && network(x.name))) return true;
-      return false;
-    };
-    std::erase_if(r.fields, [&](const Field& x) { return !kept(x); });
-  }
+  std::erase_if(r.fields, [&](const Field& x) { return !f.keeps(x.name); });
   return r;
+}
+
+std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f, MPI_Comm comm, FieldHistory& history,
+                                                             const std::string& case_name, Simulation& sim,
+                                                             FieldsResult& r, FieldsResult* recycle) {
+  const Simulation& cs = sim;  // const: as run_fields(), the positions are not marked as changed
+  const FieldHistory::Instant now{case_name, cs.step_count(), cs.cell().lengths()};
+  FieldHistory::Step s = history.advance(comm, cs.particles(), now);
+  if (!s.from) return std::nullopt;
+  // As `fabrica fields` (apps/fields_offline.cpp): the grid of this instant's counts, in the
+  // earlier cell (the reference configuration of the displacements).
+  FieldGrid g0 = r.grid;
+  g0.lengths = s.from->lengths;
+  FieldsResult d = displacement_fields(g0, r.kernel, now.lengths, s.motions, sim.domain(), recycle);
+  for (Field& x : d.fields)
+    if (f.keeps(x.name)) r.fields.push_back(std::move(x));
+  return s.from;
 }
 
 }  // namespace fabrica

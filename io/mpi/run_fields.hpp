@@ -1,14 +1,18 @@
 // The coarse-grained fields during a run ([fields], docs/fields.md "Fields during a run"): the
 // grid and kernel of the scene, the check of the grid against the specimen before the run (an
 // orthorhombic cell only: a sheared one is refused, before the run and at any instant), and
-// the fields of the simulation's current state (collective over the simulation's domain). They
-// are written into run.h5 by RunOutput::fields (io/mpi/run_output.hpp).
+// the fields of the simulation's current state (collective over the simulation's domain), and its
+// displacement fields since the previous field instant. They are written into run.h5 by
+// RunOutput::fields (io/mpi/run_output.hpp).
 #pragma once
 #include "core/coarse_grain.hpp"
 #include "core/simulation.hpp"
+#include "io/mpi/field_history.hpp"
 #include "io/serial/scene.hpp"
 
 #include <mpi.h>
+
+#include <optional>
 
 namespace fabrica {
 
@@ -34,5 +38,16 @@ void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell
 // Collective over sim.domain(). 'recycle': a previous result whose storage is reused (coarse_grain).
 FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim,
                         FieldsResult* recycle = nullptr);
+
+// The displacement fields of 'sim' now (r: its instant's fields, of run_fields()) since the
+// instant of case 'case_name' that 'history' keeps (io/mpi/field_history.hpp), as `fabrica fields`
+// computes them between snapshots at the two steps (displacement_fields() on the grid of this
+// instant's counts in the earlier cell, positions as the snapshots store them); those [fields]
+// keeps are appended to r. 'history' then keeps this instant. Returns the instant they start
+// from, none at the first instant of a case (then nothing is appended). Collective over 'comm'
+// (the home ranks of the history) and sim.domain(). 'recycle': as for run_fields().
+std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f, MPI_Comm comm, FieldHistory& history,
+                                                             const std::string& case_name, Simulation& sim,
+                                                             FieldsResult& r, FieldsResult* recycle = nullptr);
 
 }  // namespace fabrica

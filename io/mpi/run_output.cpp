@@ -1,5 +1,6 @@
 #include "io/mpi/run_output.hpp"
 
+#include "core/localisation.hpp"
 #include "io/mpi/layout.hpp"
 #include "io/mpi/run_fields.hpp"
 #include "io/mpi/snapshot.hpp"
@@ -457,16 +458,26 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   flush();
 }
 
-void RunOutput::fields(const std::string& case_name, Simulation& sim) {
-  mark_failure([&] { write_fields(case_name, sim); });
+double RunOutput::fields(const std::string& case_name, Simulation& sim) {
+  double index = std::numeric_limits<double>::quiet_NaN();
+  mark_failure([&] { index = write_fields(case_name, sim); });
+  return index;
 }
 
-void RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
+double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   const auto t0 = clock_type::now();
   const std::string name = layout::step_name(sim.step_count());
   const std::string gp = "fields/" + case_name + "/" + name;
-  if (file_.exists(gp)) return;  // same answer on every rank
+  double index = std::numeric_limits<double>::quiet_NaN();
+  if (file_.exists(gp)) return index;  // same answer on every rank
   FieldsResult r = run_fields(fields_spec_, fields_strong_ratio_, scene_path_, sim, &spare_fields_);
+  // The displacement fields need the previous instant's positions (io/mpi/field_history.hpp):
+  // nothing is exchanged or kept unless [fields] keeps one of them.
+  std::optional<FieldHistory::Instant> from;
+  if (fields_spec_.displacement())
+    from = run_displacement_fields(fields_spec_, comm_, history_, case_name, sim, r, &spare_fields_);
+  for (const Field& f : r.fields)
+    if (f.name == "strain_increment") index = localisation_index(f.values);
   const FieldGrid& grid = r.grid;
   double values = 0;
   for (const Field& f : r.fields) values += double(f.values.size());
@@ -491,6 +502,11 @@ void RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   g.set_attr("strong_threshold", double(r.strong_threshold));
   g.set_attr("particles", r.particles);
   g.set_attr("contacts", r.contacts);
+  if (from) {
+    const double L0[3] = {from->lengths[0], from->lengths[1], from->lengths[2]};
+    g.set_attr("displacement_from_step", from->step);
+    g.set_attr("displacement_reference_lengths", std::span<const double>(L0, 3));
+  }
   FieldsXdmfEntry e;
   e.case_name = case_name, e.group = "/" + gp, e.step = sim.step_count(), e.time = double(sim.time());
   e.cells = grid.n, e.spacing = {sp[0], sp[1], sp[2]}, e.origin = {origin[0], origin[1], origin[2]};
@@ -513,6 +529,7 @@ void RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   spare_fields_ = std::move(r);
   fields_seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
   flush();
+  return index;
 }
 
 void RunOutput::link_snapshots(const std::string& source_case, const std::string& case_name, std::int64_t first_step,
@@ -531,6 +548,26 @@ void RunOutput::link_snapshots(const std::string& source_case, const std::string
     xmf_.insert(xmf_.end(), linked.begin(), linked.end());
   });
   seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
+  flush();
+}
+
+void RunOutput::link_fields(const std::string& source_case, const std::string& case_name, std::int64_t first_step,
+                            std::int64_t last_step) {
+  const auto t0 = clock_type::now();
+  mark_failure([&] {
+    std::vector<FieldsXdmfEntry> linked;
+    for (const FieldsXdmfEntry& x : fields_xmf_)
+      if (x.case_name == source_case && x.step > first_step && x.step <= last_step) {
+        const std::string gp = "fields/" + case_name + "/" + layout::step_name(x.step);
+        if (file_.exists(gp)) continue;  // same answer on every rank
+        file_.link(gp, x.group);
+        linked.push_back(x);
+        linked.back().case_name = case_name;
+        linked.back().group = "/" + gp;
+      }
+    fields_xmf_.insert(fields_xmf_.end(), linked.begin(), linked.end());
+  });
+  fields_seconds_ += std::chrono::duration<double>(clock_type::now() - t0).count();
   flush();
 }
 

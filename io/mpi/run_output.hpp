@@ -14,6 +14,7 @@
 #pragma once
 #include "core/coarse_grain.hpp"
 #include "core/simulation.hpp"
+#include "io/mpi/field_history.hpp"
 #include "io/mpi/h5.hpp"
 #include "io/serial/scene.hpp"
 #include "io/mpi/xdmf.hpp"
@@ -68,9 +69,17 @@ class RunOutput {
   // counter of the caller's loop: of the run, or of the stage) is a field instant, k a multiple of
   // [fields] every x [run] output_every; always false without [fields] (nothing else is done).
   bool fields_due(std::int64_t k) const { return fields_steps_ > 0 && k % fields_steps_ == 0; }
-  // The coarse-grained fields of 'sim' now (io/mpi/run_fields.hpp), into /fields/<case>/<step>; a
-  // second instant of the same case and step is skipped. Collective.
-  void fields(const std::string& case_name, Simulation& sim);
+  // The coarse-grained fields of 'sim' now (io/mpi/run_fields.hpp), into /fields/<case>/<step>,
+  // with the displacement fields since the case's previous field instant when [fields] keeps
+  // them; a second instant of the same case and step is skipped. Returns the instant's
+  // localisation index (core/localisation.hpp) when it has a strain increment, else NaN (the
+  // series' column `localisation`). Collective.
+  double fields(const std::string& case_name, Simulation& sim);
+  // The previous field instant's positions (io/mpi/field_history.hpp): saved in checkpoints and
+  // restored on a restart (apps/app_checkpoint.hpp). Empty unless [fields] keeps a displacement
+  // field.
+  FieldHistory& field_history() { return history_; }
+  const FieldHistory& field_history() const { return history_; }
   double fields_seconds() const { return fields_seconds_; }  // wall time computing and writing them
   std::int64_t field_instants() const { return std::int64_t(fields_xmf_.size()); }
 
@@ -79,6 +88,10 @@ class RunOutput {
   // For a stage that two cases share (apps/stage_record.hpp).
   void link_snapshots(const std::string& source_case, const std::string& case_name, std::int64_t first_step,
                       std::int64_t last_step);
+  // The same for the field instants ([fields]): /fields/<case_name>/<step> links to
+  // /fields/<source_case>/<step>, with their sidecar entries.
+  void link_fields(const std::string& source_case, const std::string& case_name, std::int64_t first_step,
+                   std::int64_t last_step);
 
   // A restart from a checkpoint taken at 'step' in case cases[current] ('cases': every case of
   // the run in the order it writes them): removes the series rows with a step after 'step' and
@@ -130,7 +143,7 @@ class RunOutput {
   void flush_series();
   void write_xmf() const;
   void write_cell_xmf(const std::vector<std::string>& cases) const;  // run_cell.xmf, if sheared
-  void write_fields(const std::string& case_name, Simulation& sim);
+  double write_fields(const std::string& case_name, Simulation& sim);
 
   MPI_Comm comm_;
   int rank_ = 0, size_ = 1;
@@ -150,6 +163,7 @@ class RunOutput {
   double fields_seconds_ = 0;
   // The last instant's fields, their storage reused by the next instant's (no fresh pages).
   FieldsResult spare_fields_;
+  FieldHistory history_;  // the previous field instant's positions (displacement fields)
   std::vector<FieldsXdmfEntry> fields_xmf_;
   bool created_anew_ = false;
   bool failed_ = false;  // a write of this file failed: it is not flushed again

@@ -570,7 +570,8 @@ void parse_fields(const toml::table* t, const std::string& path, Scene& sc) {
       if (!field_quantity_known(*q))
         S.fail("quantities", "\"" + *q + "\"",
                "unknown quantity (solid_fraction, density, velocity, kinetic_stress, contact_stress, stress, "
-               "spin, contact_density_<network>, fabric_<network>, or \"networks\" for every network's two)");
+               "spin, contact_density_<network>, fabric_<network>, \"networks\" for every network's two, "
+               "displacement, displacement_gradient, strain_increment)");
       f.quantities.push_back(*q);
     }
   }
@@ -998,6 +999,25 @@ Scene parse_scene(const std::string& text, const std::string& path) {
                          "\") both given: the stage shears the periodic cell, and coarse-grained fields are "
                          "computed on an orthorhombic cell only (docs/fields.md); remove one of them");
   return sc;
+}
+
+bool FieldsSpec::keeps(const std::string& name) const {
+  if (quantities.empty()) return true;
+  const bool network = name.starts_with("contact_density_") || name.starts_with("fabric_");
+  for (const std::string& q : quantities)
+    if (q == name || (q == "networks" && network)) return true;
+  return false;
+}
+
+bool FieldsSpec::networks() const {
+  if (quantities.empty()) return true;
+  for (const std::string& q : quantities)
+    if (q == "networks" || q.starts_with("contact_density_") || q.starts_with("fabric_")) return true;
+  return false;
+}
+
+bool FieldsSpec::displacement() const {
+  return keeps("displacement") || keeps("displacement_gradient") || keeps("strain_increment");
 }
 
 Scene load_scene(const std::string& path) {

@@ -136,7 +136,18 @@ struct FieldsSpec {
   real_t width = 0;                         // m: the Gaussian's standard deviation, Lucy's support radius
   real_t cutoff = 3;                        // Gaussian: support radius in widths (>= 1)
   std::int64_t every = 1;                   // output rows between field instants (>= 1)
-  std::vector<std::string> quantities;      // empty: every quantity of coarse_grain()
+  std::vector<std::string> quantities;      // empty: every quantity (coarse_grain(), displacement_fields())
+
+  // Whether the run writes the dataset 'name' (core/coarse_grain.hpp): every one without
+  // `quantities`, else those listed ("networks": every contact_density_<k> and fabric_<k>).
+  bool keeps(const std::string& name) const;
+  // Whether a network dataset is kept (else the network sums are not computed).
+  bool networks() const;
+  // Whether a displacement dataset is kept (displacement, displacement_gradient,
+  // strain_increment): then every field instant needs the previous one's positions.
+  bool displacement() const;
+  // Whether the series carry the column `localisation` ([fields] given, the strain increment kept).
+  bool localisation() const { return enabled && keeps("strain_increment"); }
 };
 
 // [[wall]]: a plane inside the periodic cell (docs/scene.md, "Walls"). The contact law is the
