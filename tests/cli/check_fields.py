@@ -13,8 +13,20 @@ snapshots they were computed from, through apps/fabrica_h5.py:
     check_fields.py inrun RUN.h5 FIELDS.h5 CASE STEPS   the fields computed during the run
         ([fields], /fields/CASE/<step> of RUN.h5) are at the steps STEPS (comma-separated) and
         equal, bit for bit, those `fabrica fields RUN.h5 --all` wrote to FIELDS.h5 from the
-        run's snapshots at the same steps: every dataset of the run's instants, and every
-        attribute of their groups.
+        run's snapshots at the same steps: the same datasets and attributes in both, every one
+        equal; every instant but the first holds the displacement fields from the one before
+        (displacement, displacement_gradient, strain_increment; displacement_from_step), the
+        first none.
+    check_fields.py localisation RUN_DIR CASE [CSV]   the run's series column localisation (in
+        RUN_DIR/run.h5 /series/CASE and in the CSV, default RUN_DIR/series.csv) equals, at each
+        field instant with a strain increment, apps/localisation.py's index of that instant's
+        strain_increment in run.h5 (1e-12; the CSV to its 10 significant digits), and is NaN
+        (`nan`) at every other row.
+    check_fields.py sweep RUN.h5 SOURCE OTHER   a triaxial sweep's field instants: the first of
+        each case has no displacement fields, every later one those from the case's instant
+        before; the instants of the re-equilibration SOURCE ran for both are OTHER's too (the
+        same HDF5 objects: hard links), and OTHER's first own instant (its shear's) has its
+        displacement from the last of them.
 Exits 0 if all hold, 1 with the reason, 77 if h5py or numpy is missing.
 """
 import os
@@ -108,11 +120,27 @@ def inrun(run_path, fields_path, case, steps):
         if got != want:
             fail(f"{run_path}: field instants at steps {got}, expected {want}")
         n = 0
+        displaced = 0
         for s in ga:
             x = ga[s]
             if s not in b["fields"][case]:
                 fail(f"{fields_path}: no /fields/{case}/{s} (a snapshot at step {int(x.attrs['step'])}?)")
             y = b["fields"][case][s]
+            if sorted(x) != sorted(y) or sorted(x.attrs) != sorted(y.attrs):
+                fail(f"/fields/{case}/{s}: datasets {sorted(set(x) ^ set(y))} and attributes "
+                     f"{sorted(set(x.attrs) ^ set(y.attrs))} in one file only")
+            step = int(x.attrs["step"])
+            disp = {"displacement", "displacement_gradient", "strain_increment"}
+            if step == want[0]:
+                if disp & set(x) or "displacement_from_step" in x.attrs:
+                    fail(f"/fields/{case}/{s}: displacement fields at the case's first instant")
+            else:
+                if not disp <= set(x):
+                    fail(f"/fields/{case}/{s}: no displacement fields ({sorted(disp - set(x))} missing)")
+                prev = want[want.index(step) - 1]
+                if int(x.attrs["displacement_from_step"]) != prev:
+                    fail(f"/fields/{case}/{s}: displacement from step {x.attrs['displacement_from_step']}, not {prev}")
+                displaced += 1
             for k in x.attrs:
                 if k not in y.attrs or not np.array_equal(np.asarray(x.attrs[k]), np.asarray(y.attrs[k])):
                     fail(f"/fields/{case}/{s}: attribute {k}: {x.attrs[k]} in the run, "
@@ -139,12 +167,85 @@ def inrun(run_path, fields_path, case, steps):
     if f.shape != raw.shape[::-1] or not np.array_equal(f, np.swapaxes(raw, 0, 2)):
         fail(f"fabrica_h5.py: solid_fraction of {run_path} at step {want[-1]} read as {f.shape}, not the file's")
     print(f"check_fields.py: {len(got)} field instants of the run at steps {got}: {n} values identical "
-          f"to `fabrica fields`, bit for bit; fabrica_h5.py reads them from run.h5")
+          f"to `fabrica fields`, bit for bit, {displaced} of the instants with displacement fields; "
+          f"fabrica_h5.py reads them from run.h5")
+
+
+def sweep(run_path, source, other):
+    with h5py.File(run_path, "r") as h:
+        f = h["fields"]
+        for case in (source, other):
+            steps = sorted(int(f[case][s].attrs["step"]) for s in f[case])
+            for k, step in enumerate(steps):
+                x = f[case][f"{step:012d}"]
+                got = int(x.attrs["displacement_from_step"]) if "displacement_from_step" in x.attrs else None
+                want = steps[k - 1] if k > 0 else None
+                if got != want or (want is not None) != ("strain_increment" in x):
+                    fail(f"/fields/{case}/{step:012d}: displacement from step {got}, expected {want}")
+        linked = [s for s in f[other] if s in f[source] and f[other][s] == f[source][s]]
+        own = [s for s in f[other] if s not in linked]
+        if not linked or not own or max(linked) > min(own):
+            fail(f"{other}: linked instants {linked} are not the first ones (own {own})")
+        first = f[other][min(own)]
+        if int(first.attrs["displacement_from_step"]) != int(f[source][max(linked)].attrs["step"]):
+            fail(f"{other}: its first own instant's displacement is not from the re-equilibration's last")
+    print(f"check_fields.py: {len(linked)} instants of {source}'s re-equilibration linked into {other}, whose "
+          f"first shear instant starts from the last of them; every later instant of each case from the one before")
+
+
+def localisation(run_dir, case, csv_path=None):
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "apps"))
+    import localisation as lo  # noqa: E402
+    run_path = os.path.join(run_dir, "run.h5")
+    rf = fabrica_h5.RunFile(run_path)
+    want = {}
+    for inst in rf.field_instants(case):
+        f = rf.fields(inst.case, inst.step)
+        if "strain_increment" in f:
+            want[inst.step] = lo.localisation_index(lo.shear_intensity(f["strain_increment"]))
+    if not want:
+        fail(f"{run_path}: no field instant of case {case} with a strain increment")
+    with h5py.File(run_path, "r") as h:
+        g = h["series"][case]
+        if "localisation" not in g:
+            fail(f"{run_path}: no series column localisation in /series/{case}")
+        steps, col = g["step"][()], g["localisation"][()]
+    csv_path = csv_path or os.path.join(run_dir, "series.csv")
+    with open(csv_path) as f:
+        rows = [line.rstrip("\n").split(",") for line in f]
+    head = rows[0]
+    if head[-1] != "localisation":
+        fail(f"{csv_path}: last column {head[-1]}, not localisation")
+    csv = {int(r[head.index("step")]): r[-1] for r in rows[1:]}
+    worst = 0.0
+    for step, v in zip(steps, col):
+        step = int(step)
+        if step in want:
+            err = abs(v - want[step])
+            worst = max(worst, err)
+            if not err <= TOL:
+                fail(f"step {step}: localisation {v!r} in the series, {want[step]!r} from localisation.py")
+            if abs(float(csv[step]) - want[step]) > 1e-9 * want[step]:
+                fail(f"step {step}: {csv_path} localisation {csv[step]}, localisation.py {want[step]!r}")
+        elif not (np.isnan(v) and csv[step] == "nan"):
+            fail(f"step {step}: localisation {v!r} ({csv[step]} in the CSV) at a row without a strain increment")
+    missing = sorted(set(want) - {int(s) for s in steps})
+    if missing:
+        fail(f"no series row at the field instants {missing}")
+    print(f"check_fields.py: {case}: the series' localisation equals localisation.py's index at the {len(want)} "
+          f"instants with a strain increment (largest difference {worst:.1e}, tolerance {TOL}; "
+          f"values {min(want.values()):.4f}-{max(want.values()):.4f}), NaN at the {len(steps) - len(want)} other rows")
 
 
 if __name__ == "__main__":
     if len(sys.argv) == 6 and sys.argv[1] == "inrun":
         inrun(*sys.argv[2:])
+        sys.exit(0)
+    if len(sys.argv) in (4, 5) and sys.argv[1] == "localisation":
+        localisation(*sys.argv[2:])
+        sys.exit(0)
+    if len(sys.argv) == 5 and sys.argv[1] == "sweep":
+        sweep(*sys.argv[2:])
         sys.exit(0)
     if len(sys.argv) != 4 or sys.argv[1] not in ("integrals", "same"):
         print(__doc__)
