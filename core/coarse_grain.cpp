@@ -414,10 +414,11 @@ double field_bytes(const FieldGrid& grid, const FieldKernel& kernel, int ranks) 
   constexpr double kSums = 79.0 * 16, kResult = 208.0 * 8;
   if (ranks <= 1) return double(grid.nodes()) * (kSums + kResult + 8);
   const double nz = grid.n[2], plane = double(grid.n[0]) * double(grid.n[1]);
-  const double slab = std::ceil(nz / ranks), reach = std::ceil(kernel.support() / grid.spacing()[2]) + 1;
+  // The reach: the support, the box's margin of one node and about one more for a contact's branch.
+  const double slab = std::ceil(nz / ranks), reach = std::ceil(kernel.support() / grid.spacing()[2]) + 2;
   const double box = std::min(nz, slab + 2 * reach + 1);
-  // The box's sums and branch weights, the slab's sums, fields and one message in and out.
-  return plane * (box * (kSums + 8) + slab * (3 * kSums + kResult)) + 8.0 * double(grid.nodes());
+  // The box's sums and branch weights, the slab's sums and fields, a layer's message in and out.
+  return plane * (box * (kSums + 8) + slab * (kSums + kResult) + 2 * kSums) + 8.0 * double(grid.nodes());
 }
 
 FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,

@@ -51,8 +51,9 @@ class BoxBuilder {
 
 // Adds this rank's box sums ('slots' integers a node of 'box') into the slab sums of every rank
 // ('slab': slots integers a node of this rank's layers 'mine', node i + n0 (j + n1 (k -
-// mine.first))): each rank sends, to each owner, the box's z-layers that lie in the owner's slab.
-// The integers add in any order to the same sums. Collective over 'ex'.
+// mine.first))): each rank sends, to each owner, the box's z-layers that lie in the owner's slab,
+// one layer of every slab at a time (a message is at most one z-layer of a box). The integers
+// add in any order to the same sums. Collective over 'ex'.
 void sum_into_slabs(const FieldGrid& grid, const NodeBox& box, const WideSum* box_sums, std::size_t slots, Layers mine,
                     WideSum* slab, GridExchange& ex);
 

@@ -6,11 +6,44 @@
 #include "io/serial/memory_check.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <unordered_map>
 
 namespace fabrica {
+namespace {
+
+// The motions sent to the ranks whose z-layers of g0 their earlier positions lie in (each once
+// over all ranks), so that each rank's displacement sums cover its layers and the kernel's reach
+// around them, not the whole grid as the home ranks' scattered ids would (7 doubles a motion).
+std::vector<CgMotion> motions_by_layer(const std::vector<CgMotion>& mine, const FieldGrid& g0, GridExchange& ex) {
+  const std::int64_t P = ex.size(), nz = g0.n[2];
+  std::vector<int> owner(mine.size());
+  for (std::size_t i = 0; i < mine.size(); ++i) {
+    const double s = mine[i].x0[2] / g0.lengths[2] - std::floor(mine[i].x0[2] / g0.lengths[2]);
+    const std::int64_t k = std::clamp<std::int64_t>(std::int64_t(s * double(nz)), 0, nz - 1);
+    owner[i] = int(((k + 1) * P - 1) / nz);
+  }
+  std::vector<CgMotion> out;
+  const GridExchange::Pack pack = [&](int to, std::vector<std::uint64_t>& w) {
+    for (std::size_t i = 0; i < mine.size(); ++i)
+      if (owner[i] == to) {
+        const CgMotion& m = mine[i];
+        for (double v : {m.x0[0], m.x0[1], m.x0[2], m.x1[0], m.x1[1], m.x1[2], double(m.radius)})
+          w.push_back(std::bit_cast<std::uint64_t>(v));
+      }
+  };
+  const GridExchange::Take take = [&](int, std::span<const std::uint64_t> w) {
+    const auto d = [&](std::size_t i) { return std::bit_cast<double>(w[i]); };
+    for (std::size_t i = 0; i + 7 <= w.size(); i += 7)
+      out.push_back({Vec3(d(i), d(i + 1), d(i + 2)), Vec3(d(i + 3), d(i + 4), d(i + 5)), d(i + 6)});
+  };
+  ex.ring(pack, take);
+  return out;
+}
+
+}  // namespace
 
 void refuse_sheared_fields(const std::string& scene_path, const PeriodicCell& cell, std::int64_t step) {
   if (!cell.sheared()) return;
@@ -113,6 +146,7 @@ std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f
   // earlier cell (the reference configuration of the displacements).
   FieldGrid g0 = r.grid;
   g0.lengths = s.from->lengths;
+  if (exchange && exchange->size() > 1) s.motions = motions_by_layer(s.motions, g0, *exchange);
   FieldsResult d = displacement_fields(g0, r.kernel, now.lengths, s.motions, sim.domain(), recycle, exchange);
   for (Field& x : d.fields)
     if (f.keeps(x.name)) r.fields.push_back(std::move(x));
