@@ -116,7 +116,7 @@ void write_fields(const MpiContext& mpi, const h5::Group* g, const FieldsResult&
       else if (mpi.rank() == 0) buf.assign(count, 0.0);
       if (q > 0) send_layers(mpi, buf, int(q));
       try {
-        if (g && failed.empty())
+        if (g && failed.empty() && count > 0)
           d.write_rows(h5::Type::F64, hsize_t(L.first), hsize_t(L.end - L.first), buf.data(), true);
       } catch (const h5::Error& e) { failed = e.what(); }
     }

@@ -524,8 +524,11 @@ double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
     if (f.components > 1) dims.push_back(hsize_t(f.components));
     const h5::Dataset d = g.create_dataset(f.name, h5::Type::F64, dims);
     d.set_attr("unit", f.unit);
+    // (A rank without layers, fewer layers than ranks, passes a valid pointer for its empty selection.)
+    static const double none = 0;
     d.write_rows(h5::Type::F64, z0, z1 - z0,
-                 f.values.data() + (z0 - hsize_t(r.layers.first)) * layer * hsize_t(f.components), true);
+                 z1 > z0 ? f.values.data() + (z0 - hsize_t(r.layers.first)) * layer * hsize_t(f.components) : &none,
+                 true);
     e.quantities.emplace_back(f.name, f.components);
   }
   // In name order, as a restart lists them back from the file (resume_after): the same sidecar.
