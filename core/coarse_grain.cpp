@@ -36,7 +36,12 @@ class GridSums {
   // its slab's at once).
   GridSums(std::size_t nodes, std::size_t slots, int store = 0)
       : nodes_(nodes), slots_(slots), acc_(workspace(store)), e_(slots, 0), scale_(slots, 1.0), unit_(slots, 1.0) {
-    if (acc_.size() < nodes * slots) acc_.resize(nodes * slots);
+    if (acc_.size() < nodes * slots) {
+      // Grown without copying: the old integers are not needed, and two buffers at once (a
+      // vector's growth) would double the peak when a rank's box grows between two instants.
+      std::vector<Wide>().swap(acc_);
+      acc_.resize(nodes * slots);
+    }
     std::fill(acc_.begin(), acc_.begin() + std::ptrdiff_t(nodes * slots), Wide(0));
   }
   GridSums(const GridSums&) = delete;
