@@ -1,6 +1,7 @@
 #include "apps/fields_offline.hpp"
 
 #include "core/coarse_grain.hpp"
+#include "core/exact_sum.hpp"
 #include "core/serial_domain.hpp"
 #include "core/errors.hpp"
 #include "io/mpi/h5.hpp"
@@ -13,6 +14,7 @@
 #include "io/mpi/xdmf.hpp"
 #include "parallel/guard.hpp"
 #include "parallel/mpi_domain.hpp"
+#include "parallel/mpi_grid_exchange.hpp"
 
 #include <fmt/core.h>
 
@@ -69,17 +71,60 @@ Masses masses_of(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   return m;
 }
 
-// Writes one instant's fields into group g: a dataset per field, shape (nz, ny, nx[, comps]).
-void write_fields(const h5::Group& g, const FieldsResult& r, std::vector<std::pair<std::string, int>>& listed) {
+// The rank that coarse-grains an item at height z (m, any image) of a cell of height Lz on 'nz'
+// layers: the owner of its nearest layer (core/grid_exchange.hpp), so that each rank's items
+// reach its own layers and the kernel's reach around them (its box of sums).
+std::size_t rank_of_height(double z, double Lz, int nz, std::size_t P) {
+  const double s = z / Lz - std::floor(z / Lz);
+  const std::int64_t k = std::clamp<std::int64_t>(std::int64_t(s * nz), 0, nz - 1);
+  return std::size_t(((k + 1) * std::int64_t(P) - 1) / nz);
+}
+
+// Rank q's layers of one field to rank 0 (in pieces of at most 2^27 values).
+void send_layers(const MpiContext& mpi, std::vector<double>& v, int q) {
+  constexpr std::size_t kPiece = std::size_t(1) << 27;
+  if (mpi.rank() == q)
+    for (std::size_t a = 0; a < v.size(); a += kPiece)
+      MPI_Send(v.data() + a, int(std::min(kPiece, v.size() - a)), MPI_DOUBLE, 0, 7303, mpi.comm());
+  else if (mpi.rank() == 0)
+    for (std::size_t a = 0; a < v.size(); a += kPiece)
+      MPI_Recv(v.data() + a, int(std::min(kPiece, v.size() - a)), MPI_DOUBLE, q, 7303, mpi.comm(), MPI_STATUS_IGNORE);
+}
+
+// Writes one instant's fields into group g of rank 0's file (g: valid on rank 0 only): a dataset
+// per field, shape (nz, ny, nx[, comps]), each rank's layers sent to rank 0 in turn (rank 0
+// holds one rank's layers of one field at a time). Collective; an HDF5 error on rank 0 is
+// raised on every rank once every layer has been sent.
+void write_fields(const MpiContext& mpi, const h5::Group* g, const FieldsResult& r,
+                  std::vector<std::pair<std::string, int>>& listed) {
   const std::array<int, 3>& n = r.grid.n;
+  const std::size_t P = std::size_t(mpi.size()), layer = std::size_t(n[0]) * std::size_t(n[1]);
+  std::string failed;
+  std::vector<double> buf;
   for (const Field& f : r.fields) {
     std::vector<hsize_t> dims{hsize_t(n[2]), hsize_t(n[1]), hsize_t(n[0])};
     if (f.components > 1) dims.push_back(hsize_t(f.components));
-    const h5::Dataset d = g.create_dataset(f.name, h5::Type::F64, dims);
-    d.set_attr("unit", f.unit);
-    d.write_rows(h5::Type::F64, 0, dims[0], f.values.data(), true);
+    h5::Dataset d;
+    try {
+      if (g && failed.empty()) d = g->create_dataset(f.name, h5::Type::F64, dims), d.set_attr("unit", f.unit);
+    } catch (const h5::Error& e) { failed = e.what(); }
+    for (std::size_t q = 0; q < P; ++q) {
+      // Rank q's layers: all of them on one rank, else its slab (FieldsResult::layers).
+      const Layers L = P == 1 ? r.layers : slab_of(n[2], int(q), int(P));
+      const std::size_t count = std::size_t(L.end - L.first) * layer * std::size_t(f.components);
+      if (q == std::size_t(mpi.rank())) buf.assign(f.values.begin(), f.values.begin() + std::ptrdiff_t(count));
+      else if (mpi.rank() == 0) buf.assign(count, 0.0);
+      if (q > 0) send_layers(mpi, buf, int(q));
+      try {
+        if (g && failed.empty() && count > 0)
+          d.write_rows(h5::Type::F64, hsize_t(L.first), hsize_t(L.end - L.first), buf.data(), true);
+      } catch (const h5::Error& e) { failed = e.what(); }
+    }
     listed.emplace_back(f.name, f.components);
   }
+  agree(mpi.comm(), [&] {
+    if (!failed.empty()) throw InputError(failed);
+  });
 }
 
 std::string kernel_text(const FieldKernel& k) {
@@ -175,7 +220,7 @@ double check_grids(const MpiContext& mpi, const FieldsOfflineArgs& a, const Snap
       if (!why.empty())
         throw InputError(fmt::format("fields of case \"{}\" at step {} (grid {} x {} x {} nodes, {}): {}", name, s.step,
                                      g.n[0], g.n[1], g.n[2], kernel_text(kernel), why));
-      const double bytes = field_bytes(g);
+      const double bytes = field_bytes(g, kernel, mpi.size());
       if (memory > 0 && bytes > 0.5 * memory)
         throw InputError(fmt::format(
             "fields of case \"{}\" at step {}: a grid of {} x {} x {} = {} nodes needs {:.3g} B of memory on every "
@@ -195,8 +240,12 @@ struct Instant {
 
 Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, const std::string& name,
                              const SnapshotInfo& info, const std::vector<SnapshotInfo>& every, const FieldGrid& grid,
-                             const FieldKernel& kernel, const Masses& masses, Domain& domain) {
+                             const FieldKernel& kernel, const Masses& masses, Domain& domain, GridExchange* exchange) {
   const std::size_t P = std::size_t(mpi.size()), me = std::size_t(mpi.rank());
+  // Each item to the rank whose layers it lies in (any split gives the same bits: the sums are
+  // exact), so that each rank's sums cover its layers and the kernel's reach around them.
+  const auto mine = [&](const Vec3& x, double Lz) { return rank_of_height(x[2], Lz, grid.n[2], P) == me; };
+  const double Lz = info.cell_lengths[2];
   ParticleSnapshot ps;
   ContactSnapshot cs;
   agree(mpi.comm(), [&] {
@@ -204,7 +253,8 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
     cs = read_contact_snapshot(a.file, name, info.step);
   });
   std::vector<CgParticle> parts;
-  for (std::size_t i = me; i < ps.id.size(); i += P) {
+  for (std::size_t i = 0; i < ps.id.size(); ++i) {
+    if (!mine(ps.position[i], Lz)) continue;
     CgParticle q;
     q.x = ps.position[i], q.v = ps.velocity[i], q.w = ps.spin[i], q.radius = ps.radius[i];
     q.mass = masses.of(ps.material[i], ps.radius[i]);
@@ -213,22 +263,20 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
   // Particle-particle contacts only (a wall contact has id2 < 0), with body 1's centre.
   std::vector<CgContact> conts;
   Mat3 love_weber = Mat3::Zero();  // every rank holds every contact: the check below
-  std::size_t k = 0;
   for (const ContactRecord& c : cs.contacts) {
     if (c.id2 < 0) continue;
     love_weber += c.force() * c.branch.transpose();
-    if (k++ % P != me) continue;
     const auto it = std::lower_bound(ps.id.begin(), ps.id.end(), c.id1);
     if (it == ps.id.end() || *it != c.id1)
       throw InputError(fmt::format("{}: case \"{}\" step {}: contact ({}, {}) names a particle not in the snapshot",
                                    a.file, name, info.step, c.id1, c.id2));
     const std::size_t i = std::size_t(it - ps.id.begin());
-    conts.push_back({c, ps.position[i], ps.radius[i]});
+    if (mine(ps.position[i], Lz)) conts.push_back({c, ps.position[i], ps.radius[i]});
   }
   FieldOptions opt;
   opt.strong_ratio = a.strong_ratio;
   Instant out;
-  out.res = coarse_grain(grid, kernel, parts, conts, opt, domain);
+  out.res = coarse_grain(grid, kernel, parts, conts, opt, domain, nullptr, exchange);
   // The displacement fields from the case's previous snapshot, if any.
   for (const SnapshotInfo& s : every)
     if (s.step < info.step) out.prev = s;
@@ -236,37 +284,44 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
     ParticleSnapshot p0;
     agree(mpi.comm(), [&] { p0 = read_particle_snapshot(a.file, name, out.prev->step); });
     std::vector<CgMotion> motions;
-    for (std::size_t i = me; i < ps.id.size(); i += P) {
+    for (std::size_t i = 0; i < ps.id.size(); ++i) {
       const auto it = std::lower_bound(p0.id.begin(), p0.id.end(), ps.id[i]);
       if (it == p0.id.end() || *it != ps.id[i]) continue;  // not in both: no displacement
       const std::size_t j = std::size_t(it - p0.id.begin());
+      if (!mine(p0.position[j], out.prev->cell_lengths[2])) continue;
       motions.push_back({p0.position[j], ps.position[i], ps.radius[i]});
     }
     FieldGrid g0 = grid;
     g0.lengths = out.prev->cell_lengths;
-    FieldsResult d = displacement_fields(g0, kernel, info.cell_lengths, motions, domain);
+    FieldsResult d = displacement_fields(g0, kernel, info.cell_lengths, motions, domain, nullptr, exchange);
     for (Field& f : d.fields) out.res.fields.push_back(std::move(f));
   }
-  // The check printed: the volume integral of the contact stress against the Love-Weber sum.
+  // The check printed: the volume integral of the contact stress against the Love-Weber sum,
+  // over every rank's layers (exact sums: the same on any number of ranks).
   const Field& s = out.res.field("contact_stress");
-  Mat3 integral = Mat3::Zero();
-  for (std::size_t g = 0; g < grid.nodes(); ++g)
-    for (int q = 0; q < 9; ++q) integral(q / 3, q % 3) += s.values[9 * g + std::size_t(q)];
+  const Field& phi = out.res.field("solid_fraction");
+  ExactSums sums(10);
+  for (std::size_t v = 0; v < s.values.size(); ++v) sums.add(v % 9, s.values[v]);
+  for (double v : phi.values) sums.add(9, v);
+  sums.normalize();
+  std::vector<std::int64_t> words(sums.words().begin(), sums.words().end());
+  domain.sum_all(std::span<std::int64_t>(words));
+  std::copy(words.begin(), words.end(), sums.words().begin());
+  sums.normalize();
+  Mat3 integral;
+  for (int q = 0; q < 9; ++q) integral(q / 3, q % 3) = sums.value(std::size_t(q));
   integral *= grid.cell_volume();
   if (love_weber.norm() > 0) out.stress_error = (integral - love_weber).norm() / love_weber.norm();
-  for (double v : out.res.field("solid_fraction").values) out.mean_solid_fraction += v;
-  out.mean_solid_fraction /= double(grid.nodes());
+  out.mean_solid_fraction = sums.value(9) / double(grid.nodes());
   return out;
 }
 
-// Writes one instant into fields/<case>/<step> of 'file' (rank 0) and returns its XDMF entry.
-FieldsXdmfEntry write_instant(h5::File& file, const FieldsOfflineArgs& a, const std::string& name,
-                              const SnapshotInfo& info, const FieldGrid& grid, const FieldKernel& kernel,
-                              const Instant& in) {
+// The group fields/<case>/<step> of 'file' (rank 0) with the instant's attributes.
+h5::Group instant_group(h5::File& file, const FieldsOfflineArgs& a, const std::string& name, const SnapshotInfo& info,
+                        const FieldGrid& grid, const FieldKernel& kernel, const Instant& in) {
   const FieldsResult& res = in.res;
-  const std::string path = "fields/" + name + "/" + layout::step_name(info.step);
   if (!file.exists("fields/" + name)) file.create_group("fields/" + name);
-  const h5::Group g = file.open_group("fields/" + name).create_group(layout::step_name(info.step));
+  h5::Group g = file.open_group("fields/" + name).create_group(layout::step_name(info.step));
   g.set_attr("step", info.step);
   g.set_attr("time", info.time);
   const std::vector<double> L(info.cell_lengths.data(), info.cell_lengths.data() + 3);
@@ -289,10 +344,27 @@ FieldsXdmfEntry write_instant(h5::File& file, const FieldsOfflineArgs& a, const 
     const std::vector<double> L0(in.prev->cell_lengths.data(), in.prev->cell_lengths.data() + 3);
     g.set_attr("displacement_reference_lengths", std::span<const double>(L0));
   }
+  return g;
+}
+
+// Writes one instant into fields/<case>/<step> of rank 0's 'file', every rank its layers, and
+// returns its XDMF entry. Collective.
+FieldsXdmfEntry write_instant(const MpiContext& mpi, h5::File& file, const FieldsOfflineArgs& a,
+                              const std::string& name, const SnapshotInfo& info, const FieldGrid& grid,
+                              const FieldKernel& kernel, const Instant& in) {
+  const std::string path = "fields/" + name + "/" + layout::step_name(info.step);
+  h5::Group g;
+  agree(mpi.comm(), [&] {
+    if (mpi.rank() != 0) return;
+    try {
+      g = instant_group(file, a, name, info, grid, kernel, in);
+    } catch (const h5::Error& e) { throw InputError(e.what()); }
+  });
+  const Vec3 h = grid.spacing();
   FieldsXdmfEntry e;
   e.case_name = name, e.group = "/" + path, e.step = info.step, e.time = info.time, e.cells = grid.n;
   e.spacing = {h[0], h[1], h[2]}, e.origin = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
-  write_fields(g, res, e.quantities);
+  write_fields(mpi, mpi.rank() == 0 ? &g : nullptr, in.res, e.quantities);
   return e;
 }
 
@@ -335,6 +407,7 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   std::unique_ptr<Domain> domain;
   if (mpi.size() > 1) domain = std::make_unique<MpiDomain>(mpi.comm());
   else domain = std::make_unique<SerialDomain>();
+  MpiGridExchange exchange(mpi.comm());  // each rank its share of the grid (core/grid_exchange.hpp)
 
   // Rank 0 writes the file, serially (its own communicator), to FILE.tmp renamed at the end.
   h5::File file;
@@ -354,12 +427,11 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   for (const auto& [name, list] : chosen) {
     for (const SnapshotInfo& info : list) {
       const FieldGrid grid = grid_of(a, info.cell_lengths, spacing);
-      const Instant in = coarse_grain_instant(mpi, a, name, info, listed.at(name), grid, kernel, masses, *domain);
+      const Instant in =
+          coarse_grain_instant(mpi, a, name, info, listed.at(name), grid, kernel, masses, *domain, &exchange);
+      entries.push_back(write_instant(mpi, file, a, name, info, grid, kernel, in));
       agree(mpi.comm(), [&] {
         if (!root) return;
-        try {
-          entries.push_back(write_instant(file, a, name, info, grid, kernel, in));
-        } catch (const h5::Error& e) { throw InputError(e.what()); }
         fmt::print(
             "{} step {}: eps1 {:.4f}, {} particles, {} contacts, grid {} x {} x {} ({}), mean solid fraction "
             "{:.4f}, contact stress integral vs Love-Weber {:.1e}{}\n",

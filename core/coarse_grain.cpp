@@ -1,6 +1,7 @@
 #include "core/coarse_grain.hpp"
 
 #include "core/exact_sum.hpp"
+#include "core/grid_share.hpp"
 
 #include <Eigen/Eigenvalues>
 
@@ -31,9 +32,16 @@ class GridSums {
   // The integers live in a buffer kept by the thread between calls (grown, never shrunk): a
   // fresh allocation of tens of MB at every field instant costs its page faults again, more
   // than the sums themselves on a fine grid; zeroing a buffer already mapped is cheap.
-  GridSums(std::size_t nodes, std::size_t slots)
-      : nodes_(nodes), slots_(slots), acc_(workspace()), e_(slots, 0), scale_(slots, 1.0), unit_(slots, 1.0) {
-    if (acc_.size() < nodes * slots) acc_.resize(nodes * slots);
+  // 'store': which of the thread's two buffers (a rank sharing the grid holds its box's sums and
+  // its slab's at once).
+  GridSums(std::size_t nodes, std::size_t slots, int store = 0)
+      : nodes_(nodes), slots_(slots), acc_(workspace(store)), e_(slots, 0), scale_(slots, 1.0), unit_(slots, 1.0) {
+    if (acc_.size() < nodes * slots) {
+      // Grown without copying: the old integers are not needed, and two buffers at once (a
+      // vector's growth) would double the peak when a rank's box grows between two instants.
+      std::vector<Wide>().swap(acc_);
+      acc_.resize(nodes * slots);
+    }
     std::fill(acc_.begin(), acc_.begin() + std::ptrdiff_t(nodes * slots), Wide(0));
   }
   GridSums(const GridSums&) = delete;
@@ -90,6 +98,11 @@ class GridSums {
   // (Times 2^e, a normal double: the same correctly rounded result as ldexp.)
   double value_of(Wide a, std::size_t slot) const { return static_cast<double>(a) * unit_[slot]; }
   int exponent(std::size_t slot) const { return e_[slot]; }
+  std::size_t nodes() const { return nodes_; }
+  std::size_t slots() const { return slots_; }
+  // A node's integers (slots() of them), to send and to add into.
+  Wide* row(std::size_t node) { return acc_.data() + node * slots_; }
+  const Wide* row(std::size_t node) const { return acc_.data() + node * slots_; }
 
  private:
   // x rounded towards zero to a multiple of 2^e[slot], in units of 2^e[slot]. y = x 2^-e is
@@ -108,9 +121,9 @@ class GridSums {
     return Wide(hi) * (Wide(1) << 41) + Wide(lo);
   }
 
-  static std::vector<Wide>& workspace() {
-    thread_local std::vector<Wide> w;
-    return w;
+  static std::vector<Wide>& workspace(int store) {
+    thread_local std::array<std::vector<Wide>, 2> w;
+    return w[std::size_t(store)];
   }
   std::size_t nodes_slots() const { return nodes_ * slots_; }
 
@@ -135,8 +148,9 @@ struct NodeWeight {
 
 class Spreader {
  public:
-  Spreader(const FieldGrid& g, const FieldKernel& k)
-      : g_(g), k_(k), h_(g.spacing()), rs_(k.support()), dv_(g.cell_volume()) {}
+  // The nodes are numbered in 'box' (core/grid_box.hpp: the whole grid, or a rank's box).
+  Spreader(const FieldGrid& g, const FieldKernel& k, const NodeBox& box)
+      : g_(g), k_(k), box_(box), h_(g.spacing()), rs_(k.support()), dv_(g.cell_volume()) {}
 
   // The nodes within the support of x (any real position) with their normalised weights, in a
   // fixed order (z, then y, then x along each axis's reach): reach() with each node's offset and
@@ -186,10 +200,12 @@ class Spreader {
       for (long i = lo; i <= hi; ++i) {
         const long img = i >= 0 ? i / n : -((-i - 1) / n) - 1;  // floor(i / n)
         const real_t d = (real_t(i) + 0.5) * h_[a] - x[a];
-        axis_[a].push_back({int(i - img * n), int(img), d, d * d, gauss ? std::exp(-d * d * inv2w2) : 1.0});
+        const int b = box_.local(a, int(i - img * n));
+        if (b >= box_.len[a]) throw std::logic_error("coarse_grain: a point's support leaves its rank's box");
+        axis_[a].push_back({b, int(img), d, d * d, gauss ? std::exp(-d * d * inv2w2) : 1.0});
       }
     }
-    const std::size_t n0 = std::size_t(g_.n[0]), n01 = n0 * std::size_t(g_.n[1]);
+    const std::size_t n0 = std::size_t(box_.len[0]), n01 = n0 * std::size_t(box_.len[1]);
     double sum = 0;
     for (const Ax& z : axis_[2])
       for (const Ax& y : axis_[1]) {
@@ -222,6 +238,7 @@ class Spreader {
 
   const FieldGrid& g_;
   const FieldKernel& k_;
+  const NodeBox& box_;
   Vec3 h_;
   real_t rs_, dv_;
   std::array<std::vector<Ax>, 3> axis_;
@@ -256,10 +273,64 @@ constexpr double kGl[3] = {-0.77459666924148337704, 0.0, 0.77459666924148337704}
 constexpr double kGw[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
 
 // Per-slot bounds from per-slot maxima of |value| and the weight bound, agreed over the ranks.
-void agree_bounds(GridSums& sums, std::vector<double> vmax, double wbound, Domain& reducer) {
+void agree_bounds(GridSums& sums, GridSums& slab, std::vector<double> vmax, double wbound, Domain& reducer) {
   reducer.max_all(std::span<double>(vmax));
   for (double& v : vmax) v *= wbound;
   sums.set_bounds(vmax);
+  slab.set_bounds(vmax);
+}
+
+// How this rank holds the grid: the box of its sums and the layers of its fields; 'ex' null or
+// of one rank: the whole grid, summed by an allreduce.
+struct Share {
+  NodeBox box;
+  Layers layers;
+  GridExchange* ex = nullptr;
+  std::size_t field_nodes(const FieldGrid& g) const {
+    return std::size_t(g.n[0]) * std::size_t(g.n[1]) * std::size_t(layers.end - layers.first);
+  }
+};
+
+bool shared(const GridExchange* ex) { return ex && ex->size() > 1; }
+
+Share share_of(const FieldGrid& g, GridExchange* ex, const BoxBuilder& items) {
+  if (!shared(ex)) return {NodeBox::whole(g), {0, g.n[2]}, nullptr};
+  return {items.box(), slab_of(g.n[2], ex->rank(), ex->size()), ex};
+}
+
+// Quadrature pieces of a branch: about two per kernel width (a Gaussian's w, Lucy's c / 2).
+int branch_pieces(const FieldKernel& kernel, const Vec3& b) {
+  const real_t resolution = kernel.type == KernelType::Gaussian ? kernel.width : 0.5 * kernel.width;
+  return std::max(1, int(std::ceil(2 * b.norm() / resolution)));
+}
+
+// The box of the nodes that the particles, the contacts' quadrature points and (with the
+// networks) their contact points reach: the points spread, computed as the spreading does.
+BoxBuilder items_box(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
+                     std::span<const CgContact> contacts, bool networks) {
+  BoxBuilder box(grid, kernel.support());
+  const Vec3& L = grid.lengths;
+  for (const CgParticle& p : particles) box.add(wrap_into(p.x, L));
+  for (const CgContact& c : contacts) {
+    const Vec3& b = c.rec.branch;
+    const Vec3 x1 = wrap_into(c.x1, L);
+    const int m = branch_pieces(kernel, b);
+    for (int piece = 0; piece < m; ++piece)
+      for (int q = 0; q < 3; ++q) box.add(x1 + ((piece + 0.5 * (1 + kGl[q])) / m) * b);
+    if (networks) box.add(x1 + (c.r1 - 0.5 * c.rec.overlap) * c.rec.normal);
+  }
+  return box;
+}
+
+// The sums of this rank's fields: 'sums' itself on the whole grid (summed over the ranks), or
+// the slab's, into which every rank's box sums are added.
+GridSums& finish_sums(GridSums& sums, GridSums& slab, const Share& sh, const FieldGrid& g, Domain& reducer) {
+  if (!sh.ex) {
+    sums.reduce(reducer);
+    return sums;
+  }
+  sum_into_slabs(g, sh.box, sums.row(0), sums.slots(), sh.layers, slab.row(0), *sh.ex);
+  return slab;
 }
 
 Field make_field(const std::string& name, const std::string& unit, int comps, std::size_t nodes) {
@@ -341,20 +412,31 @@ bool field_quantity_known(const std::string& name) {
   return false;
 }
 
-double field_bytes(const FieldGrid& grid) {
+double field_bytes(const FieldGrid& grid, const FieldKernel& kernel, int ranks) {
   // 79 slots of 16 bytes (the fixed-point sums: 23, and 7 for each of the 8 classes of contacts;
   // the displacement fields' 22 reuse them), a contact's branch weight and at most 208 doubles of
   // result a node (193 of coarse_grain(), 15 of displacement_fields(), held together).
-  return double(grid.nodes()) * (79.0 * 16 + 209.0 * 8);
+  constexpr double kSums = 79.0 * 16, kResult = 208.0 * 8;
+  if (ranks <= 1) return double(grid.nodes()) * (kSums + kResult + 8);
+  const double nz = grid.n[2], plane = double(grid.n[0]) * double(grid.n[1]);
+  // The reach: the support, the box's margin of one node and about one more for a contact's branch.
+  const double slab = std::ceil(nz / ranks), reach = std::ceil(kernel.support() / grid.spacing()[2]) + 2;
+  const double box = std::min(nz, slab + 2 * reach + 1);
+  // The box's sums and branch weights, the slab's sums and fields, a layer's message in and out.
+  return plane * (box * (kSums + 8) + slab * (kSums + kResult) + 2 * kSums) + 8.0 * double(grid.nodes());
 }
 
 FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
                           std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer,
-                          FieldsResult* recycle) {
+                          FieldsResult* recycle, GridExchange* exchange) {
   FieldsResult out;
   out.grid = grid, out.kernel = kernel;
-  const std::size_t N = grid.nodes();
   const Vec3& L = grid.lengths;
+  const Share sh =
+      share_of(grid, exchange,
+               shared(exchange) ? items_box(grid, kernel, particles, contacts, options.networks) : BoxBuilder(grid, 0));
+  const std::size_t N = sh.field_nodes(grid);  // the nodes of this rank's fields
+  out.layers = sh.layers, out.sum_nodes = sh.box.nodes();
 
   // The strong / weak threshold: the global mean f_n, summed exactly (as core/fabric.cpp).
   {
@@ -379,8 +461,8 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
   constexpr std::size_t kVol = 0, kM = 1, kMv = 2, kMvv = 5, kMw = 11, kFb = 14, kNet = 23, kPerNet = 7;
   constexpr std::size_t kClasses = 8;
   const std::size_t slots = options.networks ? kNet + kPerNet * kClasses : kNet;
-  GridSums sums(N, slots);
-  Spreader sp(grid, kernel);
+  GridSums sums(sh.box.nodes(), slots), slab(sh.ex ? N : 0, slots, 1);
+  Spreader sp(grid, kernel, sh.box);
   const auto class_of = [](bool sliding, bool rolling, bool strong) {
     return std::size_t(sliding) * 4 + std::size_t(rolling) * 2 + std::size_t(strong);
   };
@@ -392,10 +474,6 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     rec.fn = (cls & 1) ? std::numeric_limits<real_t>::infinity() : -std::numeric_limits<real_t>::infinity();
     for (int net : contact_networks(rec, 0.0)) net_classes[std::size_t(net)].push_back(cls);
   }
-
-  // Quadrature pieces of a branch: about two per kernel width (a Gaussian's w, Lucy's c / 2).
-  const real_t resolution = kernel.type == KernelType::Gaussian ? kernel.width : 0.5 * kernel.width;
-  auto pieces = [&](const Vec3& b) { return std::max(1, int(std::ceil(2 * b.norm() / resolution))); };
 
   // Bounds of every slot's values (before the kernel weight).
   {
@@ -417,7 +495,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     }
     if (options.networks)
       for (std::size_t s = kNet; s < slots; ++s) vmax[s] = 1;  // a count's 1, |n_i n_j| <= 1
-    agree_bounds(sums, vmax, sp.weight_bound(), reducer);
+    agree_bounds(sums, slab, vmax, sp.weight_bound(), reducer);
   }
 
   // Spreading.
@@ -432,7 +510,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
   // A contact's branch weights: at each node, the sum over the quadrature points of omega_q
   // times the point's normalised weight, summed in double in the fixed order of the points (the
   // contact alone decides it), then f (x) b times it rounded once a node and component.
-  std::vector<double> branch_w(N, 0.0);
+  std::vector<double> branch_w(sh.box.nodes(), 0.0);
   std::vector<std::size_t> touched;
   for (const CgContact& c : contacts) {
     const Vec3 f = c.rec.force();
@@ -441,7 +519,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) fb[3 * i + j] = f[i] * b[j];
     const Vec3 x1 = wrap_into(c.x1, L);
-    const int m = pieces(b);
+    const int m = branch_pieces(kernel, b);
     touched.clear();
     for (int piece = 0; piece < m; ++piece)
       for (int q = 0; q < 3; ++q) {
@@ -464,7 +542,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     const std::size_t base = kNet + kPerNet * class_of(c.rec.sliding, c.rec.rolling, c.rec.fn > out.strong_threshold);
     for (const NodeWeight& r : sp.weights(xc)) sums.add_row(r.node, base, nn, kPerNet, r.w);
   }
-  sums.reduce(reducer);
+  const GridSums& fin = finish_sums(sums, slab, sh, grid, reducer);
 
   // The fields.
   FieldMaker make(recycle);
@@ -478,11 +556,11 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
       fab.push_back(make("fabric_" + std::string(kNetworkNames[k]), "1", 9, N));
     }
   for (std::size_t g = 0; g < N; ++g) {
-    phi.values[g] = sums.value(g, kVol);
-    const double m = sums.value(g, kM);
+    phi.values[g] = fin.value(g, kVol);
+    const double m = fin.value(g, kM);
     rho.values[g] = m;
     Vec3 mv, mw;
-    for (int i = 0; i < 3; ++i) mv[i] = sums.value(g, kMv + i), mw[i] = sums.value(g, kMw + i);
+    for (int i = 0; i < 3; ++i) mv[i] = fin.value(g, kMv + i), mw[i] = fin.value(g, kMw + i);
     const Vec3 v = m > 0 ? Vec3(mv / m) : Vec3::Constant(kNaN);
     for (int i = 0; i < 3; ++i) {
       vel.values[3 * g + i] = v[i];
@@ -491,24 +569,24 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     for (int k = 0; k < 6; ++k) {
       const int i = kSymI[k], j = kSymJ[k];
       // sum m v' v' W = sum m v v W - (sum m v W)(sum m v W) / (sum m W)
-      const double kv = m > 0 ? sums.value(g, kMvv + k) - mv[i] * mv[j] / m : 0.0;
+      const double kv = m > 0 ? fin.value(g, kMvv + k) - mv[i] * mv[j] / m : 0.0;
       kin.values[9 * g + 3 * i + j] = kin.values[9 * g + 3 * j + i] = kv;
     }
     for (int k = 0; k < 9; ++k) {
-      con.values[9 * g + k] = sums.value(g, kFb + k);
+      con.values[9 * g + k] = fin.value(g, kFb + k);
       tot.values[9 * g + k] = con.values[9 * g + k] + kin.values[9 * g + k];
     }
     for (std::size_t net = 0; net < dens.size(); ++net) {
       // The network's integers: its classes' (every network slot has the same grid 2^e).
       Wide t[kPerNet] = {};
       for (std::size_t cls : net_classes[net])
-        for (std::size_t k = 0; k < kPerNet; ++k) t[k] += sums.raw(g, kNet + kPerNet * cls + k);
-      const double c = sums.value_of(t[0], kNet);
+        for (std::size_t k = 0; k < kPerNet; ++k) t[k] += fin.raw(g, kNet + kPerNet * cls + k);
+      const double c = fin.value_of(t[0], kNet);
       dens[net].values[g] = c;
       for (int k = 0; k < 6; ++k) {
         const int i = kSymI[k], j = kSymJ[k];
         fab[net].values[9 * g + 3 * i + j] = fab[net].values[9 * g + 3 * j + i] =
-            c > 0 ? sums.value_of(t[1 + k], kNet + 1 + std::size_t(k)) / c : kNaN;
+            c > 0 ? fin.value_of(t[1 + k], kNet + 1 + std::size_t(k)) / c : kNaN;
       }
     }
   }
@@ -522,10 +600,10 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
 }
 
 FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Vec3& L1,
-                                 std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle) {
+                                 std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle,
+                                 GridExchange* exchange) {
   FieldsResult out;
   out.grid = grid, out.kernel = kernel;
-  const std::size_t N = grid.nodes();
   const Vec3& L0 = grid.lengths;
   const Vec3 dL = L1 - L0;
   {
@@ -535,8 +613,6 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
   }
   // Slots: sum W V, sum W V x, sum W V u, sum W V u_i x_j, sum W V x_i x_j (x relative to the node).
   constexpr std::size_t kW = 0, kX = 1, kU = 4, kUx = 7, kXx = 16, kSlots = 22;
-  GridSums sums(N, kSlots);
-  Spreader sp(grid, kernel);
   const real_t rs = kernel.support();
 
   // Each particle's displacement, its position wrapped into the reference cell (the image
@@ -553,6 +629,14 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
     u[p] = L1.cwiseProduct(s0 + ds) - xw;
     vol[p] = 4.0 / 3.0 * std::numbers::pi * m.radius * m.radius * m.radius;
   }
+  BoxBuilder items(grid, rs);
+  if (shared(exchange))
+    for (const Vec3& x : x0) items.add(x);
+  const Share sh = share_of(grid, exchange, items);
+  const std::size_t N = sh.field_nodes(grid);  // the nodes of this rank's fields
+  out.layers = sh.layers, out.sum_nodes = sh.box.nodes();
+  GridSums sums(sh.box.nodes(), kSlots), slab(sh.ex ? N : 0, kSlots, 1);
+  Spreader sp(grid, kernel, sh.box);
   {
     double vmax = 0, umax = 0;
     for (std::size_t p = 0; p < motions.size(); ++p) {
@@ -572,6 +656,7 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
     for (int k = 0; k < 6; ++k) b[kXx + k] = V * rs * rs;
     for (double& v : b) v *= sp.weight_bound();
     sums.set_bounds(b);
+    slab.set_bounds(b);
   }
   for (std::size_t p = 0; p < motions.size(); ++p) {
     for (const Reach& r : sp.reach(x0[p])) {
@@ -586,19 +671,19 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
       for (int k = 0; k < 6; ++k) sums.add(r.node, kXx + k, x[kSymI[k]] * x[kSymJ[k]] * w);
     }
   }
-  sums.reduce(reducer);
+  const GridSums& fin = finish_sums(sums, slab, sh, grid, reducer);
 
   FieldMaker make(recycle);
   Field disp = make("displacement", "m", 3, N), grad = make("displacement_gradient", "1", 9, N),
         strain = make("strain_increment", "1", 9, N);
   for (std::size_t g = 0; g < N; ++g) {
-    const double w = sums.value(g, kW);
+    const double w = fin.value(g, kW);
     Vec3 sx, su;
     Mat3 sux, sxx;
-    for (int i = 0; i < 3; ++i) sx[i] = sums.value(g, kX + i), su[i] = sums.value(g, kU + i);
+    for (int i = 0; i < 3; ++i) sx[i] = fin.value(g, kX + i), su[i] = fin.value(g, kU + i);
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) sux(i, j) = sums.value(g, kUx + 3 * i + j);
-    for (int k = 0; k < 6; ++k) sxx(kSymI[k], kSymJ[k]) = sxx(kSymJ[k], kSymI[k]) = sums.value(g, kXx + k);
+      for (int j = 0; j < 3; ++j) sux(i, j) = fin.value(g, kUx + 3 * i + j);
+    for (int k = 0; k < 6; ++k) sxx(kSymI[k], kSymJ[k]) = sxx(kSymJ[k], kSymI[k]) = fin.value(g, kXx + k);
     Mat3 G = Mat3::Constant(kNaN);
     Vec3 ubar = Vec3::Constant(kNaN);
     if (w > 0) {

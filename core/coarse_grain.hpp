@@ -12,13 +12,17 @@
 // (the solid volume, the Love-Weber sum f (x) b), whatever the grid and the kernel.
 //
 // Collective through a Domain (core/domain.hpp): every rank passes its own particles and
-// contacts (each once over all ranks), fills the whole grid with them and the grids are summed
-// exactly (fixed-point integers, see GridSums in coarse_grain.cpp), so that every field is the
-// same, bit for bit, on any number of ranks and for any split of the items over them.
+// contacts (each once over all ranks) and the sums are exact (fixed-point integers, see GridSums
+// in coarse_grain.cpp), so that every field is the same, bit for bit, on any number of ranks and
+// for any split of the items over them. Without a GridExchange (or on one rank) every rank fills
+// the whole grid and the grids are summed over the ranks; with one (core/grid_exchange.hpp) each
+// rank fills only the box of nodes its items reach, sends those integers to the owners of the
+// z-layers (core/grid_share.hpp) and gets the fields of its own layers (FieldsResult::layers).
 #pragma once
 #include "core/contact_snapshot.hpp"
 #include "core/domain.hpp"
 #include "core/fabric.hpp"
+#include "core/grid_exchange.hpp"
 
 #include <array>
 #include <cstdint>
@@ -61,8 +65,12 @@ std::string check_field_grid(const FieldGrid& grid, const FieldKernel& kernel, r
 // of displacement_fields() (displacement, displacement_gradient, strain_increment).
 bool field_quantity_known(const std::string& name);
 
-// Bytes of one rank's memory for the fields of 'grid' (the fixed-point sums and the result).
-double field_bytes(const FieldGrid& grid);
+// Bytes of the largest rank's memory for the fields of 'grid' (the fixed-point sums and the
+// result) on 'ranks' ranks: the whole grid on one rank; on several, the box of sums of a slab of
+// z-layers and the kernel's reach on either side (the whole xy-plane: items dealt by slabs, as
+// `fabrica fields` deals them; a run's subdomains give boxes of about the same volume), the slab's
+// sums and fields, and 8 bytes a node of the whole grid (the localisation index's gather).
+double field_bytes(const FieldGrid& grid, const FieldKernel& kernel = {}, int ranks = 1);
 
 struct CgParticle {
   Vec3 x = Vec3::Zero();  // m (any image: wrapped by the grid)
@@ -97,7 +105,11 @@ struct Field {
 struct FieldsResult {
   FieldGrid grid;
   FieldKernel kernel;
+  // The fields hold the z-layers [layers.first, layers.end) of the grid (all of them unless the
+  // grid was shared over the ranks): node i + n0 (j + n1 (k - layers.first)).
   std::vector<Field> fields;
+  Layers layers;
+  std::size_t sum_nodes = 0;                          // the nodes of this rank's fixed-point sums (its box)
   std::int64_t particles = 0, contacts = 0;           // over all ranks
   real_t strong_threshold = 0;                        // N
   const Field& field(const std::string& name) const;  // throws std::out_of_range if absent
@@ -112,10 +124,11 @@ struct FieldsResult {
 // options.networks) contact_density_<k> [1/m^3] and fabric_<k> [1] (sum n n W / sum W). A mean
 // is NaN where its weight is zero. 'recycle' (optional): a previous result whose fields' storage
 // is reused (a field of the same name), so that fields computed at every instant do not map
-// fresh memory each time; its fields are left empty.
+// fresh memory each time; its fields are left empty. 'exchange' (optional): the grid shared
+// over its ranks (above), the result holding this rank's slab of z-layers only.
 FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
                           std::span<const CgContact> contacts, const FieldOptions& options, Domain& reducer,
-                          FieldsResult* recycle = nullptr);
+                          FieldsResult* recycle = nullptr, GridExchange* exchange = nullptr);
 
 // One particle at two instants for the displacement fields.
 struct CgMotion {
@@ -135,8 +148,10 @@ struct CgMotion {
 // weighted mean u_bar), displacement_gradient [1] (G, 9 values, du_i/dx_j in row i),
 // strain_increment [1] (sym G, compression negative), and NaN where C_xx is singular (fewer
 // than 4 non-coplanar particles in reach). Collective, the same bits for any split of the motions
-// over the ranks (each particle once over all of them). 'recycle': as for coarse_grain().
+// over the ranks (each particle once over all of them). 'recycle', 'exchange': as for
+// coarse_grain().
 FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Vec3& L1,
-                                 std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle = nullptr);
+                                 std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle = nullptr,
+                                 GridExchange* exchange = nullptr);
 
 }  // namespace fabrica

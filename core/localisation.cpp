@@ -25,14 +25,22 @@ double shear_intensity(const double* e) {
   return std::sqrt(2.0 * dd);
 }
 
-double localisation_index(std::span<const double> strain_increment) {
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+std::vector<double> finite_shear_intensities(std::span<const double> strain_increment) {
   std::vector<double> gamma;
   gamma.reserve(strain_increment.size() / 9);
   for (std::size_t g = 0; g + 9 <= strain_increment.size(); g += 9) {
     const double v = shear_intensity(strain_increment.data() + g);
     if (std::isfinite(v)) gamma.push_back(v);
   }
+  return gamma;
+}
+
+double localisation_index(std::span<const double> strain_increment) {
+  return localisation_index_of(finite_shear_intensities(strain_increment));
+}
+
+double localisation_index_of(std::vector<double> gamma) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   const std::size_t n = gamma.size();
   if (n == 0) return kNaN;
   const std::size_t top = (n + 9) / 10;  // ceil(n / 10), at least 1

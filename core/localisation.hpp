@@ -5,6 +5,7 @@
 #pragma once
 #include <cstddef>
 #include <span>
+#include <vector>
 
 namespace fabrica {
 
@@ -20,5 +21,11 @@ double shear_intensity(const double* e);
 // the order of the nodes. NaN when no node is finite or sum gamma is not positive.
 // 'strain_increment': 9 values a node (the field `strain_increment`, core/coarse_grain.hpp).
 double localisation_index(std::span<const double> strain_increment);
+
+// The two halves of localisation_index(), for a field shared over ranks by slabs: the finite gamma
+// of some nodes (any subset, in any order), and the index of every node's finite gamma gathered
+// (the same bits as localisation_index() of the whole field, whatever the order: exact sums).
+std::vector<double> finite_shear_intensities(std::span<const double> strain_increment);
+double localisation_index_of(std::vector<double> gamma);
 
 }  // namespace fabrica

@@ -2,14 +2,48 @@
 
 #include "core/contact_snapshot.hpp"
 #include "core/errors.hpp"
+#include "core/localisation.hpp"
 #include "io/serial/memory_check.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <unordered_map>
 
 namespace fabrica {
+namespace {
+
+// The motions sent to the ranks whose z-layers of g0 their earlier positions lie in (each once
+// over all ranks), so that each rank's displacement sums cover its layers and the kernel's reach
+// around them, not the whole grid as the home ranks' scattered ids would (7 doubles a motion).
+std::vector<CgMotion> motions_by_layer(const std::vector<CgMotion>& mine, const FieldGrid& g0, GridExchange& ex) {
+  const std::int64_t P = ex.size(), nz = g0.n[2];
+  std::vector<int> owner(mine.size());
+  for (std::size_t i = 0; i < mine.size(); ++i) {
+    const double s = mine[i].x0[2] / g0.lengths[2] - std::floor(mine[i].x0[2] / g0.lengths[2]);
+    const std::int64_t k = std::clamp<std::int64_t>(std::int64_t(s * double(nz)), 0, nz - 1);
+    owner[i] = int(((k + 1) * P - 1) / nz);
+  }
+  std::vector<CgMotion> out;
+  const GridExchange::Pack pack = [&](int to, std::vector<std::uint64_t>& w) {
+    for (std::size_t i = 0; i < mine.size(); ++i)
+      if (owner[i] == to) {
+        const CgMotion& m = mine[i];
+        for (double v : {m.x0[0], m.x0[1], m.x0[2], m.x1[0], m.x1[1], m.x1[2], double(m.radius)})
+          w.push_back(std::bit_cast<std::uint64_t>(v));
+      }
+  };
+  const GridExchange::Take take = [&](int, std::span<const std::uint64_t> w) {
+    const auto d = [&](std::size_t i) { return std::bit_cast<double>(w[i]); };
+    for (std::size_t i = 0; i + 7 <= w.size(); i += 7)
+      out.push_back({Vec3(d(i), d(i + 1), d(i + 2)), Vec3(d(i + 3), d(i + 4), d(i + 5)), d(i + 6)});
+  };
+  ex.ring(pack, take);
+  return out;
+}
+
+}  // namespace
 
 void refuse_sheared_fields(const std::string& scene_path, const PeriodicCell& cell, std::int64_t step) {
   if (!cell.sheared()) return;
@@ -52,7 +86,9 @@ void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell
       number_text(g.lengths[1], 6) + " x " + number_text(g.lengths[2], 6) + " m";
   const std::string why = check_field_grid(g, k, rmin);
   if (!why.empty()) throw InputError(where + "width = " + number_text(k.width, 10) + " (" + grid + "): " + why);
-  const double bytes = field_bytes(g), memory = machine_memory_bytes();
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  const double bytes = field_bytes(g, k, ranks), memory = machine_memory_bytes();
   if (memory > 0 && bytes > 0.5 * memory)
     throw InputError(where + (scene.fields.cells ? "cells" : "spacing") + " (" + grid + "): the grid needs " +
                      number_text(bytes, 3) + " B of memory on every rank, more than half of the machine's " +
@@ -60,7 +96,7 @@ void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell
 }
 
 FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::string& scene_path, Simulation& sim,
-                        FieldsResult* recycle) {
+                        FieldsResult* recycle, GridExchange* exchange) {
   // Read through the const simulation: the non-const particles() would mark the positions as
   // changed, and the run would then differ from one without fields.
   const Simulation& cs = sim;
@@ -93,14 +129,15 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
   FieldOptions opt;
   opt.strong_ratio = strong_ratio;
   opt.networks = f.networks();
-  FieldsResult r = coarse_grain(grid, kernel, parts, conts, opt, sim.domain(), recycle);
+  FieldsResult r = coarse_grain(grid, kernel, parts, conts, opt, sim.domain(), recycle, exchange);
   std::erase_if(r.fields, [&](const Field& x) { return !f.keeps(x.name); });
   return r;
 }
 
 std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f, MPI_Comm comm, FieldHistory& history,
                                                              const std::string& case_name, Simulation& sim,
-                                                             FieldsResult& r, FieldsResult* recycle) {
+                                                             FieldsResult& r, FieldsResult* recycle,
+                                                             GridExchange* exchange) {
   const Simulation& cs = sim;  // const: as run_fields(), the positions are not marked as changed
   const FieldHistory::Instant now{case_name, cs.step_count(), cs.cell().lengths()};
   FieldHistory::Step s = history.advance(comm, cs.particles(), now);
@@ -109,10 +146,25 @@ std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f
   // earlier cell (the reference configuration of the displacements).
   FieldGrid g0 = r.grid;
   g0.lengths = s.from->lengths;
-  FieldsResult d = displacement_fields(g0, r.kernel, now.lengths, s.motions, sim.domain(), recycle);
+  if (exchange && exchange->size() > 1) s.motions = motions_by_layer(s.motions, g0, *exchange);
+  FieldsResult d = displacement_fields(g0, r.kernel, now.lengths, s.motions, sim.domain(), recycle, exchange);
   for (Field& x : d.fields)
     if (f.keeps(x.name)) r.fields.push_back(std::move(x));
   return s.from;
+}
+
+double run_localisation_index(MPI_Comm comm, std::span<const double> strain_increment) {
+  std::vector<double> mine = finite_shear_intensities(strain_increment);
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  if (size == 1) return localisation_index_of(std::move(mine));
+  std::vector<int> counts(std::size_t(size), 0), offsets(std::size_t(size), 0);
+  const int n = int(mine.size());
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
+  for (std::size_t r = 1; r < counts.size(); ++r) offsets[r] = offsets[r - 1] + counts[r - 1];
+  std::vector<double> all(std::size_t(offsets.back() + counts.back()));
+  MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), offsets.data(), MPI_DOUBLE, comm);
+  return localisation_index_of(std::move(all));
 }
 
 }  // namespace fabrica

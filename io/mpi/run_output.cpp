@@ -10,6 +10,7 @@
 #include "io/serial/write_check.hpp"
 #include "io/mpi/xdmf.hpp"
 #include "parallel/guard.hpp"
+#include "parallel/mpi_grid_exchange.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -470,17 +471,19 @@ double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   const std::string gp = "fields/" + case_name + "/" + name;
   double index = std::numeric_limits<double>::quiet_NaN();
   if (file_.exists(gp)) return index;  // same answer on every rank
-  FieldsResult r = run_fields(fields_spec_, fields_strong_ratio_, scene_path_, sim, &spare_fields_);
+  // Each rank its share of the grid (core/grid_exchange.hpp): the z-layers it writes below.
+  MpiGridExchange exchange(comm_);
+  FieldsResult r = run_fields(fields_spec_, fields_strong_ratio_, scene_path_, sim, &spare_fields_, &exchange);
   // The displacement fields need the previous instant's positions (io/mpi/field_history.hpp):
   // nothing is exchanged or kept unless [fields] keeps one of them.
   std::optional<FieldHistory::Instant> from;
   if (fields_spec_.displacement())
-    from = run_displacement_fields(fields_spec_, comm_, history_, case_name, sim, r, &spare_fields_);
+    from = run_displacement_fields(fields_spec_, comm_, history_, case_name, sim, r, &spare_fields_, &exchange);
   for (const Field& f : r.fields)
-    if (f.name == "strain_increment") index = localisation_index(f.values);
+    if (f.name == "strain_increment") index = run_localisation_index(comm_, f.values);
   const FieldGrid& grid = r.grid;
-  double values = 0;
-  for (const Field& f : r.fields) values += double(f.values.size());
+  double values = 0;  // over the whole grid
+  for (const Field& f : r.fields) values += double(grid.nodes()) * f.components;
   agree(comm_, [&] {  // room first, as for a snapshot (chunking and checksums: a quarter more)
     if (rank_ == 0) check_room(path_, 1.25 * 8 * values + 16384);
   });
@@ -510,16 +513,22 @@ double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   FieldsXdmfEntry e;
   e.case_name = case_name, e.group = "/" + gp, e.step = sim.step_count(), e.time = double(sim.time());
   e.cells = grid.n, e.spacing = {sp[0], sp[1], sp[2]}, e.origin = {origin[0], origin[1], origin[2]};
-  // Every rank holds the whole grid: rank k writes its share of the z-layers (one collective
-  // write per dataset, every rank taking part).
+  // Rank k writes its share of the z-layers, the layers it holds (one collective write per
+  // dataset, every rank taking part).
   const hsize_t nz = hsize_t(grid.n[2]), layer = hsize_t(grid.n[0]) * hsize_t(grid.n[1]);
   const hsize_t z0 = nz * hsize_t(rank_) / hsize_t(size_), z1 = nz * hsize_t(rank_ + 1) / hsize_t(size_);
+  if (z0 < hsize_t(r.layers.first) || z1 > hsize_t(r.layers.end))
+    throw std::logic_error("RunOutput: the fields do not hold this rank's layers");
   for (const Field& f : r.fields) {
     std::vector<hsize_t> dims{nz, hsize_t(grid.n[1]), hsize_t(grid.n[0])};
     if (f.components > 1) dims.push_back(hsize_t(f.components));
     const h5::Dataset d = g.create_dataset(f.name, h5::Type::F64, dims);
     d.set_attr("unit", f.unit);
-    d.write_rows(h5::Type::F64, z0, z1 - z0, f.values.data() + z0 * layer * hsize_t(f.components), true);
+    // (A rank without layers, fewer layers than ranks, passes a valid pointer for its empty selection.)
+    static const double none = 0;
+    d.write_rows(h5::Type::F64, z0, z1 - z0,
+                 z1 > z0 ? f.values.data() + (z0 - hsize_t(r.layers.first)) * layer * hsize_t(f.components) : &none,
+                 true);
     e.quantities.emplace_back(f.name, f.components);
   }
   // In name order, as a restart lists them back from the file (resume_after): the same sidecar.

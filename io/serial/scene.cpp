@@ -581,7 +581,9 @@ void parse_fields(const toml::table* t, const std::string& path, Scene& sc) {
   if (f.cells) {
     FieldGrid g;
     g.n = *f.cells;
-    const double bytes = field_bytes(g), memory = machine_memory_bytes();
+    // The least any rank count needs (a layer a rank: the grid shared over as many ranks as it
+    // has layers); check_run_fields checks the share on the run's ranks before the run.
+    const double bytes = field_bytes(g, {}, g.n[2]), memory = machine_memory_bytes();
     if (memory > 0 && bytes > 0.5 * memory)
       S.fail("cells", Section::node_text(*t->get("cells")),
              "a grid of " + std::to_string(g.nodes()) + " nodes needs " + number_text(bytes, 3) +

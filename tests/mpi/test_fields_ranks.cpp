@@ -3,14 +3,19 @@
 // irregularly (item i to rank (i * 7919) mod P, each rank's items in reverse order) and
 // coarse-grained through MpiDomain, with both kernels; every value of every field, and of the
 // displacement fields of a deformation with random fluctuations, must equal the serial result
-// (SerialDomain, all items in order) bit for bit. Registered at 1, 2 and 4 ranks.
+// (SerialDomain, all items in order) bit for bit. Then the grid shared over the ranks
+// (core/grid_exchange.hpp, MpiGridExchange): each rank's layers of every field equal the serial
+// fields' layers bit for bit, and with the items dealt by the layer they lie in each rank's sums
+// cover fewer nodes than the grid. Registered at 1, 2, 4, 8 and 16 ranks.
 #include "core/coarse_grain.hpp"
 #include "core/serial_domain.hpp"
 #include "parallel/mpi_domain.hpp"
+#include "parallel/mpi_grid_exchange.hpp"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <numbers>
@@ -86,7 +91,84 @@ std::size_t differing(const FieldsResult& a, const FieldsResult& b, std::size_t&
   return differ;
 }
 
+// Values differing between a's layers (a shared result) and the same layers of b (the whole grid).
+std::size_t differing_layers(const FieldsResult& a, const FieldsResult& b, std::size_t& values) {
+  std::size_t differ = 0;
+  EXPECT_EQ(a.fields.size(), b.fields.size());
+  const std::size_t layer = std::size_t(a.grid.n[0]) * std::size_t(a.grid.n[1]);
+  for (std::size_t f = 0; f < a.fields.size() && f < b.fields.size(); ++f) {
+    const std::size_t c = std::size_t(a.fields[f].components), first = std::size_t(a.layers.first) * layer * c;
+    EXPECT_EQ(a.fields[f].values.size(), std::size_t(a.layers.end - a.layers.first) * layer * c);
+    for (std::size_t i = 0; i < a.fields[f].values.size(); ++i, ++values)
+      differ += std::memcmp(&a.fields[f].values[i], &b.fields[f].values[first + i], sizeof(double)) != 0;
+  }
+  return differ;
+}
+
+// The items whose point (a particle's centre, body 1's centre, a motion's first position) lies in
+// this rank's layers of a grid of nz layers.
+template <class T, class Point>
+std::vector<T> deal_by_layer(const std::vector<T>& all, int rank, int size, int nz, Point point) {
+  std::vector<T> mine;
+  for (const T& x : all) {
+    const double z = point(x)[2] / kL[2];
+    const int k = std::clamp(int((z - std::floor(z)) * nz), 0, nz - 1);
+    const Layers L = slab_of(nz, rank, size);
+    if (k >= L.first && k < L.end) mine.push_back(x);
+  }
+  return mine;
+}
+
 }  // namespace
+
+TEST(FieldsRanks, SharedGridHoldsAShareWithTheSameBits) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const Sample all = sample(3000);
+  const FieldGrid grid{{10, 8, 24}, kL};  // 24 layers, much more than the kernels' reach of 4
+  for (bool by_layer : {true, false})
+    for (KernelType type : {KernelType::Gaussian, KernelType::Lucy}) {
+      const std::vector<CgParticle> p = by_layer
+          ? deal_by_layer(all.p, rank, size, 24, [](const CgParticle& q) { return q.x; })
+          : deal(all.p, rank, size);
+      const std::vector<CgContact> c = by_layer
+          ? deal_by_layer(all.c, rank, size, 24, [](const CgContact& q) { return q.x1; })
+          : deal(all.c, rank, size);
+      const std::vector<CgMotion> m = by_layer
+          ? deal_by_layer(all.m, rank, size, 24, [](const CgMotion& q) { return q.x0; })
+          : deal(all.m, rank, size);
+      const FieldKernel k{type, type == KernelType::Gaussian ? 0.003 : 0.008, 3};
+      MpiDomain domain(MPI_COMM_WORLD);
+      MpiGridExchange exchange(MPI_COMM_WORLD);
+      SerialDomain serial;
+      const Vec3 L1 = kL.cwiseProduct(Vec3(0.99, 1.003, 1.004));
+      const FieldsResult par = coarse_grain(grid, k, p, c, {}, domain, nullptr, &exchange);
+      const FieldsResult ser = coarse_grain(grid, k, all.p, all.c, {}, serial);
+      const FieldsResult dpar = displacement_fields(grid, k, L1, m, domain, nullptr, &exchange);
+      const FieldsResult dser = displacement_fields(grid, k, L1, all.m, serial);
+      const Layers L = size == 1 ? Layers{0, 24} : slab_of(24, rank, size);
+      EXPECT_EQ(par.layers.first, L.first);
+      EXPECT_EQ(par.layers.end, L.end);
+      std::size_t values = 0;
+      const std::size_t differ = differing_layers(par, ser, values) + differing_layers(dpar, dser, values);
+      EXPECT_EQ(differ, 0u) << "of " << values;
+      // Dealt by layers, a rank's sums cover its layers and the kernel's reach: on 4 ranks or more
+      // (slabs of 6 layers or fewer, the reach about 6 on either side), a share.
+      if (by_layer && size >= 4) {
+        EXPECT_LT(par.sum_nodes, grid.nodes());
+        EXPECT_LT(dpar.sum_nodes, grid.nodes());
+      }
+      std::size_t most = par.sum_nodes;
+      MPI_Allreduce(MPI_IN_PLACE, &most, 1, MPI_UNSIGNED_LONG, MPI_MAX, MPI_COMM_WORLD);
+      if (rank == 0)
+        std::printf(
+            "[fields shared] %s, items dealt %s, %d rank(s): at most %zu of the %zu nodes summed on a rank, "
+            "%zu values of rank 0's layers, %zu differ from the serial fields (bitwise)\n",
+            type == KernelType::Gaussian ? "gaussian" : "lucy", by_layer ? "by layer" : "irregularly", size, most,
+            grid.nodes(), values, differ);
+    }
+}
 
 TEST(FieldsRanks, SameFieldsBitForBitOnAnyRankCount) {
   int rank = 0, size = 1;
