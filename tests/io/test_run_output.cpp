@@ -389,7 +389,7 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
       EXPECT_NE(m.find("the periodic cell is sheared: coarse-grained fields are computed on an orthorhombic cell only"),
                 std::string::npos)
           << m;
-      if (when == 1) EXPECT_NE(m.find("at step " + std::to_string(sim.step_count())), std::string::npos) << m;
+      if (when == 1) { EXPECT_NE(m.find("at step " + std::to_string(sim.step_count())), std::string::npos) << m; }
     }
   }
 }
