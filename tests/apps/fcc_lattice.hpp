@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <string>
 
 namespace fabrica {
 
@@ -38,5 +39,13 @@ struct Fcc {
   real_t mass() const { return 2650.0 * 4.0 / 3.0 * std::numbers::pi * R * R * R; }
   real_t viscosity() const { return 4 * damping_rate * mass() / 2 / a; }  // C_kk, Pa s
 };
+
+// A [[stage]] list for the lattice: a consolidation to 100 kPa (at rest), then 'stage' (a
+// [[stage]] table's body).
+inline std::string lattice_stage_scene(const std::string& stage) {
+  return "\n[run]\noutput_every = 10\n\n[[stage]]\ntype = \"isotropic\"\npressure = 100e3\nfriction = 1e3\n"
+         "end = { at_rest = true }\n\n[[stage]]\n" +
+      stage + "\n";
+}
 
 }  // namespace fabrica

@@ -11,7 +11,6 @@
 #include "io/serial/scene.hpp"
 #include "tests/apps/fcc_lattice.hpp"
 
-#include <fmt/core.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -24,24 +23,6 @@
 
 namespace fabrica {
 namespace {
-
-// A consolidation to 100 kPa (at rest), then 'stage' (a [[stage]] table's body).
-std::string scene_text(const std::string& stage) {
-  return fmt::format(R"(
-[run]
-output_every = 10
-
-[[stage]]
-type = "isotropic"
-pressure = 100e3
-friction = 1e3
-end = {{ at_rest = true }}
-
-[[stage]]
-{}
-)",
-                     stage);
-}
 
 // The rows of one stage of a series, by column name.
 using Rows = std::vector<std::map<std::string, double>>;
@@ -77,7 +58,7 @@ struct LatticeRun {
   MacroState start;  // at the start of the second stage
   real_t v_start = 0;
   Rows rows;
-  explicit LatticeRun(const std::string& stage) : scene(parse_scene(scene_text(stage), "lattice.toml")) {
+  explicit LatticeRun(const std::string& stage) : scene(parse_scene(lattice_stage_scene(stage), "lattice.toml")) {
     write_series_header(series, true);  // the run's shear columns (the driver writes the header)
     StageRun run(scene, sim, 2 * Fcc::R, 2650, &series, nullptr);
     first = run.run(scene.stages[0], 0);

@@ -11,7 +11,6 @@
 #include "io/serial/setup.hpp"
 #include "tests/apps/fcc_lattice.hpp"
 
-#include <fmt/core.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -22,24 +21,6 @@
 
 namespace fabrica {
 namespace {
-
-// A consolidation to 100 kPa (at rest), then 'stage' (a [[stage]] table's body).
-std::string scene_text(const std::string& stage) {
-  return fmt::format(R"(
-[run]
-output_every = 10
-
-[[stage]]
-type = "isotropic"
-pressure = 100e3
-friction = 1e3
-end = {{ at_rest = true }}
-
-[[stage]]
-{}
-)",
-                     stage);
-}
 
 struct Row {
   std::int64_t step;
@@ -80,7 +61,7 @@ struct LatticeRun {
   Vec3 l_start, eps_start;  // its cell lengths, and its series strains (from the list's start)
   std::int64_t step_start = 0;
   std::vector<Row> rows;
-  explicit LatticeRun(const std::string& stage) : scene(parse_scene(scene_text(stage), "lattice.toml")) {
+  explicit LatticeRun(const std::string& stage) : scene(parse_scene(lattice_stage_scene(stage), "lattice.toml")) {
     const Vec3 l_init = sim.cell().lengths();
     StageRun run(scene, sim, 2 * Fcc::R, 2650, &series, nullptr);
     first = run.run(scene.stages[0], 0);
