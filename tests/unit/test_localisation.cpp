@@ -7,7 +7,7 @@
 //  - one tenth of 60 nodes at 10, the rest at 1: 10/19 (1e-12), in any order of the nodes (the
 //    same bits);
 //  - gamma = 1, 2, ..., 25 on 25 nodes: (25 + 24 + 23) / 325 (1e-12); with 5 of them NaN (nodes
-//    out of reach) the 20 finite ones count: 2 nodes;
+//    out of reach) the 20 finite ones count: 2 nodes; with 21 finite ones, 3 (rounded up);
 //  - no finite node, or no shear at all: NaN.
 #include "core/localisation.hpp"
 
@@ -79,6 +79,11 @@ TEST(Localisation, TheTenthIsCountedUp) {
   for (int k = 20; k < 25; ++k) e[std::size_t(9 * k + 1)] = std::numeric_limits<double>::quiet_NaN();
   const double finite = localisation_index(e);
   EXPECT_NEAR(finite, (20.0 + 19.0) / 210.0, 1e-12) << finite;
+  // 21 finite nodes: the tenth is rounded up to 3 nodes, not down to 2.
+  e = field(g);
+  for (int k = 21; k < 25; ++k) e[std::size_t(9 * k + 1)] = std::numeric_limits<double>::quiet_NaN();
+  const double up = localisation_index(e);
+  EXPECT_NEAR(up, (21.0 + 20.0 + 19.0) / 231.0, 1e-12) << up;
 }
 
 TEST(Localisation, NothingToMeasureIsNaN) {
