@@ -417,7 +417,7 @@ void FieldGrid::set_matrix(const Mat3& h) {
   Mat3 off = h;
   off.diagonal().setZero();
   lengths = h.diagonal();
-  sheared = !off.isZero();
+  sheared = !off.isZero(0);
   H = sheared ? h : Mat3::Identity();
   Hinv = sheared ? Mat3(h.inverse()) : Mat3::Identity();
 }
@@ -459,6 +459,19 @@ real_t FieldGrid::half_diagonal() const {
   for (const real_t a : {-1.0, 1.0})
     for (const real_t b : {-1.0, 1.0}) d = std::max(d, (e0 + a * e1 + b * e2).norm());
   return 0.5 * d;
+}
+
+std::vector<double> node_positions(const FieldGrid& grid, Layers layers) {
+  std::vector<double> out;
+  out.reserve(std::size_t(std::max(0, layers.end - layers.first)) * std::size_t(grid.n[0]) * std::size_t(grid.n[1]) *
+              3);
+  for (int k = layers.first; k < layers.end; ++k)
+    for (int j = 0; j < grid.n[1]; ++j)
+      for (int i = 0; i < grid.n[0]; ++i) {
+        const Vec3 x = grid.node(i, j, k);
+        out.insert(out.end(), {x[0], x[1], x[2]});
+      }
+  return out;
 }
 
 Mat3 deformed_reference_edges(const Mat3& H0, const Mat3& H1) {
@@ -737,7 +750,7 @@ struct MotionTerms {
       : x0(motions.size()), u(motions.size()), vol(motions.size()) {
     Mat3 off = H1;
     off.diagonal().setZero();
-    general = grid.sheared || !off.isZero();
+    general = grid.sheared || !off.isZero(0);
     const Vec3& L0 = grid.lengths;
     const Vec3 L1 = H1.diagonal();
     const Mat3 H0 = grid.matrix(), H0inv = grid.sheared ? grid.Hinv : Mat3(H0.inverse());

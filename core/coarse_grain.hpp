@@ -77,6 +77,11 @@ struct FieldGrid {
   real_t half_diagonal() const;
 };
 
+// The positions of the nodes of the z-layers [layers.first, layers.end) of 'grid', 3 values a
+// node, node i + n0 (j + n1 (k - layers.first)) (a sheared grid's geometry for its XDMF, which
+// places its nodes explicitly: docs/fields.md "A sheared cell").
+std::vector<double> node_positions(const FieldGrid& grid, Layers layers);
+
 // Why a grid and kernel cannot be used (empty: they can): the kernel's support does not reach
 // the nearest node from every point (support below the half-diagonal of a grid cell), a kernel
 // width below 'min_radius' (the smallest sphere radius: the field would resolve the inside of

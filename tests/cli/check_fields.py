@@ -4,6 +4,8 @@ snapshots they were computed from, through apps/fabrica_h5.py:
     check_fields.py integrals RUN.h5 FIELDS.h5   at every instant of FIELDS.h5, the volume
         integral (sum over the nodes x the cell volume of a node) of contact_stress equals the
         Love-Weber sum f (x) b of the snapshot's particle contacts (relative to its norm, 1e-12),
+        of stress that sum plus the integral of kinetic_stress (1e-12; a sheared cell's node
+        volume |det H| / N, H its cell_matrix),
         of solid_fraction the solid volume (1e-12), of contact_density_all the number of
         particle contacts (1e-12); every field has the grid's shape; the strain increment is the
         symmetric part of the displacement gradient.
@@ -59,7 +61,8 @@ def integrals(run_path, fields_path):
     for inst in instants:
         f = fl.fields(inst.case, inst.step)
         nx, ny, nz = inst.cells
-        dv = np.prod(inst.cell_lengths) / (nx * ny * nz)
+        dv = abs(np.linalg.det(inst.cell_matrix)) / (nx * ny * nz) if inst.sheared else \
+            np.prod(inst.cell_lengths) / (nx * ny * nz)
         for name, v in f.items():
             if v.shape[:3] != (nx, ny, nz):
                 fail(f"{inst.case} step {inst.step}: {name} has shape {v.shape}, grid {nx} {ny} {nz}")
@@ -68,6 +71,11 @@ def integrals(run_path, fields_path):
         force = c.fn[pp, None] * c.normal[pp] + c.ft[pp]
         lw = np.einsum("ci,cj->ij", force, c.branch[pp])
         integral = f["contact_stress"].sum(axis=(0, 1, 2)) * dv
+        if "stress" in f and "kinetic_stress" in f:  # the stress: the contacts' and the kinetic part
+            total = (f["stress"].sum(axis=(0, 1, 2)) - f["kinetic_stress"].sum(axis=(0, 1, 2))) * dv
+            if np.linalg.norm(lw) > 0 and not np.linalg.norm(total - lw) / np.linalg.norm(lw) <= TOL:
+                fail(f"{inst.case} step {inst.step}: stress - kinetic stress integral vs Love-Weber: "
+                     f"{np.linalg.norm(total - lw) / np.linalg.norm(lw):.3e}")
         p = run.particles(inst.case, inst.step)
         solid = (4.0 / 3.0 * np.pi * p.radius ** 3).sum()
         errs = [np.linalg.norm(integral - lw) / np.linalg.norm(lw) if np.linalg.norm(lw) > 0 else 0.0,
@@ -84,7 +92,9 @@ def integrals(run_path, fields_path):
             ok = np.isfinite(g)
             if not np.array_equal(np.isfinite(e), ok) or np.abs(e[ok] - sym[ok]).max(initial=0) > 1e-15:
                 fail(f"{inst.case} step {inst.step}: strain_increment is not the symmetric part of the gradient")
-    print(f"check_fields.py: {len(instants)} instants; largest relative errors: contact stress integral "
+    sheared = sum(i.sheared for i in instants)
+    print(f"check_fields.py: {len(instants)} instants ({sheared} on a sheared cell); largest relative errors: "
+          "contact stress integral "
           f"{worst[0]:.1e}, solid volume {worst[1]:.1e}, contact count {worst[2]:.1e} (tolerance {TOL})")
 
 
