@@ -57,6 +57,21 @@ std::vector<std::string> split_csv(const std::string& line) {
   return r;
 }
 
+// The rest of a field instant's sidecar entry from its group as written: time, grid, whether its
+// nodes are explicit (the dataset kNodePosition, the grid's geometry) and its fields.
+void read_field_instant(const h5::Group& ig, FieldsXdmfEntry& e) {
+  e.time = ig.attr_double("time");
+  const std::vector<double> n = ig.attr_doubles("cells"), h = ig.attr_doubles("spacing"),
+                            x0 = ig.attr_doubles("origin");
+  for (int a = 0; a < 3; ++a) e.cells[a] = int(n.at(a)), e.spacing[a] = h.at(a), e.origin[a] = x0.at(a);
+  e.explicit_nodes = ig.exists(kNodePosition);
+  for (const std::string& d : ig.children()) {
+    if (d == kNodePosition) continue;
+    const std::vector<hsize_t> shape = ig.open_dataset(d).shape();
+    e.quantities.emplace_back(d, shape.size() > 3 ? int(shape[3]) : 1);
+  }
+}
+
 }  // namespace
 
 std::string RunOutput::file_name(const std::string& outdir) {
@@ -244,16 +259,8 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
           cg.remove(sn);
           continue;
         }
-        e.case_name = c, e.group = "/fields/" + c + "/" + sn, e.time = ig.attr_double("time");
-        const std::vector<double> n = ig.attr_doubles("cells"), h = ig.attr_doubles("spacing"),
-                                  x0 = ig.attr_doubles("origin");
-        for (int a = 0; a < 3; ++a) e.cells[a] = int(n.at(a)), e.spacing[a] = h.at(a), e.origin[a] = x0.at(a);
-        e.explicit_nodes = ig.exists(kNodePosition);  // the grid's geometry, not a field
-        for (const std::string& d : ig.children()) {
-          if (d == kNodePosition) continue;
-          const std::vector<hsize_t> shape = ig.open_dataset(d).shape();
-          e.quantities.emplace_back(d, shape.size() > 3 ? int(shape[3]) : 1);
-        }
+        e.case_name = c, e.group = "/fields/" + c + "/" + sn;
+        read_field_instant(ig, e);
         entries.push_back(e);
       }
       std::sort(entries.begin(), entries.end(),
