@@ -102,8 +102,6 @@ def main():
             ax.text(0.5, 0.5, f"{name}: not in the file", ha="center", va="center", transform=ax.transAxes)
             continue
         im = ax.imshow(v[:, j, :], origin="lower", extent=[0, L[2], 0, L[0]], aspect="equal", cmap="viridis")
-        if sheared:
-            ax.set_title(label + " (sheared cell: fractional coordinates)", fontsize=9)
         fig.colorbar(im, ax=ax, shrink=0.8)
         if band is not None:
             # The band's centre planes h x1/L1 + k x2/L2 + l x3/L3 = c (mod 1) on the slice x2 = mid
@@ -118,6 +116,8 @@ def main():
                     x1 = (c + m - k * x2 / L[1] - l * x3 / L[2]) * L[0] / h
                     keep = (x1 >= 0) & (x1 <= L[0])
                     ax.plot(x3[keep], x1[keep], "w--", lw=1)
+    if sheared:
+        title += "\nsheared cell: maps on the plane s2 = 1/2 in fractional coordinates s = H^-1 x"
     fig.suptitle(title, fontsize=11)
     outdir = a.outdir or os.path.dirname(os.path.abspath(a.file))
     os.makedirs(outdir, exist_ok=True)

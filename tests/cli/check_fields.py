@@ -29,6 +29,10 @@ snapshots they were computed from, through apps/fabrica_h5.py:
         before; the instants of the re-equilibration SOURCE ran for both are OTHER's too (the
         same HDF5 objects: hard links), and OTHER's first own instant (its shear's) has its
         displacement from the last of them.
+    check_fields.py cellshear FIELDS.h5 CASE   a case whose cell shears past a flip of its edges:
+        at least one flip between two instants (H1 = F H0 M, M = round(H0^-1 H1) not I), and at
+        every instant with displacement fields the mean over the nodes of displacement_gradient
+        equals the cell's own F - I (the flip undone) within 5 % of |F - I|.
 Exits 0 if all hold, 1 with the reason, 77 if h5py or numpy is missing.
 """
 import os
@@ -247,7 +251,34 @@ def localisation(run_dir, case, csv_path=None):
           f"values {min(want.values()):.4f}-{max(want.values()):.4f}), NaN at the {len(steps) - len(want)} other rows")
 
 
+def cellshear(path, case):
+    fl = fabrica_h5.RunFile(path)
+    inst = {i.step: i for i in fl.field_instants(case)}
+    flips, worst, n = 0, 0.0, 0
+    for step, i in sorted(inst.items()):
+        if i.displacement_from_step < 0:
+            continue
+        h0, h1 = inst[i.displacement_from_step].cell_matrix, i.cell_matrix
+        m = np.round(np.linalg.solve(h0, h1))
+        flips += not np.array_equal(m, np.eye(3))
+        f = h1 @ np.linalg.inv(m) @ np.linalg.inv(h0)
+        g = fl.fields(case, step, ["displacement_gradient"])["displacement_gradient"]
+        mean = np.nanmean(g.reshape(-1, 3, 3), axis=0)
+        e = np.linalg.norm(mean - (f - np.eye(3))) / np.linalg.norm(f - np.eye(3))
+        worst, n = max(worst, e), n + 1
+        if not e <= 0.05:
+            fail(f"{case} step {step}: mean displacement gradient {mean.tolist()} against the cell's F - I "
+                 f"{(f - np.eye(3)).tolist()}: {e:.3f} of |F - I|")
+    if flips == 0:
+        fail(f"{path}: no flip of the cell's edges between two instants of {case}")
+    print(f"check_fields.py: {case}: {n} instants with displacement fields, {flips} across a flip of the cell's "
+          f"edges; the mean displacement gradient is the cell's F - I within {worst:.2e} of |F - I|")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "cellshear":
+        cellshear(*sys.argv[2:])
+        sys.exit(0)
     if len(sys.argv) == 6 and sys.argv[1] == "inrun":
         inrun(*sys.argv[2:])
         sys.exit(0)
