@@ -4,7 +4,8 @@
 // density and fabric tensor; and, between two instants, the displacement gradient and the
 // strain increment from the particles' displacements.
 //
-// Grid: n[a] nodes along axis a at (i + 1/2) h_a, h_a = L_a / n[a], over the cell [0, L). Each
+// Grid: n[a] nodes along axis a at (i + 1/2) h_a, h_a = L_a / n[a], over the cell [0, L) (a
+// sheared cell: the same in its fractional coordinates, FieldGrid::set_matrix). Each
 // point quantity (a particle's centre, a contact point, a quadrature point of a contact's
 // branch) is spread over the nodes within the kernel's support, periodic images included, with
 // weights W(|X_g - x|) normalised over those nodes: sum_g W_g dV = 1 exactly up to rounding, so
