@@ -128,8 +128,8 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
 
 std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f, MPI_Comm comm, FieldHistory& history,
                                                              const std::string& case_name, Simulation& sim,
-                                                             FieldsResult& r, FieldsResult* recycle,
-                                                             GridExchange* exchange) {
+                                                             FieldsResult& r, const std::string& scene_path,
+                                                             FieldsResult* recycle, GridExchange* exchange) {
   const Simulation& cs = sim;  // const: as run_fields(), the positions are not marked as changed
   const FieldHistory::Instant now{case_name, cs.step_count(), cs.cell().lengths(), cs.cell().matrix()};
   FieldHistory::Step s = history.advance(comm, cs.particles(), now);
@@ -143,8 +143,8 @@ std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f
   try {  // a flip of a sheared cell's edges undone (the same outcome on every rank: the cells are)
     d = displacement_fields(g0, r.kernel, now.cell_matrix(), s.motions, sim.domain(), recycle, exchange);
   } catch (const std::domain_error& e) {
-    throw InputError("[fields] at step " + std::to_string(now.step) + ": the displacement fields since step " +
-                     std::to_string(s.from->step) + ": " + e.what());
+    throw InputError(scene_path + ": [fields] at step " + std::to_string(now.step) +
+                     ": the displacement fields since step " + std::to_string(s.from->step) + ": " + e.what());
   }
   for (Field& x : d.fields)
     if (f.keeps(x.name)) r.fields.push_back(std::move(x));

@@ -45,10 +45,12 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
 // keeps are appended to r. 'history' then keeps this instant. Returns the instant they start
 // from, none at the first instant of a case (then nothing is appended). Collective over 'comm'
 // (the home ranks of the history) and sim.domain(). 'recycle', 'exchange': as for run_fields()
-// (the same layers as r's).
+// (the same layers as r's). A sheared cell deformed too much since the instant kept to undo a
+// flip of its edges (deformed_reference_edges) is an InputError naming 'scene_path' and [fields].
 std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f, MPI_Comm comm, FieldHistory& history,
                                                              const std::string& case_name, Simulation& sim,
-                                                             FieldsResult& r, FieldsResult* recycle = nullptr,
+                                                             FieldsResult& r, const std::string& scene_path,
+                                                             FieldsResult* recycle = nullptr,
                                                              GridExchange* exchange = nullptr);
 
 // The localisation index (core/localisation.hpp) of a strain increment held by slabs over the

@@ -481,7 +481,8 @@ double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   // nothing is exchanged or kept unless [fields] keeps one of them.
   std::optional<FieldHistory::Instant> from;
   if (fields_spec_.displacement())
-    from = run_displacement_fields(fields_spec_, comm_, history_, case_name, sim, r, &spare_fields_, &exchange);
+    from = run_displacement_fields(fields_spec_, comm_, history_, case_name, sim, r, scene_path_, &spare_fields_,
+                                   &exchange);
   for (const Field& f : r.fields)
     if (f.name == "strain_increment") index = run_localisation_index(comm_, f.values);
   const FieldGrid& grid = r.grid;
