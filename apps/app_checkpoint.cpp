@@ -1,6 +1,7 @@
 #include "apps/app_checkpoint.hpp"
 
 #include "core/errors.hpp"
+#include "io/mpi/snapshot.hpp"
 #include "parallel/mpi_context.hpp"
 
 #include <fmt/core.h>
@@ -31,6 +32,8 @@ void add_field_history(CheckpointWriter& w, const FieldHistory& h) {
   const FieldHistory::Instant& at = *h.instant();
   FieldWriter f;
   f.text("record", kPositionRecord).text("case", at.case_name).i64("step", at.step).vec3("lengths", at.lengths);
+  // A sheared cell's matrix (after the fields of an orthorhombic one, which are as before it).
+  if (matrix_sheared(at.cell_matrix())) f.mat3("matrix", at.cell_matrix());
   w.add_fields(kInstant, f);
   std::string records;
   records.reserve(h.ids().size() * kPositionBytes);
@@ -52,6 +55,7 @@ void restore_field_history(const Checkpoint& c, FieldHistory& h, MPI_Comm comm) 
   at.case_name = f.text("case");
   at.step = f.i64("step");
   at.lengths = f.vec3("lengths");
+  if (f.next_is("matrix")) at.matrix = f.mat3("matrix");
   f.done();
   const std::string& b = c.records(kPositions, kPositionBytes);
   const std::size_t n = b.size() / kPositionBytes;

@@ -96,7 +96,6 @@ int run_scene(const MpiContext& mpi, const Scene& scene, const std::string& outd
                            mpi.comm(), domain_options(scene));
   // [fields]: the grid and kernel against the specimen, before the run (every rank the message).
   if (setup) check_run_fields(scene, setup->particles, setup->cell, mpi.comm());
-  if (ckpt && scene.fields.enabled) refuse_sheared_fields(scene.path, ckpt->cell("sim"));
   std::unique_ptr<RunOutput> out;
   if (scene.hdf5 && ckpt) {
     out = std::make_unique<RunOutput>(mpi.comm(), scene, outdir, RunOutput::Restart{});

@@ -36,6 +36,9 @@ __all__ = ["FabricaFileError", "RunFile", "RunInfo", "Series", "SnapshotInfo", "
            "FieldsInfo"]
 
 
+NODE_POSITION = "node_position"  # a sheared grid's node positions in a field instant (not a field)
+
+
 class FabricaFileError(Exception):
     """A run file that cannot be read as asked: the message names the file and the object."""
 
@@ -188,13 +191,21 @@ class FieldsInfo:
     time: float               #: s
     cell_lengths: np.ndarray  #: (3,) m
     cells: np.ndarray         #: (3,) int, nodes along x, y, z
-    spacing: np.ndarray       #: (3,) m; node (i, j, k) at origin + (i, j, k) * spacing
+    spacing: np.ndarray       #: (3,) m; node (i, j, k) at origin + (i, j, k) * spacing (orthorhombic)
     origin: np.ndarray        #: (3,) m, the first node (half a spacing from the cell's corner)
     kernel: str               #: "gaussian" or "lucy"
     width: float              #: m: the Gaussian's standard deviation, Lucy's support radius
     cutoff: float             #: the Gaussian's support radius in widths (1 for Lucy)
     names: list               #: the fields stored (dataset names)
     displacement_from_step: int = -1  #: the earlier snapshot of the displacement fields (-1: none)
+    #: (3, 3) m, the cell matrix H (columns the edge vectors); diag(cell_lengths) unless sheared.
+    #: A sheared grid's node (i, j, k) is at H ((i, j, k) + 1/2) / cells (its dataset node_position).
+    cell_matrix: np.ndarray = None
+
+    @property
+    def sheared(self):
+        """Whether the grid is cut in the fractional coordinates of a sheared cell."""
+        return bool((self.cell_matrix[~np.eye(3, dtype=bool)] != 0).any())
 
 
 class RunFile:
@@ -324,7 +335,10 @@ class RunFile:
                           spacing=np.asarray(a["spacing"], dtype=np.float64),
                           origin=np.asarray(a["origin"], dtype=np.float64),
                           kernel=_text(a["kernel"]), width=float(a["width"]), cutoff=float(a["cutoff"]),
-                          names=sorted(g), displacement_from_step=int(a.get("displacement_from_step", -1)))
+                          names=sorted(n for n in g if n != NODE_POSITION),
+                          displacement_from_step=int(a.get("displacement_from_step", -1)),
+                          cell_matrix=(np.asarray(a["cell_matrix"], dtype=np.float64).reshape(3, 3) if "cell_matrix" in a
+                                       else np.diag(np.asarray(a["cell_lengths"], dtype=np.float64))))
 
     def field_instants(self, case=None):
         """Every instant of coarse-grained fields (:class:`FieldsInfo`) of ``case``, or of every
@@ -347,7 +361,7 @@ class RunFile:
         with self._open() as f:
             g = self._group(f, f"fields/{case}/{int(step):012d}", f"no fields of case '{case}' at step {step}")
             out = {}
-            for name in (names if names is not None else sorted(g)):
+            for name in (names if names is not None else sorted(n for n in g if n != NODE_POSITION)):
                 if name not in g:
                     raise FabricaFileError(f"{self.path}: no field '{name}' of case '{case}' at step {step}")
                 v = g[name][()]

@@ -1,5 +1,6 @@
 #include "apps/fields_offline.hpp"
 
+#include "core/cell.hpp"
 #include "core/coarse_grain.hpp"
 #include "core/exact_sum.hpp"
 #include "core/serial_domain.hpp"
@@ -28,10 +29,15 @@
 namespace fabrica {
 namespace {
 
-// The grid of one instant: the given cell counts, or round(L / spacing) nodes along each axis.
-FieldGrid grid_of(const FieldsOfflineArgs& a, const Vec3& L, double spacing) {
+// The cell of a snapshot as the fields take it: its matrix when sheared, else diag(cell_lengths).
+Mat3 cell_of(const SnapshotInfo& s) { return s.sheared() ? s.cell_matrix : Mat3(s.cell_lengths.asDiagonal()); }
+
+// The grid of one instant: the given cell counts, or round(h / spacing) nodes along each axis,
+// h the cell's heights (the distances between opposite faces: the lengths of an orthorhombic cell).
+FieldGrid grid_of(const FieldsOfflineArgs& a, const SnapshotInfo& s, double spacing) {
   FieldGrid g;
-  g.lengths = L;
+  g.set_matrix(cell_of(s));
+  const Vec3 L = g.sheared ? PeriodicCell::from_matrix(g.H).heights() : g.lengths;
   for (int k = 0; k < 3; ++k)
     g.n[k] = a.cells ? (*a.cells)[k] : int(std::max(1.0, std::min(std::round(L[k] / spacing), 2.0e9)));
   return g;
@@ -71,11 +77,13 @@ Masses masses_of(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   return m;
 }
 
-// The rank that coarse-grains an item at height z (m, any image) of a cell of height Lz on 'nz'
-// layers: the owner of its nearest layer (core/grid_exchange.hpp), so that each rank's items
-// reach its own layers and the kernel's reach around them (its box of sums).
-std::size_t rank_of_height(double z, double Lz, int nz, std::size_t P) {
-  const double s = z / Lz - std::floor(z / Lz);
+// The rank that coarse-grains an item at x (m, any image) of the grid g: the owner of the
+// z-layer it lies in (core/grid_exchange.hpp; sheared: the layers of the fractional coordinate
+// s3), so that each rank's items reach its own layers and the kernel's reach around them (its box
+// of sums).
+std::size_t rank_of_layer(const Vec3& x, const FieldGrid& g, std::size_t P) {
+  const double s = g.layer_coordinate(x);
+  const int nz = g.n[2];
   const std::int64_t k = std::clamp<std::int64_t>(std::int64_t(s * nz), 0, nz - 1);
   return std::size_t(((k + 1) * std::int64_t(P) - 1) / nz);
 }
@@ -179,20 +187,21 @@ void choose_snapshots(const MpiContext& mpi, const FieldsOfflineArgs& a, Snapsho
     }
   }
   if (chosen.empty()) throw InputError(fmt::format("{}: no case has a snapshot at step {}", a.file, *a.step));
-  // The grid is cut along the cell's axes: a sheared cell (a snapshot's cell_matrix with an
-  // off-diagonal term), or one that a displacement field starts from (the case's snapshot before),
+  // A sheared cell's displacement fields undo a flip of its edges between two snapshots
+  // (deformed_reference_edges, core/coarse_grain.hpp): a deformation too large to tell one from
   // is refused before anything is computed.
   for (const auto& [name, list] : chosen)
     for (const SnapshotInfo& s : list) {
       const SnapshotInfo* prev = nullptr;
       for (const SnapshotInfo& e : listed.at(name))
         if (e.step < s.step) prev = &e;
-      const SnapshotInfo* sheared = s.sheared() ? &s : prev && prev->sheared() ? prev : nullptr;
-      if (sheared)
-        throw InputError(fmt::format(
-            "{}: case \"{}\" step {}: the periodic cell is sheared (the snapshot's cell_matrix has off-diagonal "
-            "terms): coarse-grained fields are computed on an orthorhombic cell only (docs/fields.md)",
-            a.file, name, sheared->step));
+      if (!prev || (!s.sheared() && !prev->sheared())) continue;
+      try {
+        deformed_reference_edges(cell_of(*prev), cell_of(s));
+      } catch (const std::domain_error& e) {
+        throw InputError(fmt::format("{}: case \"{}\": displacement fields from step {} to step {}: {}", a.file, name,
+                                     prev->step, s.step, e.what()));
+      }
     }
 }
 
@@ -215,7 +224,7 @@ double check_grids(const MpiContext& mpi, const FieldsOfflineArgs& a, const Snap
   const double memory = machine_memory_bytes();
   for (const auto& [name, list] : chosen)
     for (const SnapshotInfo& s : list) {
-      const FieldGrid g = grid_of(a, s.cell_lengths, spacing);
+      const FieldGrid g = grid_of(a, s, spacing);
       const std::string why = check_field_grid(g, kernel, rmin);
       if (!why.empty())
         throw InputError(fmt::format("fields of case \"{}\" at step {} (grid {} x {} x {} nodes, {}): {}", name, s.step,
@@ -244,8 +253,7 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
   const std::size_t P = std::size_t(mpi.size()), me = std::size_t(mpi.rank());
   // Each item to the rank whose layers it lies in (any split gives the same bits: the sums are
   // exact), so that each rank's sums cover its layers and the kernel's reach around them.
-  const auto mine = [&](const Vec3& x, double Lz) { return rank_of_height(x[2], Lz, grid.n[2], P) == me; };
-  const double Lz = info.cell_lengths[2];
+  const auto mine = [&](const Vec3& x, const FieldGrid& g) { return rank_of_layer(x, g, P) == me; };
   ParticleSnapshot ps;
   ContactSnapshot cs;
   agree(mpi.comm(), [&] {
@@ -254,7 +262,7 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
   });
   std::vector<CgParticle> parts;
   for (std::size_t i = 0; i < ps.id.size(); ++i) {
-    if (!mine(ps.position[i], Lz)) continue;
+    if (!mine(ps.position[i], grid)) continue;
     CgParticle q;
     q.x = ps.position[i], q.v = ps.velocity[i], q.w = ps.spin[i], q.radius = ps.radius[i];
     q.mass = masses.of(ps.material[i], ps.radius[i]);
@@ -271,7 +279,7 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
       throw InputError(fmt::format("{}: case \"{}\" step {}: contact ({}, {}) names a particle not in the snapshot",
                                    a.file, name, info.step, c.id1, c.id2));
     const std::size_t i = std::size_t(it - ps.id.begin());
-    if (mine(ps.position[i], Lz)) conts.push_back({c, ps.position[i], ps.radius[i]});
+    if (mine(ps.position[i], grid)) conts.push_back({c, ps.position[i], ps.radius[i]});
   }
   FieldOptions opt;
   opt.strong_ratio = a.strong_ratio;
@@ -281,6 +289,8 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
   for (const SnapshotInfo& s : every)
     if (s.step < info.step) out.prev = s;
   if (out.prev) {
+    FieldGrid g0 = grid;  // this instant's counts on the earlier cell (the reference configuration)
+    g0.set_matrix(cell_of(*out.prev));
     ParticleSnapshot p0;
     agree(mpi.comm(), [&] { p0 = read_particle_snapshot(a.file, name, out.prev->step); });
     std::vector<CgMotion> motions;
@@ -288,12 +298,10 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
       const auto it = std::lower_bound(p0.id.begin(), p0.id.end(), ps.id[i]);
       if (it == p0.id.end() || *it != ps.id[i]) continue;  // not in both: no displacement
       const std::size_t j = std::size_t(it - p0.id.begin());
-      if (!mine(p0.position[j], out.prev->cell_lengths[2])) continue;
+      if (!mine(p0.position[j], g0)) continue;
       motions.push_back({p0.position[j], ps.position[i], ps.radius[i]});
     }
-    FieldGrid g0 = grid;
-    g0.lengths = out.prev->cell_lengths;
-    FieldsResult d = displacement_fields(g0, kernel, info.cell_lengths, motions, domain, nullptr, exchange);
+    FieldsResult d = displacement_fields(g0, kernel, cell_of(info), motions, domain, nullptr, exchange);
     for (Field& f : d.fields) out.res.fields.push_back(std::move(f));
   }
   // The check printed: the volume integral of the contact stress against the Love-Weber sum,
@@ -318,16 +326,17 @@ Instant coarse_grain_instant(const MpiContext& mpi, const FieldsOfflineArgs& a, 
 
 // The group fields/<case>/<step> of 'file' (rank 0) with the instant's attributes.
 h5::Group instant_group(h5::File& file, const FieldsOfflineArgs& a, const std::string& name, const SnapshotInfo& info,
-                        const FieldGrid& grid, const FieldKernel& kernel, const Instant& in) {
+                        const FieldGrid& grid, const FieldKernel& kernel, const Instant& in, bool explicit_nodes) {
   const FieldsResult& res = in.res;
   if (!file.exists("fields/" + name)) file.create_group("fields/" + name);
   h5::Group g = file.open_group("fields/" + name).create_group(layout::step_name(info.step));
   g.set_attr("step", info.step);
   g.set_attr("time", info.time);
   const std::vector<double> L(info.cell_lengths.data(), info.cell_lengths.data() + 3);
-  const Vec3 h = grid.spacing();
+  const Vec3 h = grid.spacing(), x0 = grid.node(0, 0, 0);
   const std::vector<double> cells{double(grid.n[0]), double(grid.n[1]), double(grid.n[2])}, sp{h[0], h[1], h[2]},
-      origin{0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+      origin = grid.sheared ? std::vector<double>{x0[0], x0[1], x0[2]}
+                            : std::vector<double>{0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
   g.set_attr("cell_lengths", std::span<const double>(L));
   g.set_attr("cells", std::span<const double>(cells));
   g.set_attr("spacing", std::span<const double>(sp));
@@ -343,6 +352,18 @@ h5::Group instant_group(h5::File& file, const FieldsOfflineArgs& a, const std::s
     g.set_attr("displacement_from_step", in.prev->step);
     const std::vector<double> L0(in.prev->cell_lengths.data(), in.prev->cell_lengths.data() + 3);
     g.set_attr("displacement_reference_lengths", std::span<const double>(L0));
+    if (in.prev->sheared() || grid.sheared)
+      g.set_attr("displacement_reference_matrix", std::span<const double>(matrix_rows(cell_of(*in.prev))));
+  }
+  // A sheared grid (and every grid of a case with one): the cell matrix and the nodes' positions
+  // (the XDMF's geometry).
+  if (explicit_nodes) {
+    g.set_attr(layout::kCellMatrix, std::span<const double>(matrix_rows(grid.matrix())));
+    const std::vector<double> x = node_positions(grid, {0, grid.n[2]});
+    h5::Dataset d =
+        g.create_dataset(kNodePosition, h5::Type::F64, {hsize_t(grid.n[2]), hsize_t(grid.n[1]), hsize_t(grid.n[0]), 3});
+    d.set_attr("unit", std::string("m"));
+    d.write_rows(h5::Type::F64, 0, hsize_t(grid.n[2]), x.data(), true);
   }
   return g;
 }
@@ -351,19 +372,19 @@ h5::Group instant_group(h5::File& file, const FieldsOfflineArgs& a, const std::s
 // returns its XDMF entry. Collective.
 FieldsXdmfEntry write_instant(const MpiContext& mpi, h5::File& file, const FieldsOfflineArgs& a,
                               const std::string& name, const SnapshotInfo& info, const FieldGrid& grid,
-                              const FieldKernel& kernel, const Instant& in) {
+                              const FieldKernel& kernel, const Instant& in, bool explicit_nodes) {
   const std::string path = "fields/" + name + "/" + layout::step_name(info.step);
   h5::Group g;
   agree(mpi.comm(), [&] {
     if (mpi.rank() != 0) return;
     try {
-      g = instant_group(file, a, name, info, grid, kernel, in);
+      g = instant_group(file, a, name, info, grid, kernel, in, explicit_nodes);
     } catch (const h5::Error& e) { throw InputError(e.what()); }
   });
   const Vec3 h = grid.spacing();
   FieldsXdmfEntry e;
   e.case_name = name, e.group = "/" + path, e.step = info.step, e.time = info.time, e.cells = grid.n;
-  e.spacing = {h[0], h[1], h[2]}, e.origin = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+  e.spacing = {h[0], h[1], h[2]}, e.origin = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]}, e.explicit_nodes = explicit_nodes;
   write_fields(mpi, mpi.rank() == 0 ? &g : nullptr, in.res, e.quantities);
   return e;
 }
@@ -425,11 +446,15 @@ int fields_offline(const MpiContext& mpi, const FieldsOfflineArgs& a) {
   std::vector<FieldsXdmfEntry> entries;
   std::size_t done = 0;
   for (const auto& [name, list] : chosen) {
+    // A case whose cell is sheared at any of its instants: each of its grids with its nodes'
+    // positions (FieldsXdmfEntry::explicit_nodes), as a run that shears its cell writes them.
+    const bool explicit_nodes =
+        std::any_of(list.begin(), list.end(), [](const SnapshotInfo& s) { return s.sheared(); });
     for (const SnapshotInfo& info : list) {
-      const FieldGrid grid = grid_of(a, info.cell_lengths, spacing);
+      const FieldGrid grid = grid_of(a, info, spacing);
       const Instant in =
           coarse_grain_instant(mpi, a, name, info, listed.at(name), grid, kernel, masses, *domain, &exchange);
-      entries.push_back(write_instant(mpi, file, a, name, info, grid, kernel, in));
+      entries.push_back(write_instant(mpi, file, a, name, info, grid, kernel, in, explicit_nodes));
       agree(mpi.comm(), [&] {
         if (!root) return;
         fmt::print(

@@ -14,7 +14,9 @@ localisation_<case>.csv beside FIELDS.h5):
   is largest (the ceil(n / 10) largest of the n finite values; 0.1 for a homogeneous increment,
   towards 1 as the shear gathers in a band; the run's series column `localisation` is the same);
 - the band: a band in a periodic cell repeats with the cell, so its normal is the direction of a
-  reciprocal-lattice vector q = (h/L1, k/L2, l/L3) with integers h, k, l. The mode of the
+  reciprocal-lattice vector q = (h/L1, k/L2, l/L3) with integers h, k, l (a sheared cell of
+  matrix H, its grid in fractional coordinates s: q = H^-T (h, k, l), the phase q.x = (h, k, l).s
+  at node s = ((i, j, k) + 1/2) / cells). The mode of the
   discrete Fourier transform of gamma with the largest amplitude among |h|, |k|, |l| <= 2 (the
   primitive ones, gcd 1) gives the normal n = q/|q| and the spacing 1/|q| of the band's
   repetitions. gamma averaged over the nodes in 64 slabs along n over one spacing is the profile;
@@ -87,23 +89,33 @@ def primitive_modes(limit=MAX_INDEX):
     return out
 
 
-def band_of(gamma, lengths, contrast=2.0):
-    """The band (dict) of a gamma field on the grid of a cell of the given lengths, or None."""
+def band_of(gamma, lengths, contrast=2.0, matrix=None):
+    """The band (dict) of a gamma field on the grid of a cell of the given lengths (or, sheared,
+    of the cell matrix 'matrix': its grid in fractional coordinates), or None."""
     cells = gamma.shape
-    X, Y, Z = node_positions(cells, lengths)
+    sheared = matrix is not None and bool((np.asarray(matrix)[~np.eye(3, dtype=bool)] != 0).any())
+    if sheared:  # each mode's phase (h, k, l).s over the fractional coordinates of the nodes
+        S = np.meshgrid(*[(np.arange(n) + 0.5) / n for n in cells], indexing="ij")
+        frac = lambda m: m[0] * S[0] + m[1] * S[1] + m[2] * S[2]  # noqa: E731
+    else:
+        X, Y, Z = node_positions(cells, lengths)
+        frac = lambda m: m[0] * X / lengths[0] + m[1] * Y / lengths[1] + m[2] * Z / lengths[2]  # noqa: E731
     ok = np.isfinite(gamma)
     g = np.where(ok, gamma, 0.0)
     mean = g[ok].mean()
     best, best_amp = None, -1.0
     for m in primitive_modes():
-        phase = 2 * np.pi * (m[0] * X / lengths[0] + m[1] * Y / lengths[1] + m[2] * Z / lengths[2])
+        phase = 2 * np.pi * frac(m)
         amp = abs(np.sum(np.where(ok, (g - mean) * np.exp(-1j * phase), 0.0)))
         if amp > best_amp + 1e-12 * max(1.0, best_amp):
             best, best_amp = m, amp
-    q = np.array([best[0] / lengths[0], best[1] / lengths[1], best[2] / lengths[2]])
+    if sheared:  # the reciprocal lattice: q = H^-T m
+        q = np.linalg.solve(np.asarray(matrix, dtype=np.float64).T, np.asarray(best, dtype=np.float64))
+    else:
+        q = np.array([best[0] / lengths[0], best[1] / lengths[1], best[2] / lengths[2]])
     spacing = 1.0 / np.linalg.norm(q)
     n = q * spacing
-    s = np.mod(best[0] * X / lengths[0] + best[1] * Y / lengths[1] + best[2] * Z / lengths[2], 1.0)
+    s = np.mod(frac(best), 1.0)
     slab = np.minimum((s * SLABS).astype(int), SLABS - 1)
     sums = np.bincount(slab[ok], weights=g[ok], minlength=SLABS)
     counts = np.bincount(slab[ok], minlength=SLABS)
@@ -170,7 +182,7 @@ def analyse(fields, info, contrast=2.0):
     gamma = shear_intensity(fields["strain_increment"])
     ok = np.isfinite(gamma)
     row = {"case": info.case, "step": info.step, "time": info.time, "index": localisation_index(gamma)}
-    b = band_of(gamma, info.cell_lengths, contrast)
+    b = band_of(gamma, info.cell_lengths, contrast, getattr(info, "cell_matrix", None))
     row.update(band=int(b["found"]), h=b["mode"][0], k=b["mode"][1], l=b["mode"][2], n1=b["normal"][0],
                n2=b["normal"][1], n3=b["normal"][2], angle_deg=b["angle"], thickness_m=b["thickness"],
                spacing_m=b["spacing"], gamma_in=float(np.mean(gamma[b["inside"]])) if b["inside"].any() else np.nan,

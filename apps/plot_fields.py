@@ -11,7 +11,9 @@ apps/localisation.py defines it), the deviatoric stress q = sqrt(3/2 s':s') of t
 field, the spin magnitude, and the fabric anisotropy a of the strong and the weak network; with a
 band found (apps/localisation.py), its centre plane's trace drawn on every map and the band's
 angle, thickness and localisation index in the title. A field the file does not hold is left
-blank with its name.
+blank with its name. A sheared cell's grid is cut in fractional coordinates s = H^-1 x: its maps
+are drawn on the plane s2 = 1/2 against s3 and s1 (each from 0 to 1, labelled as fractional), the
+band's trace the planes (h, k, l).s = c.
 """
 import argparse
 import os
@@ -88,20 +90,22 @@ def main():
         else:
             band = None
             title += ", no band"
-    L = info.cell_lengths
+    sheared = getattr(info, "sheared", False)
+    L = np.ones(3) if sheared else info.cell_lengths  # sheared: the fractional coordinates
     j = info.cells[1] // 2
     fig, axes = plt.subplots(2, 3, figsize=(13, 8.5), constrained_layout=True)
     for ax, (name, (label, v)) in zip(axes.ravel(), maps(fields).items()):
         ax.set_title(label, fontsize=10)
-        ax.set_xlabel("x3 [m]")
-        ax.set_ylabel("x1 [m] (loading axis)")
+        ax.set_xlabel("s3 (fractional coordinate along edge 3)" if sheared else "x3 [m]")
+        ax.set_ylabel("s1 (fractional coordinate along edge 1)" if sheared else "x1 [m] (loading axis)")
         if v is None:
             ax.text(0.5, 0.5, f"{name}: not in the file", ha="center", va="center", transform=ax.transAxes)
             continue
         im = ax.imshow(v[:, j, :], origin="lower", extent=[0, L[2], 0, L[0]], aspect="equal", cmap="viridis")
         fig.colorbar(im, ax=ax, shrink=0.8)
         if band is not None:
-            # The band's centre planes h x1/L1 + k x2/L2 + l x3/L3 = c (mod 1) on the slice x2 = mid.
+            # The band's centre planes h x1/L1 + k x2/L2 + l x3/L3 = c (mod 1) on the slice x2 = mid
+            # (sheared: h s1 + k s2 + l s3 = c, L = 1).
             h, k, l = band["mode"]
             x2 = (j + 0.5) * L[1] / info.cells[1]
             prof = band["profile"]
@@ -112,6 +116,8 @@ def main():
                     x1 = (c + m - k * x2 / L[1] - l * x3 / L[2]) * L[0] / h
                     keep = (x1 >= 0) & (x1 <= L[0])
                     ax.plot(x3[keep], x1[keep], "w--", lw=1)
+    if sheared:
+        title += "\nsheared cell: maps on the plane s2 = 1/2 in fractional coordinates s = H^-1 x"
     fig.suptitle(title, fontsize=11)
     outdir = a.outdir or os.path.dirname(os.path.abspath(a.file))
     os.makedirs(outdir, exist_ok=True)

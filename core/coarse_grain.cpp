@@ -150,25 +150,29 @@ class Spreader {
  public:
   // The nodes are numbered in 'box' (core/grid_box.hpp: the whole grid, or a rank's box).
   Spreader(const FieldGrid& g, const FieldKernel& k, const NodeBox& box)
-      : g_(g), k_(k), box_(box), h_(g.spacing()), rs_(k.support()), dv_(g.cell_volume()) {}
+      : g_(g), k_(k), box_(box), h_(g.spacing()), rs_(k.support()), dv_(g.cell_volume()) {
+    if (g.sheared) reach_ = g.index_reach(rs_);
+  }
 
   // The nodes within the support of x (any real position) with their normalised weights, in a
   // fixed order (z, then y, then x along each axis's reach): reach() with each node's offset and
   // image (the displacement fields), weights() with the node and weight alone (the other fields).
   const std::vector<Reach>& reach(const Vec3& x) {
     out_.clear();
-    const double sum = visit(x, [&](std::size_t node, const Ax& xx, const Ax& y, const Ax& z, double w) {
-      out_.push_back({node, Vec3(xx.d, y.d, z.d), {xx.img, y.img, z.img}, w});
-    });
+    const auto push = [&](std::size_t node, const Vec3& d, const Ax& xx, const Ax& y, const Ax& z, double w) {
+      out_.push_back({node, d, {xx.img, y.img, z.img}, w});
+    };
+    const double sum = g_.sheared ? visit_sheared(x, push) : visit(x, push);
     const double scale = 1.0 / (sum * dv_);
     for (Reach& r : out_) r.w *= scale;
     return out_;
   }
   const std::vector<NodeWeight>& weights(const Vec3& x) {
     lean_.clear();
-    const double sum = visit(x, [&](std::size_t node, const Ax&, const Ax&, const Ax&, double w) {
+    const auto push = [&](std::size_t node, const Vec3&, const Ax&, const Ax&, const Ax&, double w) {
       lean_.push_back({node, w});
-    });
+    };
+    const double sum = g_.sheared ? visit_sheared(x, push) : visit(x, push);
     const double scale = 1.0 / (sum * dv_);
     for (NodeWeight& r : lean_) r.w *= scale;
     return lean_;
@@ -177,7 +181,7 @@ class Spreader {
   // An upper bound of every normalised weight: W(0) over (W at the farthest a nearest node can
   // be, half the cell's diagonal, times dV), with a margin of 2^-40 for the rounding of the
   // separable Gaussian's product against raw().
-  double weight_bound() const { return k_.raw(0) / (k_.raw(0.5 * h_.norm()) * dv_) * (1 + 0x1p-40); }
+  double weight_bound() const { return k_.raw(0) / (k_.raw(g_.half_diagonal()) * dv_) * (1 + 0x1p-40); }
 
  private:
   struct Ax {
@@ -218,7 +222,7 @@ class Spreader {
             if (dyz2 + xx.d2 < rs2) {
               const double w = wyz * xx.g;
               if (!(w > 0)) continue;
-              push(line + std::size_t(xx.i), xx, y, z, w);
+              push(line + std::size_t(xx.i), Vec3(xx.d, y.d, z.d), xx, y, z, w);
               sum += w;
             }
         } else {
@@ -227,9 +231,50 @@ class Spreader {
             if (r2 >= rs2) continue;
             const double w = k_.raw(std::sqrt(r2));
             if (!(w > 0)) continue;
-            push(line + std::size_t(xx.i), xx, y, z, w);
+            push(line + std::size_t(xx.i), Vec3(xx.d, y.d, z.d), xx, y, z, w);
             sum += w;
           }
+        }
+      }
+    if (!(sum > 0)) throw std::logic_error("coarse_grain: a kernel reaches no node (grid not checked)");
+    return sum;
+  }
+
+  // visit() on a sheared grid: along each axis the node indices within the reach of x's
+  // fractional coordinate (FieldGrid::index_reach, a box that covers the real-space ball), each
+  // node's offset H ds from x and its kernel weight at the real-space distance |H ds| (the
+  // Gaussian is not separable in the edges' axes). Ax::d holds the fractional offset ds.
+  template <class Push>
+  double visit_sheared(const Vec3& x, Push&& push) {
+    const bool gauss = k_.type == KernelType::Gaussian;
+    const real_t inv2w2 = 0.5 / (k_.width * k_.width), rs2 = rs_ * rs_;
+    const Vec3 t = g_.index_coordinate(x);
+    for (int a = 0; a < 3; ++a) {
+      axis_[a].clear();
+      const long lo = long(std::ceil(t[a] - reach_[a] - 0.5)), hi = long(std::floor(t[a] + reach_[a] - 0.5));
+      const long n = g_.n[a];
+      for (long i = lo; i <= hi; ++i) {
+        const long img = i >= 0 ? i / n : -((-i - 1) / n) - 1;  // floor(i / n)
+        const real_t ds = (real_t(i) + 0.5 - t[a]) / real_t(n);
+        const int b = box_.local(a, int(i - img * n));
+        if (b >= box_.len[a]) throw std::logic_error("coarse_grain: a point's support leaves its rank's box");
+        axis_[a].push_back({b, int(img), ds, 0, 1.0});
+      }
+    }
+    const std::size_t n0 = std::size_t(box_.len[0]), n01 = n0 * std::size_t(box_.len[1]);
+    double sum = 0;
+    for (const Ax& z : axis_[2])
+      for (const Ax& y : axis_[1]) {
+        const Vec3 dyz = g_.H.col(2) * z.d + g_.H.col(1) * y.d;
+        const std::size_t line = n0 * std::size_t(y.i) + n01 * std::size_t(z.i);
+        for (const Ax& xx : axis_[0]) {
+          const Vec3 d = dyz + g_.H.col(0) * xx.d;
+          const real_t r2 = d.squaredNorm();
+          if (r2 >= rs2) continue;
+          const double w = gauss ? std::exp(-r2 * inv2w2) : k_.raw(std::sqrt(r2));
+          if (!(w > 0)) continue;
+          push(line + std::size_t(xx.i), d, xx, y, z, w);
+          sum += w;
         }
       }
     if (!(sum > 0)) throw std::logic_error("coarse_grain: a kernel reaches no node (grid not checked)");
@@ -239,7 +284,7 @@ class Spreader {
   const FieldGrid& g_;
   const FieldKernel& k_;
   const NodeBox& box_;
-  Vec3 h_;
+  Vec3 h_, reach_ = Vec3::Zero();
   real_t rs_, dv_;
   std::array<std::vector<Ax>, 3> axis_;
   std::vector<Reach> out_;
@@ -309,11 +354,10 @@ int branch_pieces(const FieldKernel& kernel, const Vec3& b) {
 BoxBuilder items_box(const FieldGrid& grid, const FieldKernel& kernel, std::span<const CgParticle> particles,
                      std::span<const CgContact> contacts, bool networks) {
   BoxBuilder box(grid, kernel.support());
-  const Vec3& L = grid.lengths;
-  for (const CgParticle& p : particles) box.add(wrap_into(p.x, L));
+  for (const CgParticle& p : particles) box.add(grid.wrap(p.x));
   for (const CgContact& c : contacts) {
     const Vec3& b = c.rec.branch;
-    const Vec3 x1 = wrap_into(c.x1, L);
+    const Vec3 x1 = grid.wrap(c.x1);
     const int m = branch_pieces(kernel, b);
     for (int piece = 0; piece < m; ++piece)
       for (int q = 0; q < 3; ++q) box.add(x1 + ((piece + 0.5 * (1 + kGl[q])) / m) * b);
@@ -369,9 +413,89 @@ real_t FieldKernel::raw(real_t r) const {
   return (1 + 3 * q) * m * m * m;
 }
 
+void FieldGrid::set_matrix(const Mat3& h) {
+  Mat3 off = h;
+  off.diagonal().setZero();
+  lengths = h.diagonal();
+  sheared = !off.isZero(0);
+  H = sheared ? h : Mat3::Identity();
+  Hinv = sheared ? Mat3(h.inverse()) : Mat3::Identity();
+}
+
+Vec3 FieldGrid::spacing() const {
+  if (!sheared) return Vec3(lengths[0] / n[0], lengths[1] / n[1], lengths[2] / n[2]);
+  return Vec3(H.col(0).norm() / n[0], H.col(1).norm() / n[1], H.col(2).norm() / n[2]);
+}
+
 Vec3 FieldGrid::node(int i, int j, int k) const {
+  if (sheared) return H * Vec3((i + 0.5) / n[0], (j + 0.5) / n[1], (k + 0.5) / n[2]);
   const Vec3 h = spacing();
   return Vec3((i + 0.5) * h[0], (j + 0.5) * h[1], (k + 0.5) * h[2]);
+}
+
+Vec3 FieldGrid::wrap(const Vec3& x) const {
+  if (!sheared) return wrap_into(x, lengths);
+  return H * wrap_into(Hinv * x, Vec3::Ones());
+}
+
+double FieldGrid::layer_coordinate(const Vec3& x) const {
+  const double z = sheared ? double((Hinv * x)[2]) : x[2] / lengths[2];
+  return z - std::floor(z);
+}
+
+Vec3 FieldGrid::index_coordinate(const Vec3& x) const {
+  const Vec3 s = Hinv * x;
+  return Vec3(s[0] * n[0], s[1] * n[1], s[2] * n[2]);
+}
+
+Vec3 FieldGrid::index_reach(real_t r) const {
+  return Vec3(r * Hinv.row(0).norm() * n[0], r * Hinv.row(1).norm() * n[1], r * Hinv.row(2).norm() * n[2]);
+}
+
+real_t FieldGrid::half_diagonal() const {
+  if (!sheared) return 0.5 * spacing().norm();
+  const Vec3 e0 = H.col(0) / n[0], e1 = H.col(1) / n[1], e2 = H.col(2) / n[2];
+  real_t d = 0;
+  for (const real_t a : {-1.0, 1.0})
+    for (const real_t b : {-1.0, 1.0}) d = std::max(d, (e0 + a * e1 + b * e2).norm());
+  return 0.5 * d;
+}
+
+std::vector<double> node_positions(const FieldGrid& grid, Layers layers) {
+  std::vector<double> out;
+  out.reserve(std::size_t(std::max(0, layers.end - layers.first)) * std::size_t(grid.n[0]) * std::size_t(grid.n[1]) *
+              3);
+  for (int k = layers.first; k < layers.end; ++k)
+    for (int j = 0; j < grid.n[1]; ++j)
+      for (int i = 0; i < grid.n[0]; ++i) {
+        const Vec3 x = grid.node(i, j, k);
+        out.insert(out.end(), {x[0], x[1], x[2]});
+      }
+  return out;
+}
+
+Mat3 deformed_reference_edges(const Mat3& H0, const Mat3& H1) {
+  const Mat3 R = H0.inverse() * H1;
+  Mat3 M;
+  double off = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) M(i, j) = std::nearbyint(R(i, j)), off = std::max(off, std::abs(R(i, j) - M(i, j)));
+  if (!(off <= kFlipTolerance))
+    throw std::domain_error(
+        "the cell deformed too much between the two instants to tell a flip of its edges from the "
+        "deformation (H0^-1 H1 is " +
+        num(off) + " from an integer matrix, beyond " + num(kFlipTolerance) + "): take the instants closer together");
+  if (M.isIdentity(0)) return H1;
+  const double det = M.determinant();
+  if (std::abs(det) != 1) throw std::domain_error("the cell's edges changed by a matrix of determinant " + num(det));
+  // The exact integer inverse (the adjugate over a determinant of +-1).
+  Mat3 Minv;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const int a = (j + 1) % 3, b = (j + 2) % 3, c = (i + 1) % 3, d = (i + 2) % 3;
+      Minv(i, j) = (M(a, c) * M(b, d) - M(a, d) * M(b, c)) * det;
+    }
+  return H1 * Minv;
 }
 
 const Field& FieldsResult::field(const std::string& name) const {
@@ -385,8 +509,14 @@ std::string check_field_grid(const FieldGrid& grid, const FieldKernel& kernel, r
     if (grid.n[a] < 1)
       return "the grid needs at least 1 node along each axis (cells " + std::to_string(grid.n[0]) + " " +
           std::to_string(grid.n[1]) + " " + std::to_string(grid.n[2]) + ")";
-  for (int a = 0; a < 3; ++a)
-    if (!(grid.lengths[a] > 0) || !std::isfinite(grid.lengths[a])) return "the cell's lengths must be positive";
+  if (grid.sheared) {
+    const real_t det = grid.H.determinant();
+    if (!(det > 0) || !std::isfinite(det) || !grid.Hinv.allFinite())
+      return "the cell's matrix must have a positive determinant";
+  } else {
+    for (int a = 0; a < 3; ++a)
+      if (!(grid.lengths[a] > 0) || !std::isfinite(grid.lengths[a])) return "the cell's lengths must be positive";
+  }
   if (!(kernel.width > 0) || !std::isfinite(kernel.width))
     return "kernel width " + num(kernel.width) + " m: must be positive";
   if (kernel.type == KernelType::Gaussian && (!(kernel.cutoff >= 1) || !std::isfinite(kernel.cutoff)))
@@ -394,10 +524,11 @@ std::string check_field_grid(const FieldGrid& grid, const FieldKernel& kernel, r
   if (kernel.width < min_radius)
     return "kernel width " + num(kernel.width) + " m is below the smallest sphere radius " + num(min_radius) +
         " m: the fields would resolve the inside of the spheres";
-  const real_t half_diagonal = 0.5 * grid.spacing().norm();
+  const real_t half_diagonal = grid.half_diagonal();
   if (!(kernel.support() > half_diagonal) || !(kernel.raw(half_diagonal) > 0))
     return "the kernel's support radius " + num(kernel.support()) +
-        " m does not reach the nearest node from every point (half the diagonal of a grid cell is " +
+        " m does not reach the nearest node from every point (half the " +
+        (grid.sheared ? "longest diagonal of a grid cell, a parallelepiped, is " : "diagonal of a grid cell is ") +
         num(half_diagonal) + " m): give more cells or a wider kernel";
   return {};
 }
@@ -420,7 +551,10 @@ double field_bytes(const FieldGrid& grid, const FieldKernel& kernel, int ranks) 
   if (ranks <= 1) return double(grid.nodes()) * (kSums + kResult + 8);
   const double nz = grid.n[2], plane = double(grid.n[0]) * double(grid.n[1]);
   // The reach: the support, the box's margin of one node and about one more for a contact's branch.
-  const double slab = std::ceil(nz / ranks), reach = std::ceil(kernel.support() / grid.spacing()[2]) + 2;
+  const double slab = std::ceil(nz / ranks),
+               reach = std::ceil(grid.sheared ? grid.index_reach(kernel.support())[2]
+                                              : kernel.support() / grid.spacing()[2]) +
+      2;
   const double box = std::min(nz, slab + 2 * reach + 1);
   // The box's sums and branch weights, the slab's sums and fields, a layer's message in and out.
   return plane * (box * (kSums + 8) + slab * (kSums + kResult) + 2 * kSums) + 8.0 * double(grid.nodes());
@@ -431,7 +565,6 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
                           FieldsResult* recycle, GridExchange* exchange) {
   FieldsResult out;
   out.grid = grid, out.kernel = kernel;
-  const Vec3& L = grid.lengths;
   const Share sh =
       share_of(grid, exchange,
                shared(exchange) ? items_box(grid, kernel, particles, contacts, options.networks) : BoxBuilder(grid, 0));
@@ -505,7 +638,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     v[kM] = p.mass;
     for (int i = 0; i < 3; ++i) v[kMv + i] = p.mass * p.v[i], v[kMw + i] = p.mass * p.w[i];
     for (int m = 0; m < 6; ++m) v[kMvv + m] = p.mass * p.v[kSymI[m]] * p.v[kSymJ[m]];
-    for (const NodeWeight& r : sp.weights(wrap_into(p.x, L))) sums.add_row(r.node, 0, v, 14, r.w);
+    for (const NodeWeight& r : sp.weights(grid.wrap(p.x))) sums.add_row(r.node, 0, v, 14, r.w);
   }
   // A contact's branch weights: at each node, the sum over the quadrature points of omega_q
   // times the point's normalised weight, summed in double in the fixed order of the points (the
@@ -518,7 +651,7 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
     double fb[9];
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) fb[3 * i + j] = f[i] * b[j];
-    const Vec3 x1 = wrap_into(c.x1, L);
+    const Vec3 x1 = grid.wrap(c.x1);
     const int m = branch_pieces(kernel, b);
     touched.clear();
     for (int piece = 0; piece < m; ++piece)
@@ -599,13 +732,69 @@ FieldsResult coarse_grain(const FieldGrid& grid, const FieldKernel& kernel, std:
   return out;
 }
 
-FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Vec3& L1,
+namespace {
+
+// Each particle's displacement, its position wrapped into the reference cell (the image rule
+// moves the displacement with it; core/coarse_grain.hpp). Orthorhombic (the grid and L1 both):
+// per axis, the arithmetic of every run before sheared cells; else in fractional coordinates of
+// H0 and of H1' = deformed_reference_edges(H0, H1).
+struct MotionTerms {
+  std::vector<Vec3> x0, u;
+  std::vector<double> vol;
+  bool general = false;
+  Vec3 dL = Vec3::Zero();  // orthorhombic: L1 - L0
+  Mat3 dH = Mat3::Zero();  // general: H1' - H0, the motion of the image shifted by H0 m is (H1' - H0) m
+  double shift = 0;        // a bound of that motion over the images a kernel reaches
+
+  MotionTerms(const FieldGrid& grid, const Mat3& H1, std::span<const CgMotion> motions, real_t rs)
+      : x0(motions.size()), u(motions.size()), vol(motions.size()) {
+    Mat3 off = H1;
+    off.diagonal().setZero();
+    general = grid.sheared || !off.isZero(0);
+    const Vec3& L0 = grid.lengths;
+    const Vec3 L1 = H1.diagonal();
+    const Mat3 H0 = grid.matrix(), H0inv = grid.sheared ? grid.Hinv : Mat3(H0.inverse());
+    const Mat3 Hr = general ? deformed_reference_edges(H0, H1) : H1, Hrinv = Hr.inverse();
+    dL = L1 - L0, dH = Hr - H0;
+    for (std::size_t p = 0; p < motions.size(); ++p) {
+      const CgMotion& m = motions[p];
+      Vec3 s0, ds, xw;
+      if (general) {
+        s0 = wrap_into(H0inv * m.x0, Vec3::Ones()), xw = H0 * s0;
+        ds = Hrinv * m.x1 - s0;
+      } else {
+        xw = wrap_into(m.x0, L0), s0 = xw.cwiseQuotient(L0);
+        ds = m.x1.cwiseQuotient(L1) - s0;
+      }
+      for (int a = 0; a < 3; ++a) ds[a] -= std::nearbyint(ds[a]);
+      x0[p] = xw;
+      u[p] = general ? Vec3(Hr * (s0 + ds) - xw) : Vec3(L1.cwiseProduct(s0 + ds) - xw);
+      vol[p] = 4.0 / 3.0 * std::numbers::pi * m.radius * m.radius * m.radius;
+    }
+    // |u - shift| <= max |u| + (the images' reach + 2) max |shift of one image| (positions
+    // wrapped into the cell): orthorhombic (rs / L + 2) |dL| per axis.
+    if (!general)
+      for (int a = 0; a < 3; ++a) shift = std::max(shift, (rs / L0[a] + 2) * std::abs(dL[a]));
+    else
+      for (int a = 0; a < 3; ++a) shift += (rs * H0inv.row(a).norm() + 2) * dH.col(a).cwiseAbs().maxCoeff();
+  }
+  // The displacement of the image of a particle of displacement 'u' shifted by -H0 img.
+  Vec3 image_displacement(const Vec3& u, const std::array<int, 3>& img) const {
+    Vec3 ui = u;
+    if (!general)
+      for (int a = 0; a < 3; ++a) ui[a] -= img[a] * dL[a];
+    else ui -= dH * Vec3(img[0], img[1], img[2]);
+    return ui;
+  }
+};
+
+}  // namespace
+
+FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Mat3& H1,
                                  std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle,
                                  GridExchange* exchange) {
   FieldsResult out;
   out.grid = grid, out.kernel = kernel;
-  const Vec3& L0 = grid.lengths;
-  const Vec3 dL = L1 - L0;
   {
     std::vector<std::int64_t> n{std::int64_t(motions.size())};
     reducer.sum_all(std::span<std::int64_t>(n));
@@ -615,20 +804,9 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
   constexpr std::size_t kW = 0, kX = 1, kU = 4, kUx = 7, kXx = 16, kSlots = 22;
   const real_t rs = kernel.support();
 
-  // Each particle's displacement, its position wrapped into the reference cell (the image
-  // rule moves the displacement with it).
-  std::vector<Vec3> x0(motions.size()), u(motions.size());
-  std::vector<double> vol(motions.size());
-  for (std::size_t p = 0; p < motions.size(); ++p) {
-    const CgMotion& m = motions[p];
-    const Vec3 xw = wrap_into(m.x0, L0);
-    const Vec3 s0 = xw.cwiseQuotient(L0);
-    Vec3 ds = m.x1.cwiseQuotient(L1) - s0;
-    for (int a = 0; a < 3; ++a) ds[a] -= std::nearbyint(ds[a]);
-    x0[p] = xw;
-    u[p] = L1.cwiseProduct(s0 + ds) - xw;
-    vol[p] = 4.0 / 3.0 * std::numbers::pi * m.radius * m.radius * m.radius;
-  }
+  const MotionTerms mt(grid, H1, motions, rs);
+  const std::vector<Vec3>&x0 = mt.x0, &u = mt.u;
+  const std::vector<double>& vol = mt.vol;
   BoxBuilder items(grid, rs);
   if (shared(exchange))
     for (const Vec3& x : x0) items.add(x);
@@ -643,12 +821,9 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
       vmax = std::max(vmax, vol[p]);
       umax = std::max(umax, u[p].cwiseAbs().maxCoeff());
     }
-    // |u - k (.) dL| <= max |u| + (rs / L + 2) max |dL| (positions wrapped into [0, L0)).
-    double shift = 0;
-    for (int a = 0; a < 3; ++a) shift = std::max(shift, (rs / L0[a] + 2) * std::abs(dL[a]));
     std::vector<double> lim{vmax, umax};
     reducer.max_all(std::span<double>(lim));
-    const double V = lim[0], U = lim[1] + shift;
+    const double V = lim[0], U = lim[1] + mt.shift;
     std::vector<double> b(kSlots);
     b[kW] = V;
     for (int i = 0; i < 3; ++i) b[kX + i] = V * rs, b[kU + i] = V * U;
@@ -661,8 +836,7 @@ FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kerne
   for (std::size_t p = 0; p < motions.size(); ++p) {
     for (const Reach& r : sp.reach(x0[p])) {
       const Vec3 x = -r.d;  // the image's position relative to the node
-      Vec3 ui = u[p];
-      for (int a = 0; a < 3; ++a) ui[a] -= r.img[a] * dL[a];
+      const Vec3 ui = mt.image_displacement(u[p], r.img);
       const double w = vol[p] * r.w;
       sums.add(r.node, kW, w);
       for (int i = 0; i < 3; ++i) sums.add(r.node, kX + i, x[i] * w), sums.add(r.node, kU + i, ui[i] * w);

@@ -4,7 +4,8 @@
 // density and fabric tensor; and, between two instants, the displacement gradient and the
 // strain increment from the particles' displacements.
 //
-// Grid: n[a] nodes along axis a at (i + 1/2) h_a, h_a = L_a / n[a], over the cell [0, L). Each
+// Grid: n[a] nodes along axis a at (i + 1/2) h_a, h_a = L_a / n[a], over the cell [0, L) (a
+// sheared cell: the same in its fractional coordinates, FieldGrid::set_matrix). Each
 // point quantity (a particle's centre, a contact point, a quadrature point of a contact's
 // branch) is spread over the nodes within the kernel's support, periodic images included, with
 // weights W(|X_g - x|) normalised over those nodes: sum_g W_g dV = 1 exactly up to rounding, so
@@ -46,13 +47,41 @@ struct FieldKernel {
 
 struct FieldGrid {
   std::array<int, 3> n{1, 1, 1};
-  Vec3 lengths = Vec3::Ones();  // the cell's lengths at the instant, m
-  Vec3 spacing() const { return Vec3(lengths[0] / n[0], lengths[1] / n[1], lengths[2] / n[2]); }
+  Vec3 lengths = Vec3::Ones();  // the cell's lengths at the instant, m (sheared: the diagonal of H)
+  // A sheared cell (docs/fields.md "A sheared cell"): the grid is cut in fractional coordinates,
+  // node (i, j, k) at H ((i + 1/2) / n0, (j + 1/2) / n1, (k + 1/2) / n2), periodic images H m.
+  // Orthorhombic (sheared false, H unused): the nodes at (i + 1/2) h_a, the same bits as always.
+  bool sheared = false;
+  Mat3 H = Mat3::Identity(), Hinv = Mat3::Identity();
+  // The cell of edge vectors the columns of h: sheared if h has an off-diagonal term, else the
+  // orthorhombic cell of lengths diag(h).
+  void set_matrix(const Mat3& h);
+  Mat3 matrix() const { return sheared ? H : Mat3(lengths.asDiagonal()); }
+  // Orthorhombic: L_a / n_a. Sheared: the distance between neighbouring nodes along each edge.
+  Vec3 spacing() const;
   std::size_t nodes() const { return std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]); }
   // Node (i, j, k) is number i + n0 (j + n1 k): x fastest.
   Vec3 node(int i, int j, int k) const;
-  real_t cell_volume() const { return lengths.prod() / real_t(nodes()); }
+  real_t cell_volume() const {
+    return sheared ? std::abs(H.determinant()) / real_t(nodes()) : lengths.prod() / real_t(nodes());
+  }
+  // A position mapped into the cell ([0, L) per axis; sheared: fractional coordinates in [0, 1)).
+  Vec3 wrap(const Vec3& x) const;
+  // The fractional coordinate of x along axis 2 in [0, 1): which z-layer it lies in.
+  double layer_coordinate(const Vec3& x) const;
+  // Sheared: x's position in node units along each axis, H^-1 x (.) n (node i at i + 1/2).
+  Vec3 index_coordinate(const Vec3& x) const;
+  // Sheared: the reach in node index along each axis of a ball of radius r (r |row a of H^-1| n_a).
+  Vec3 index_reach(real_t r) const;
+  // Half the longest diagonal of a grid cell (a parallelepiped when sheared): every point is
+  // within it of a node.
+  real_t half_diagonal() const;
 };
+
+// The positions of the nodes of the z-layers [layers.first, layers.end) of 'grid', 3 values a
+// node, node i + n0 (j + n1 (k - layers.first)) (a sheared grid's geometry for its XDMF, which
+// places its nodes explicitly: docs/fields.md "A sheared cell").
+std::vector<double> node_positions(const FieldGrid& grid, Layers layers);
 
 // Why a grid and kernel cannot be used (empty: they can): the kernel's support does not reach
 // the nearest node from every point (support below the half-diagonal of a grid cell), a kernel
@@ -137,7 +166,11 @@ struct CgMotion {
 };
 
 // The displacement gradient between two instants of a cell of lengths L0 -> L1 (orthorhombic,
-// homogeneously deformed), on 'grid' (grid.lengths = L0: the reference configuration). Each
+// homogeneously deformed), on 'grid' (grid.lengths = L0: the reference configuration); of a
+// sheared cell H0 -> H1 (grid.H = H0, H1 any matrix): u = H1' (s0 + ds) - x0 with s0 = H0^-1 x0,
+// ds the nearest-image s1 - s0 in the fractional coordinates of H1' = deformed_reference_edges(),
+// an image shifted by H0 m moving by u + (H1' - H0) m; a flip between the instants is undone, so
+// that G is F - I for a homogeneous deformation F. Each
 // particle's displacement is u = L1 (.) (s0 + ds) - x0, with s0 = x0 / L0 and ds the scaled
 // displacement s1 - s0 taken to the nearest image (fluctuating displacements below half the cell
 // between the instants); a periodic image of the particle shifted by k (.) L0 moves by
@@ -150,8 +183,22 @@ struct CgMotion {
 // than 4 non-coplanar particles in reach). Collective, the same bits for any split of the motions
 // over the ranks (each particle once over all of them). 'recycle', 'exchange': as for
 // coarse_grain().
-FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Vec3& L1,
+FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Mat3& H1,
                                  std::span<const CgMotion> motions, Domain& reducer, FieldsResult* recycle = nullptr,
                                  GridExchange* exchange = nullptr);
+inline FieldsResult displacement_fields(const FieldGrid& grid, const FieldKernel& kernel, const Vec3& L1,
+                                        std::span<const CgMotion> motions, Domain& reducer,
+                                        FieldsResult* recycle = nullptr, GridExchange* exchange = nullptr) {
+  return displacement_fields(grid, kernel, Mat3(L1.asDiagonal()), motions, reducer, recycle, exchange);
+}
+
+// A sheared cell's displacements (docs/fields.md "A sheared cell"): the edges H1 of the later
+// instant as the deformed edges of the reference H0, F H0, undoing a flip (reduce(), core/cell.hpp)
+// between the instants: H1 = F H0 M with M an integer unimodular matrix, recovered as
+// round(H0^-1 H1) while the deformation is small: each entry of H0^-1 H1 within kFlipTolerance
+// of an integer (a deformation of less than a quarter of the edges in fractional terms), else
+// throws std::domain_error. Returns H1 M^-1 (H1 itself without a flip).
+constexpr double kFlipTolerance = 0.25;
+Mat3 deformed_reference_edges(const Mat3& H0, const Mat3& H1);
 
 }  // namespace fabrica

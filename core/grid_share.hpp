@@ -26,24 +26,36 @@ struct NodeBox {
   }
 };
 
-// The box of the nodes within 'support' (plus one node of margin) of the points added: along
+// The box of the nodes within 'support' (plus one node of margin) of the points added (a sheared grid: the
+// box of node indices that covers the real-space ball, FieldGrid::index_reach): along
 // each axis the smallest run of indices, unwrapped (a rank's subdomain is one run, across a
 // periodic face too), the whole axis when the run is as long as the grid.
 class BoxBuilder {
  public:
-  BoxBuilder(const FieldGrid& g, real_t support) : n_(g.n), h_(g.spacing()), rs_(support) {}
+  BoxBuilder(const FieldGrid& g, real_t support) : g_(g), n_(g.n), h_(g.spacing()), rs_(support) {
+    if (g.sheared) reach_ = g.index_reach(support);
+  }
   void add(const Vec3& x) {
-    for (int a = 0; a < 3; ++a) {
-      lo_[a] = std::min(lo_[a], std::ceil((x[a] - rs_) / h_[a] - 0.5) - 1);
-      hi_[a] = std::max(hi_[a], std::floor((x[a] + rs_) / h_[a] - 0.5) + 1);
+    if (g_.sheared) {  // in node units of the fractional coordinates, as the spreading (coarse_grain.cpp)
+      const Vec3 t = g_.index_coordinate(x);
+      for (int a = 0; a < 3; ++a) {
+        lo_[a] = std::min(lo_[a], std::ceil(t[a] - reach_[a] - 0.5) - 1);
+        hi_[a] = std::max(hi_[a], std::floor(t[a] + reach_[a] - 0.5) + 1);
+      }
+    } else {
+      for (int a = 0; a < 3; ++a) {
+        lo_[a] = std::min(lo_[a], std::ceil((x[a] - rs_) / h_[a] - 0.5) - 1);
+        hi_[a] = std::max(hi_[a], std::floor((x[a] + rs_) / h_[a] - 0.5) + 1);
+      }
     }
     any_ = true;
   }
   NodeBox box() const;
 
  private:
+  const FieldGrid& g_;
   std::array<int, 3> n_;
-  Vec3 h_;
+  Vec3 h_, reach_ = Vec3::Zero();
   real_t rs_;
   std::array<double, 3> lo_{1e300, 1e300, 1e300}, hi_{-1e300, -1e300, -1e300};
   bool any_ = false;

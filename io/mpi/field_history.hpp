@@ -25,11 +25,14 @@ namespace fabrica {
 
 class FieldHistory {
  public:
-  // A field instant: its case (of run.h5), step and cell lengths.
+  // A field instant: its case (of run.h5), step, cell lengths and cell matrix (orthorhombic:
+  // diag(lengths)).
   struct Instant {
     std::string case_name;
     std::int64_t step = 0;
     Vec3 lengths = Vec3::Zero();
+    Mat3 matrix = Mat3::Zero();  // zero: not given (diag(lengths))
+    Mat3 cell_matrix() const { return matrix.isZero(0) ? Mat3(lengths.asDiagonal()) : matrix; }
   };
   // What advance() finds: the instant the motions start from (none at the first instant of a
   // case) and this rank's motions (its home ids found at both instants; x0 as kept, x1 and the

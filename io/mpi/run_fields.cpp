@@ -21,7 +21,7 @@ std::vector<CgMotion> motions_by_layer(const std::vector<CgMotion>& mine, const 
   const std::int64_t P = ex.size(), nz = g0.n[2];
   std::vector<int> owner(mine.size());
   for (std::size_t i = 0; i < mine.size(); ++i) {
-    const double s = mine[i].x0[2] / g0.lengths[2] - std::floor(mine[i].x0[2] / g0.lengths[2]);
+    const double s = g0.layer_coordinate(mine[i].x0);
     const std::int64_t k = std::clamp<std::int64_t>(std::int64_t(s * double(nz)), 0, nz - 1);
     owner[i] = int(((k + 1) * P - 1) / nz);
   }
@@ -45,17 +45,10 @@ std::vector<CgMotion> motions_by_layer(const std::vector<CgMotion>& mine, const 
 
 }  // namespace
 
-void refuse_sheared_fields(const std::string& scene_path, const PeriodicCell& cell, std::int64_t step) {
-  if (!cell.sheared()) return;
-  throw InputError(scene_path + ": [fields]" + (step >= 0 ? " at step " + std::to_string(step) : std::string()) +
-                   ": the periodic cell is sheared: coarse-grained fields are computed on an orthorhombic cell "
-                   "only (their grid is cut along the cell's axes; docs/fields.md): leave [fields] out of a scene "
-                   "that shears its cell");
-}
-
-FieldGrid run_field_grid(const FieldsSpec& f, const Vec3& L) {
+FieldGrid run_field_grid(const FieldsSpec& f, const PeriodicCell& cell) {
   FieldGrid g;
-  g.lengths = L;
+  g.set_matrix(cell.sheared() ? cell.matrix() : Mat3(cell.lengths().asDiagonal()));
+  const Vec3 L = cell.heights();
   const double h = f.spacing ? *f.spacing : f.width;
   // As `fabrica fields --spacing` (apps/fields_offline.cpp): the same counts for the same cell.
   for (int k = 0; k < 3; ++k)
@@ -73,17 +66,17 @@ FieldKernel run_field_kernel(const FieldsSpec& f) {
 
 void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell& cell, MPI_Comm comm) {
   if (!scene.fields.enabled) return;
-  refuse_sheared_fields(scene.path, cell);
   double rmin = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < p.n_owned(); ++i) rmin = std::min(rmin, double(p.radius[i]));
   MPI_Allreduce(MPI_IN_PLACE, &rmin, 1, MPI_DOUBLE, MPI_MIN, comm);
   if (!std::isfinite(rmin)) rmin = 0;  // no particles: nothing to resolve
-  const FieldGrid g = run_field_grid(scene.fields, cell.lengths());
+  const FieldGrid g = run_field_grid(scene.fields, cell);
   const FieldKernel k = run_field_kernel(scene.fields);
   const std::string where = scene.path + ": [fields] ";
   const std::string grid = "grid " + std::to_string(g.n[0]) + " x " + std::to_string(g.n[1]) + " x " +
-      std::to_string(g.n[2]) + " nodes in the cell of " + number_text(g.lengths[0], 6) + " x " +
-      number_text(g.lengths[1], 6) + " x " + number_text(g.lengths[2], 6) + " m";
+      std::to_string(g.n[2]) + " nodes in the " + (g.sheared ? "sheared cell of heights " : "cell of ") +
+      number_text(cell.heights()[0], 6) + " x " + number_text(cell.heights()[1], 6) + " x " +
+      number_text(cell.heights()[2], 6) + " m";
   const std::string why = check_field_grid(g, k, rmin);
   if (!why.empty()) throw InputError(where + "width = " + number_text(k.width, 10) + " (" + grid + "): " + why);
   int ranks = 1;
@@ -101,8 +94,7 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
   // changed, and the run would then differ from one without fields.
   const Simulation& cs = sim;
   const Particles& p = cs.particles();
-  refuse_sheared_fields(scene_path, cs.cell(), cs.step_count());  // the same on every rank
-  const FieldGrid grid = run_field_grid(f, cs.cell().lengths());
+  const FieldGrid grid = run_field_grid(f, cs.cell());
   const FieldKernel kernel = run_field_kernel(f);
   // A cell that has deformed since the check: the grid is checked again (the same on every rank).
   if (const std::string why = check_field_grid(grid, kernel, 0); !why.empty())
@@ -136,18 +128,24 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
 
 std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f, MPI_Comm comm, FieldHistory& history,
                                                              const std::string& case_name, Simulation& sim,
-                                                             FieldsResult& r, FieldsResult* recycle,
-                                                             GridExchange* exchange) {
+                                                             FieldsResult& r, const std::string& scene_path,
+                                                             FieldsResult* recycle, GridExchange* exchange) {
   const Simulation& cs = sim;  // const: as run_fields(), the positions are not marked as changed
-  const FieldHistory::Instant now{case_name, cs.step_count(), cs.cell().lengths()};
+  const FieldHistory::Instant now{case_name, cs.step_count(), cs.cell().lengths(), cs.cell().matrix()};
   FieldHistory::Step s = history.advance(comm, cs.particles(), now);
   if (!s.from) return std::nullopt;
   // As `fabrica fields` (apps/fields_offline.cpp): the grid of this instant's counts, in the
   // earlier cell (the reference configuration of the displacements).
   FieldGrid g0 = r.grid;
-  g0.lengths = s.from->lengths;
+  g0.set_matrix(s.from->cell_matrix());
   if (exchange && exchange->size() > 1) s.motions = motions_by_layer(s.motions, g0, *exchange);
-  FieldsResult d = displacement_fields(g0, r.kernel, now.lengths, s.motions, sim.domain(), recycle, exchange);
+  FieldsResult d;
+  try {  // a flip of a sheared cell's edges undone (the same outcome on every rank: the cells are)
+    d = displacement_fields(g0, r.kernel, now.cell_matrix(), s.motions, sim.domain(), recycle, exchange);
+  } catch (const std::domain_error& e) {
+    throw InputError(scene_path + ": [fields] at step " + std::to_string(now.step) +
+                     ": the displacement fields since step " + std::to_string(s.from->step) + ": " + e.what());
+  }
   for (Field& x : d.fields)
     if (f.keeps(x.name)) r.fields.push_back(std::move(x));
   return s.from;

@@ -1,6 +1,6 @@
 // The coarse-grained fields during a run ([fields], docs/fields.md "Fields during a run"): the
-// grid and kernel of the scene, the check of the grid against the specimen before the run (an
-// orthorhombic cell only: a sheared one is refused, before the run and at any instant), and
+// grid and kernel of the scene (on a sheared cell, a grid in its fractional coordinates:
+// docs/fields.md "A sheared cell"), the check of the grid against the specimen before the run, and
 // the fields of the simulation's current state (collective over the simulation's domain), and its
 // displacement fields since the previous field instant. They are written into run.h5 by
 // RunOutput::fields (io/mpi/run_output.hpp).
@@ -16,18 +16,14 @@
 
 namespace fabrica {
 
-// The grid of [fields] for a cell of lengths L: its cells, or round(L_a / spacing) nodes along
-// axis a (at least 1; spacing defaults to the width).
-FieldGrid run_field_grid(const FieldsSpec& f, const Vec3& L);
+// The grid of [fields] for 'cell': its cells, or round(h_a / spacing) nodes along axis a (at
+// least 1; spacing defaults to the width), h the cell's heights (its lengths when orthorhombic).
+FieldGrid run_field_grid(const FieldsSpec& f, const PeriodicCell& cell);
 FieldKernel run_field_kernel(const FieldsSpec& f);
-
-// The grid is cut along the cell's axes: refuses (InputError naming the scene and [fields], and
-// the step when given) a sheared cell (core/cell.hpp). The same on every rank (the cell is).
-void refuse_sheared_fields(const std::string& scene_path, const PeriodicCell& cell, std::int64_t step = -1);
 
 // Refuses (InputError, the same message on every rank of 'comm') a [fields] grid and kernel that
 // cannot be used on the specimen of 'p' (owned particles; any split over the ranks) in 'cell':
-// a sheared cell, a width below the smallest radius, a support short of the nearest node, a grid
+// a width below the smallest radius, a support short of the nearest node, a grid
 // above half of the machine's memory on the largest rank's share of the grid (field_bytes() on
 // the ranks of 'comm'). Collective.
 void check_run_fields(const Scene& scene, const Particles& p, const PeriodicCell& cell, MPI_Comm comm);
@@ -49,10 +45,12 @@ FieldsResult run_fields(const FieldsSpec& f, double strong_ratio, const std::str
 // keeps are appended to r. 'history' then keeps this instant. Returns the instant they start
 // from, none at the first instant of a case (then nothing is appended). Collective over 'comm'
 // (the home ranks of the history) and sim.domain(). 'recycle', 'exchange': as for run_fields()
-// (the same layers as r's).
+// (the same layers as r's). A sheared cell deformed too much since the instant kept to undo a
+// flip of its edges (deformed_reference_edges) is an InputError naming 'scene_path' and [fields].
 std::optional<FieldHistory::Instant> run_displacement_fields(const FieldsSpec& f, MPI_Comm comm, FieldHistory& history,
                                                              const std::string& case_name, Simulation& sim,
-                                                             FieldsResult& r, FieldsResult* recycle = nullptr,
+                                                             FieldsResult& r, const std::string& scene_path,
+                                                             FieldsResult* recycle = nullptr,
                                                              GridExchange* exchange = nullptr);
 
 // The localisation index (core/localisation.hpp) of a strain increment held by slabs over the

@@ -47,14 +47,6 @@ std::string series_unit(const std::string& c) {
   return "1";
 }
 
-// The cell matrix H row by row, as the attribute cell_matrix holds it.
-std::array<double, 9> rows_of(const Mat3& h) {
-  std::array<double, 9> out;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) out[std::size_t(3 * r + c)] = h(r, c);
-  return out;
-}
-
 std::vector<std::string> split_csv(const std::string& line) {
   std::vector<std::string> r;
   std::istringstream s(line);
@@ -63,6 +55,21 @@ std::vector<std::string> split_csv(const std::string& line) {
     r.push_back(c);
   }
   return r;
+}
+
+// The rest of a field instant's sidecar entry from its group as written: time, grid, whether its
+// nodes are explicit (the dataset kNodePosition, the grid's geometry) and its fields.
+void read_field_instant(const h5::Group& ig, FieldsXdmfEntry& e) {
+  e.time = ig.attr_double("time");
+  const std::vector<double> n = ig.attr_doubles("cells"), h = ig.attr_doubles("spacing"),
+                            x0 = ig.attr_doubles("origin");
+  for (int a = 0; a < 3; ++a) e.cells[a] = int(n.at(a)), e.spacing[a] = h.at(a), e.origin[a] = x0.at(a);
+  e.explicit_nodes = ig.exists(kNodePosition);
+  for (const std::string& d : ig.children()) {
+    if (d == kNodePosition) continue;
+    const std::vector<hsize_t> shape = ig.open_dataset(d).shape();
+    e.quantities.emplace_back(d, shape.size() > 3 ? int(shape[3]) : 1);
+  }
 }
 
 }  // namespace
@@ -75,7 +82,8 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
     : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every),
       strong_ratio_(scene.fabric.strong_ratio), fields_spec_(scene.fields),
       fields_strong_ratio_(scene.fabric.strong_ratio), scene_path_(scene.path),
-      fields_steps_(scene.fields.enabled ? scene.fields.every * scene.output_every : 0) {
+      fields_steps_(scene.fields.enabled ? scene.fields.every * scene.output_every : 0),
+      fields_explicit_(any_shears(scene.stages)) {
   const auto t0 = clock_type::now();
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
@@ -104,7 +112,8 @@ RunOutput::RunOutput(MPI_Comm comm, const Scene& scene, const std::string& outdi
     : comm_(comm), outdir_(outdir), path_(file_name(outdir)), every_(scene.snapshot_every),
       strong_ratio_(scene.fabric.strong_ratio), fields_spec_(scene.fields),
       fields_strong_ratio_(scene.fabric.strong_ratio), scene_path_(scene.path),
-      fields_steps_(scene.fields.enabled ? scene.fields.every * scene.output_every : 0) {
+      fields_steps_(scene.fields.enabled ? scene.fields.every * scene.output_every : 0),
+      fields_explicit_(any_shears(scene.stages)) {
   const auto t0 = clock_type::now();
   MPI_Comm_rank(comm, &rank_);
   MPI_Comm_size(comm, &size_);
@@ -220,7 +229,7 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
       const std::int64_t m = sg.exists("contacts/ends") ? sg.attr_int("contacts") : 0;
       // The cell as the reader takes it: diag(cell_lengths) in a file written before cell_matrix.
       const Mat3 H = snapshot_cell_matrix(sg);
-      entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles"), m, rows_of(H), matrix_sheared(H)});
+      entries.push_back({c, s, sg.attr_double("time"), sg.attr_int("particles"), m, matrix_rows(H), matrix_sheared(H)});
     }
     std::sort(entries.begin(), entries.end(), [](const XmfEntry& a, const XmfEntry& b) { return a.step < b.step; });
     xmf_.insert(xmf_.end(), entries.begin(), entries.end());
@@ -250,14 +259,8 @@ void RunOutput::resume_after(std::int64_t step, const std::vector<std::string>& 
           cg.remove(sn);
           continue;
         }
-        e.case_name = c, e.group = "/fields/" + c + "/" + sn, e.time = ig.attr_double("time");
-        const std::vector<double> n = ig.attr_doubles("cells"), h = ig.attr_doubles("spacing"),
-                                  x0 = ig.attr_doubles("origin");
-        for (int a = 0; a < 3; ++a) e.cells[a] = int(n.at(a)), e.spacing[a] = h.at(a), e.origin[a] = x0.at(a);
-        for (const std::string& d : ig.children()) {
-          const std::vector<hsize_t> shape = ig.open_dataset(d).shape();
-          e.quantities.emplace_back(d, shape.size() > 3 ? int(shape[3]) : 1);
-        }
+        e.case_name = c, e.group = "/fields/" + c + "/" + sn;
+        read_field_instant(ig, e);
         entries.push_back(e);
       }
       std::sort(entries.begin(), entries.end(),
@@ -413,7 +416,7 @@ void RunOutput::write_snapshot(const std::string& case_name, const Simulation& s
   const Vec3 L = sim.cell().lengths();
   const double Ld[3] = {L[0], L[1], L[2]}, ed[3] = {strain[0], strain[1], strain[2]};
   const Mat3 H = sim.cell().matrix();  // orthorhombic: diag(L)
-  const std::array<double, 9> h = rows_of(H);
+  const std::array<double, 9> h = matrix_rows(H);
   g.set_attr("step", std::int64_t(sim.step_count()));
   g.set_attr("time", double(sim.time()));
   g.set_attr("cell_lengths", std::span<const double>(Ld, 3));
@@ -478,19 +481,23 @@ double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
   // nothing is exchanged or kept unless [fields] keeps one of them.
   std::optional<FieldHistory::Instant> from;
   if (fields_spec_.displacement())
-    from = run_displacement_fields(fields_spec_, comm_, history_, case_name, sim, r, &spare_fields_, &exchange);
+    from = run_displacement_fields(fields_spec_, comm_, history_, case_name, sim, r, scene_path_, &spare_fields_,
+                                   &exchange);
   for (const Field& f : r.fields)
     if (f.name == "strain_increment") index = run_localisation_index(comm_, f.values);
   const FieldGrid& grid = r.grid;
   double values = 0;  // over the whole grid
   for (const Field& f : r.fields) values += double(grid.nodes()) * f.components;
+  // A sheared grid, or one of a run whose cell shears: the nodes' positions and the cell matrix.
+  const bool explicit_nodes = grid.sheared || fields_explicit_ || sim.cell().sheared();
+  if (explicit_nodes) values += 3.0 * double(grid.nodes());
   agree(comm_, [&] {  // room first, as for a snapshot (chunking and checksums: a quarter more)
     if (rank_ == 0) check_room(path_, 1.25 * 8 * values + 16384);
   });
   h5::Group g = file_.create_group(gp);
-  const Vec3 L = grid.lengths, h = grid.spacing();
+  const Vec3 L = grid.lengths, h = grid.spacing(), x0 = grid.sheared ? grid.node(0, 0, 0) : Vec3(0.5 * h);
   const double Ld[3] = {L[0], L[1], L[2]}, cells[3] = {double(grid.n[0]), double(grid.n[1]), double(grid.n[2])},
-               sp[3] = {h[0], h[1], h[2]}, origin[3] = {0.5 * h[0], 0.5 * h[1], 0.5 * h[2]};
+               sp[3] = {h[0], h[1], h[2]}, origin[3] = {x0[0], x0[1], x0[2]};
   // The attributes of `fabrica fields` (docs/fields.md, "Layout of the fields file").
   g.set_attr("step", std::int64_t(sim.step_count()));
   g.set_attr("time", double(sim.time()));
@@ -509,10 +516,14 @@ double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
     const double L0[3] = {from->lengths[0], from->lengths[1], from->lengths[2]};
     g.set_attr("displacement_from_step", from->step);
     g.set_attr("displacement_reference_lengths", std::span<const double>(L0, 3));
+    if (grid.sheared || matrix_sheared(from->cell_matrix()))
+      g.set_attr("displacement_reference_matrix", std::span<const double>(matrix_rows(from->cell_matrix())));
   }
+  if (explicit_nodes) g.set_attr(layout::kCellMatrix, std::span<const double>(matrix_rows(grid.matrix())));
   FieldsXdmfEntry e;
   e.case_name = case_name, e.group = "/" + gp, e.step = sim.step_count(), e.time = double(sim.time());
   e.cells = grid.n, e.spacing = {sp[0], sp[1], sp[2]}, e.origin = {origin[0], origin[1], origin[2]};
+  e.explicit_nodes = explicit_nodes;
   // Rank k writes its share of the z-layers, the layers it holds (one collective write per
   // dataset, every rank taking part).
   const hsize_t nz = hsize_t(grid.n[2]), layer = hsize_t(grid.n[0]) * hsize_t(grid.n[1]);
@@ -530,6 +541,14 @@ double RunOutput::write_fields(const std::string& case_name, Simulation& sim) {
                  z1 > z0 ? f.values.data() + (z0 - hsize_t(r.layers.first)) * layer * hsize_t(f.components) : &none,
                  true);
     e.quantities.emplace_back(f.name, f.components);
+  }
+  if (explicit_nodes) {  // the nodes' positions, the XDMF's geometry (each rank its layers)
+    const std::vector<double> x = node_positions(grid, {int(z0), int(z1)});
+    const h5::Dataset d =
+        g.create_dataset(kNodePosition, h5::Type::F64, {nz, hsize_t(grid.n[1]), hsize_t(grid.n[0]), 3});
+    d.set_attr("unit", std::string("m"));
+    static const double none = 0;
+    d.write_rows(h5::Type::F64, z0, z1 - z0, z1 > z0 ? x.data() : &none, true);
   }
   // In name order, as a restart lists them back from the file (resume_after): the same sidecar.
   std::sort(e.quantities.begin(), e.quantities.end());

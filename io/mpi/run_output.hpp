@@ -160,6 +160,9 @@ class RunOutput {
   double fields_strong_ratio_ = 1;
   std::string scene_path_;
   std::int64_t fields_steps_ = 0;
+  // A stage of the scene shears the cell: every field instant's grid is written with its nodes'
+  // positions (FieldsXdmfEntry::explicit_nodes), so that a case's grids are all of one type.
+  bool fields_explicit_ = false;
   double fields_seconds_ = 0;
   // The last instant's fields, their storage reused by the next instant's (no fresh pages).
   FieldsResult spare_fields_;

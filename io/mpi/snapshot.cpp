@@ -73,6 +73,13 @@ bool matrix_sheared(const Mat3& h) {
   return !off.isZero(0);
 }
 
+std::array<double, 9> matrix_rows(const Mat3& h) {
+  std::array<double, 9> out;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out[std::size_t(3 * r + c)] = h(r, c);
+  return out;
+}
+
 Mat3 snapshot_cell_matrix(const h5::Object& g) {
   if (!g.has_attr(layout::kCellMatrix)) return Mat3(attr_vec3(g, "cell_lengths").asDiagonal());
   const std::vector<double> v = g.attr_doubles(layout::kCellMatrix);

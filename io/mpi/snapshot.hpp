@@ -8,6 +8,7 @@
 #include "core/types.hpp"
 #include "core/errors.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -22,6 +23,8 @@ class Object;
 // Whether a cell matrix has an off-diagonal term: a sheared cell's (an orthorhombic cell's
 // matrix is diagonal).
 bool matrix_sheared(const Mat3& h);
+// The cell matrix H row by row, as the attribute cell_matrix holds it.
+std::array<double, 9> matrix_rows(const Mat3& h);
 
 // The attributes of one snapshot group /snapshots/<case>/<step>.
 struct SnapshotInfo {

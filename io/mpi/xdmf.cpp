@@ -178,14 +178,21 @@ void write_fields_xdmf(const std::string& path, const std::string& h5file,
           std::to_string(e.cells[2]) + " " + std::to_string(e.cells[1]) + " " + std::to_string(e.cells[0]);
       x << "      <Grid Name=\"" << xml_escape(c + "_fields_" + layout::step_name(e.step))
         << "\" GridType=\"Uniform\">\n"
-        << "        <Time Value=\"" << e.time << "\"/>\n"
-        << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims << "\"/>\n"
-        << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
-        << "          <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << e.origin[2]
-        << " " << e.origin[1] << " " << e.origin[0] << "</DataItem>\n"
-        << "          <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << e.spacing[2]
-        << " " << e.spacing[1] << " " << e.spacing[0] << "</DataItem>\n"
-        << "        </Geometry>\n";
+        << "        <Time Value=\"" << e.time << "\"/>\n";
+      if (e.explicit_nodes)
+        x << "        <Topology TopologyType=\"3DSMesh\" Dimensions=\"" << dims << "\"/>\n"
+          << "        <Geometry GeometryType=\"XYZ\">\n"
+          << "          <DataItem Dimensions=\"" << dims << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">"
+          << xml_escape(h5file + ":" + e.group + "/" + kNodePosition) << "</DataItem>\n"
+          << "        </Geometry>\n";
+      else
+        x << "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << dims << "\"/>\n"
+          << "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+          << "          <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << e.origin[2]
+          << " " << e.origin[1] << " " << e.origin[0] << "</DataItem>\n"
+          << "          <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << e.spacing[2]
+          << " " << e.spacing[1] << " " << e.spacing[0] << "</DataItem>\n"
+          << "        </Geometry>\n";
       for (const auto& [name, comps] : e.quantities) {
         const char* kind = comps == 1 ? "Scalar" : comps == 3 ? "Vector" : "Tensor";
         x << "        <Attribute Name=\"" << xml_escape(name) << "\" AttributeType=\"" << kind

@@ -47,10 +47,17 @@ struct FieldsXdmfEntry {
   double time = 0;
   std::array<int, 3> cells{1, 1, 1};
   std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+  // The nodes are the dataset kNodePosition of the group (nz, ny, nx, 3), not origin + i spacing:
+  // a sheared grid, and every grid of a case whose cell shears (docs/fields.md "A sheared cell":
+  // ParaView's Xdmf3 reader takes the grid type of a temporal collection from its grids).
+  bool explicit_nodes = false;
   std::vector<std::pair<std::string, int>> quantities;
 };
+// The dataset of the node positions in an instant's group (not a field), FieldsXdmfEntry::explicit_nodes.
+inline constexpr const char* kNodePosition = "node_position";
 // The fields' sidecar: per case a temporal collection of 3DCoRectMesh grids (nodes at
-// origin + i spacing), each dataset a node attribute (Dimensions nz ny nx [components]).
+// origin + i spacing; explicit_nodes: a 3DSMesh whose XYZ geometry is kNodePosition), each
+// dataset a node attribute (Dimensions nz ny nx [components]).
 void write_fields_xdmf(const std::string& path, const std::string& h5file, const std::vector<FieldsXdmfEntry>& entries);
 
 // s with &, <, > and " escaped for XML text and attributes.

@@ -992,14 +992,6 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     throw InputError(path +
                      ": [[stage]] and [[driven]] both given: the stages deform the periodic "
                      "cell and the driven particles would not follow it; remove one of them");
-  // Coarse-grained fields are cut along the cell's axes: a stage that shears the cell would
-  // meet a refusal at its first field instant (io/mpi/run_fields.cpp); said before the run.
-  if (sc.fields.enabled)
-    for (const StageSpec& st : sc.stages)
-      if (st.shears())
-        throw InputError(path + ": [fields] and " + st.where + " (\"" + st.name +
-                         "\") both given: the stage shears the periodic cell, and coarse-grained fields are "
-                         "computed on an orthorhombic cell only (docs/fields.md); remove one of them");
   return sc;
 }
 

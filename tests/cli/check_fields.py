@@ -4,6 +4,8 @@ snapshots they were computed from, through apps/fabrica_h5.py:
     check_fields.py integrals RUN.h5 FIELDS.h5   at every instant of FIELDS.h5, the volume
         integral (sum over the nodes x the cell volume of a node) of contact_stress equals the
         Love-Weber sum f (x) b of the snapshot's particle contacts (relative to its norm, 1e-12),
+        of stress that sum plus the integral of kinetic_stress (1e-12; a sheared cell's node
+        volume |det H| / N, H its cell_matrix),
         of solid_fraction the solid volume (1e-12), of contact_density_all the number of
         particle contacts (1e-12); every field has the grid's shape; the strain increment is the
         symmetric part of the displacement gradient.
@@ -27,6 +29,10 @@ snapshots they were computed from, through apps/fabrica_h5.py:
         before; the instants of the re-equilibration SOURCE ran for both are OTHER's too (the
         same HDF5 objects: hard links), and OTHER's first own instant (its shear's) has its
         displacement from the last of them.
+    check_fields.py cellshear FIELDS.h5 CASE   a case whose cell shears past a flip of its edges:
+        at least one flip between two instants (H1 = F H0 M, M = round(H0^-1 H1) not I), and at
+        every instant with displacement fields the mean over the nodes of displacement_gradient
+        equals the cell's own F - I (the flip undone) within 5 % of |F - I|.
 Exits 0 if all hold, 1 with the reason, 77 if h5py or numpy is missing.
 """
 import os
@@ -59,7 +65,8 @@ def integrals(run_path, fields_path):
     for inst in instants:
         f = fl.fields(inst.case, inst.step)
         nx, ny, nz = inst.cells
-        dv = np.prod(inst.cell_lengths) / (nx * ny * nz)
+        dv = abs(np.linalg.det(inst.cell_matrix)) / (nx * ny * nz) if inst.sheared else \
+            np.prod(inst.cell_lengths) / (nx * ny * nz)
         for name, v in f.items():
             if v.shape[:3] != (nx, ny, nz):
                 fail(f"{inst.case} step {inst.step}: {name} has shape {v.shape}, grid {nx} {ny} {nz}")
@@ -68,6 +75,11 @@ def integrals(run_path, fields_path):
         force = c.fn[pp, None] * c.normal[pp] + c.ft[pp]
         lw = np.einsum("ci,cj->ij", force, c.branch[pp])
         integral = f["contact_stress"].sum(axis=(0, 1, 2)) * dv
+        if "stress" in f and "kinetic_stress" in f:  # the stress: the contacts' and the kinetic part
+            total = (f["stress"].sum(axis=(0, 1, 2)) - f["kinetic_stress"].sum(axis=(0, 1, 2))) * dv
+            if np.linalg.norm(lw) > 0 and not np.linalg.norm(total - lw) / np.linalg.norm(lw) <= TOL:
+                fail(f"{inst.case} step {inst.step}: stress - kinetic stress integral vs Love-Weber: "
+                     f"{np.linalg.norm(total - lw) / np.linalg.norm(lw):.3e}")
         p = run.particles(inst.case, inst.step)
         solid = (4.0 / 3.0 * np.pi * p.radius ** 3).sum()
         errs = [np.linalg.norm(integral - lw) / np.linalg.norm(lw) if np.linalg.norm(lw) > 0 else 0.0,
@@ -84,7 +96,9 @@ def integrals(run_path, fields_path):
             ok = np.isfinite(g)
             if not np.array_equal(np.isfinite(e), ok) or np.abs(e[ok] - sym[ok]).max(initial=0) > 1e-15:
                 fail(f"{inst.case} step {inst.step}: strain_increment is not the symmetric part of the gradient")
-    print(f"check_fields.py: {len(instants)} instants; largest relative errors: contact stress integral "
+    sheared = sum(i.sheared for i in instants)
+    print(f"check_fields.py: {len(instants)} instants ({sheared} on a sheared cell); largest relative errors: "
+          "contact stress integral "
           f"{worst[0]:.1e}, solid volume {worst[1]:.1e}, contact count {worst[2]:.1e} (tolerance {TOL})")
 
 
@@ -237,7 +251,34 @@ def localisation(run_dir, case, csv_path=None):
           f"values {min(want.values()):.4f}-{max(want.values()):.4f}), NaN at the {len(steps) - len(want)} other rows")
 
 
+def cellshear(path, case):
+    fl = fabrica_h5.RunFile(path)
+    inst = {i.step: i for i in fl.field_instants(case)}
+    flips, worst, n = 0, 0.0, 0
+    for step, i in sorted(inst.items()):
+        if i.displacement_from_step < 0:
+            continue
+        h0, h1 = inst[i.displacement_from_step].cell_matrix, i.cell_matrix
+        m = np.round(np.linalg.solve(h0, h1))
+        flips += not np.array_equal(m, np.eye(3))
+        f = h1 @ np.linalg.inv(m) @ np.linalg.inv(h0)
+        g = fl.fields(case, step, ["displacement_gradient"])["displacement_gradient"]
+        mean = np.nanmean(g.reshape(-1, 3, 3), axis=0)
+        e = np.linalg.norm(mean - (f - np.eye(3))) / np.linalg.norm(f - np.eye(3))
+        worst, n = max(worst, e), n + 1
+        if not e <= 0.05:
+            fail(f"{case} step {step}: mean displacement gradient {mean.tolist()} against the cell's F - I "
+                 f"{(f - np.eye(3)).tolist()}: {e:.3f} of |F - I|")
+    if flips == 0:
+        fail(f"{path}: no flip of the cell's edges between two instants of {case}")
+    print(f"check_fields.py: {case}: {n} instants with displacement fields, {flips} across a flip of the cell's "
+          f"edges; the mean displacement gradient is the cell's F - I within {worst:.2e} of |F - I|")
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "cellshear":
+        cellshear(*sys.argv[2:])
+        sys.exit(0)
     if len(sys.argv) == 6 and sys.argv[1] == "inrun":
         inrun(*sys.argv[2:])
         sys.exit(0)

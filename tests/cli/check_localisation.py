@@ -15,7 +15,11 @@ cell of 0.3 x 0.2 x 0.25 m on a 60 x 40 x 50 grid, sigma = 20 mm:
   field of 10 on one tenth of the nodes and 1 elsewhere: index 10/19 to 1e-12;
 - the theory angles of a mean stress diag(300, 200, 100) kPa (sin phi = 1/2: phi = 30 deg) and a
   mean strain increment diag(-0.002, 0.0005, 0.0025) (sin psi = -(d1 + d3)/(d1 - d3) = 1/9) to
-  1e-9 degrees, and theta_mc = 45 + phi/2.
+  1e-9 degrees, and theta_mc = 45 + phi/2;
+- a sheared cell (H with a tilt of 0.12 m of edge 3 along x, the grid in fractional
+  coordinates): a band of the mode (1, 0, 1) planted at the real-space distance d to the planes
+  of normal H^-T (1, 0, 1): the mode, the normal and the angle to 1e-12, the thickness within two
+  slabs of the FWHM, found inside above outside.
 """
 import csv
 import math
@@ -40,8 +44,9 @@ def check(ok, what):
 
 
 class Info:
-    def __init__(self, L):
+    def __init__(self, L, H=None):
         self.case, self.step, self.time, self.cell_lengths = "synthetic", 0, 0.0, np.asarray(L)
+        self.cell_matrix = np.diag(L) if H is None else np.asarray(H)
 
 
 def shear_field(gamma, n):
@@ -92,6 +97,31 @@ def synthetic():
           f"phi {t['phi']:.9f} (30), psi {t['psi']:.9f} ({psi:.9f}), theta_mc {t['theta_mc']:.9f} (60)")
 
 
+def synthetic_sheared():
+    H = np.array([[0.3, 0.0, 0.12], [0.0, 0.2, 0.0], [0.0, 0.0, 0.25]])
+    cells = (60, 40, 50)
+    S = np.meshgrid(*[(np.arange(n) + 0.5) / n for n in cells], indexing="ij")  # fractional coordinates
+    q = np.linalg.solve(H.T, np.array([1.0, 0.0, 1.0]))  # the reciprocal-lattice vector of (1, 0, 1)
+    spacing = 1 / np.linalg.norm(q)
+    n = q * spacing
+    s = np.mod(S[0] + S[2], 1.0)  # q.x = (1, 0, 1).s
+    d = np.abs(((s - 0.37 + 0.5) % 1.0) - 0.5) * spacing  # real-space distance to the band's planes
+    sigma = 0.02
+    gamma = 1 + 9 * np.exp(-d * d / (2 * sigma * sigma))
+    row, g, b = lo.analyse({"strain_increment": shear_field(gamma, n)}, Info(np.diag(H), H))
+    check((row["h"], row["k"], row["l"]) == (1, 0, 1), f"sheared: mode (1, 0, 1) found: ({row['h']}, {row['k']}, {row['l']})")
+    angle = math.degrees(math.acos(abs(n[0])))
+    check(abs(row["angle_deg"] - angle) < 1e-12, f"sheared: angle {row['angle_deg']:.6f} deg, planted {angle:.6f} "
+          f"(orthorhombic cell of the same lengths: {math.degrees(math.acos(0.25 / math.hypot(0.3, 0.25))):.6f})")
+    check(np.max(np.abs(np.array([row["n1"], row["n2"], row["n3"]]) - n)) < 1e-12, "sheared: normal H^-T m as planted")
+    check(abs(row["spacing_m"] - spacing) < 1e-12, f"sheared: band spacing {row['spacing_m']:.6f} m, 1/|H^-T m|")
+    fwhm = 2 * math.sqrt(2 * math.log(2)) * sigma
+    check(abs(row["thickness_m"] - fwhm) <= 2 * spacing / lo.SLABS,
+          f"sheared: thickness {row['thickness_m'] * 1e3:.2f} mm, FWHM {fwhm * 1e3:.2f} mm")
+    check(row["band"] == 1 and row["gamma_in"] > row["gamma_out"],
+          f"sheared: band found, gamma in {row['gamma_in']:.3f} > out {row['gamma_out']:.3f}")
+
+
 def on_file(path, outdir):
     os.makedirs(outdir, exist_ok=True)
     out = os.path.join(outdir, "loc.csv")
@@ -110,6 +140,7 @@ def on_file(path, outdir):
 if __name__ == "__main__":
     if len(sys.argv) >= 2 and sys.argv[1] == "synthetic":
         synthetic()
+        synthetic_sheared()
     elif len(sys.argv) == 4 and sys.argv[1] == "file":
         on_file(sys.argv[2], sys.argv[3])
     else:

@@ -5,7 +5,10 @@ FIELDS.h5, one sidecar per case, docs/fields.md) in ParaView and checks it again
 
 With ParaView's Xdmf3 reader (Xdmf3ReaderS), from another working directory, for that case:
   - one time step per instant of the case, at the instant's time;
-  - at every time step an image grid of nx x ny x nz points at origin + (i, j, k) spacing;
+  - at every time step an image grid of nx x ny x nz points at origin + (i, j, k) spacing; for a
+    case whose cell shears (its instants hold node_position, docs/fields.md "A sheared cell"), a
+    structured grid whose points are node_position, x varying fastest, each at
+    H ((i, j, k) + 1/2) / (nx, ny, nz) (relative 1e-12), H the instant's cell_matrix;
   - the point arrays solid_fraction (1 component), velocity (3) and contact_stress (9) equal the
     HDF5 datasets (compared with ==, NaN where NaN), x varying fastest;
   - unless --no-render: a slice through the middle of the cell coloured by solid_fraction, saved
@@ -49,6 +52,15 @@ def leaf(d):
     return out[0]
 
 
+def check_image(d, a, n, where):
+    """An image grid at origin + (i, j, k) spacing (its bounds)."""
+    b = d.GetBounds()
+    o, h = a["origin"], a["spacing"]
+    want = [o[0], o[0] + (n[0] - 1) * h[0], o[1], o[1] + (n[1] - 1) * h[1], o[2], o[2] + (n[2] - 1) * h[2]]
+    if not np.allclose(b, want, rtol=1e-12, atol=1e-15):
+        fail(f"{where}: bounds {b}, expected {want}")
+
+
 def main():
     args = sys.argv[1:]
     png = None
@@ -77,6 +89,7 @@ def main():
         got = list(reader.TimestepValues) if len(steps) > 1 else times
         if len(got) != len(steps) or any(abs(a - b) > 1e-12 * max(abs(b), 1) for a, b in zip(got, times)):
             fail(f"{len(got)} time steps, {h5} has {len(steps)} instants of {case}")
+        sheared = 0
         for s, t in zip(steps, times):
             reader.UpdatePipeline(t)
             d = leaf(sm.Fetch(reader))
@@ -85,11 +98,19 @@ def main():
             where = f"{case} step {int(s)} (t = {t})"
             if d.GetNumberOfPoints() != n[0] * n[1] * n[2]:
                 fail(f"{where}: {d.GetNumberOfPoints()} points, grid {n}")
-            b = d.GetBounds()
-            o, h = a["origin"], a["spacing"]
-            want = [o[0], o[0] + (n[0] - 1) * h[0], o[1], o[1] + (n[1] - 1) * h[1], o[2], o[2] + (n[2] - 1) * h[2]]
-            if not np.allclose(b, want, rtol=1e-12, atol=1e-15):
-                fail(f"{where}: bounds {b}, expected {want}")
+            if "node_position" in g[s]:
+                sheared += 1
+                pts = vtk_to_numpy(d.GetPoints().GetData()).reshape(-1, 3)
+                if not np.array_equal(pts, g[s]["node_position"][()].reshape(-1, 3)):
+                    fail(f"{where}: the points differ from node_position")
+                H = np.asarray(a["cell_matrix"], dtype=np.float64).reshape(3, 3)
+                k, j, i = np.meshgrid(*[np.arange(m) for m in n[::-1]], indexing="ij")
+                frac = np.stack([(i + 0.5) / n[0], (j + 0.5) / n[1], (k + 0.5) / n[2]], axis=-1).reshape(-1, 3)
+                err = np.abs(pts - frac @ H.T).max() / np.abs(H).max()
+                if not err <= 1e-12:
+                    fail(f"{where}: a point is {err:.2e} (relative) from H ((i, j, k) + 1/2) / n")
+            else:
+                check_image(d, a, n, where)
             for name, comps in ARRAYS.items():
                 arr = d.GetPointData().GetArray(name)
                 if arr is None or arr.GetNumberOfComponents() != comps:
@@ -98,8 +119,8 @@ def main():
                 w = g[s][name][()].reshape(-1)
                 if not np.array_equal(v, w, equal_nan=True):
                     fail(f"{where}: point array {name} differs from {h5}")
-        print(f"{os.path.basename(xmf)}: {len(steps)} time steps of {case}; image grids and the point arrays "
-              f"{', '.join(ARRAYS)} equal the HDF5 file")
+        print(f"{os.path.basename(xmf)}: {len(steps)} time steps of {case} ({sheared} structured grids at the "
+              f"nodes' positions); grids and the point arrays {', '.join(ARRAYS)} equal the HDF5 file")
         if not render or png is None:
             return
         reader.UpdatePipeline(times[-1])

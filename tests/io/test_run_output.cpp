@@ -6,7 +6,7 @@
 // scene text come back exactly; a second RunOutput on the same directory is refused unless
 // overwrite; the reader refuses missing, foreign and truncated files naming the file.
 // RunOutputSheared: a sheared cell's snapshots (the cell matrix, the cell's XDMF sidecar) and
-// the refusal of [fields], on one rank (ctest io.run_output.sheared, below).
+// its [fields], on one rank (ctest io.run_output.sheared, below).
 #include "core/contact_snapshot.hpp"
 #include "core/generate.hpp"
 #include "core/timestep.hpp"
@@ -83,6 +83,13 @@ Packing compressed_packing() {
   k.sim->cell().set_strain_rate(Vec3::Constant(std::log(0.8) / (n * sp.dt)));
   for (int s = 0; s < n; ++s) k.sim->step(s == n - 1);
   return k;
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
 }
 
 Scene test_scene() {
@@ -284,10 +291,13 @@ TEST(RunOutput, ReaderRefusesBadFiles) {
 // tests/sheared_specimen.hpp under simple shear past a flip, a snapshot and a series row (time,
 // p, q) every 100 steps, into fabrica-sheared-np1 under the working directory, which the tests of
 // the sheared output then read (ctest fixture sheared_run: cli.output.sheared_*,
-// cli.fabric.sheared_offline, cli.fields.sheared_refused). Here: every snapshot's cell_matrix is
-// the cell's matrix bit for bit (the C++ reader), its particles lie in the slanted cell; the
-// cell's sidecar run_cell.xmf has a grid per snapshot with the corners H s at full precision;
-// [fields] refuses the sheared cell before the run and at an instant, naming [fields].
+// cli.fabric.sheared_offline, cli.fields.sheared_offline), with [fields] (width and spacing 10 mm)
+// at every snapshot. Here: every snapshot's cell_matrix is the cell's matrix bit for bit (the C++
+// reader), its particles lie in the slanted cell; the cell's sidecar run_cell.xmf has a grid per
+// snapshot with the corners H s at full precision; the field instants' sidecar run_fields.xmf a
+// 3DSMesh per instant (its nodes the dataset node_position); a restart rebuilds both
+// sidecars alike; [fields] is accepted on the sheared cell, and the fields of its state
+// integrate to the Love-Weber sum of its contacts and to its solid volume (1e-12).
 TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
   if (size() > 1) GTEST_SKIP() << "a sheared cell runs on one rank until parallel/ handles it";
   const std::string dir = fresh_dir("sheared");
@@ -295,7 +305,11 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
   Simulation sim(st.particles, st.cell, st.params);
   const std::int64_t steps = 1600, every = 100;
   test::simple_shear(sim, 0.8, steps);
-  const Scene sc = test_scene();
+  Scene sc = test_scene();
+  sc.fields.enabled = true;
+  sc.fields.width = 0.01;
+  sc.fields.spacing = 0.01;
+  check_run_fields(sc, sim.particles(), sim.cell(), MPI_COMM_WORLD);  // accepted (orthorhombic at the start)
   std::vector<Mat3> cells;
   bool flipped = false;
   {
@@ -310,6 +324,7 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
       const double v[] = {sim.time(), sim.macro().p, sim.macro().q};
       out.series_row("shear", "step,time,p,q\n", "", sim.step_count(), v);
       out.snapshot("shear", sim, Vec3::Zero());
+      out.fields("shear", sim);
       cells.push_back(sim.cell().matrix());
     }
     out.close();
@@ -351,9 +366,19 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
     ++grids;
   EXPECT_EQ(grids, infos.size());
   EXPECT_NE(x.find(">" + corners.str() + "</DataItem>"), std::string::npos) << corners.str();
-  // A restart rebuilds the sidecar from the snapshots' cell_matrix (in a copy: the directory is
-  // the fixture of the cli tests): the same text at the last step; from a checkpoint at step 800,
-  // the grids up to it, each as before; from step 0 (no sheared snapshot left), none.
+  const std::string fxml = read_text(fs::path(dir) / "run_fields.xmf");
+  std::size_t smesh = 0;
+  for (std::size_t at = fxml.find("TopologyType=\"3DSMesh\""); at != std::string::npos;
+       at = fxml.find("TopologyType=\"3DSMesh\"", at + 1))
+    ++smesh;
+  // Every instant, the first's too (the cell, sheared from the start, is still orthorhombic at
+  // step 0): a case's grids all of one type.
+  EXPECT_EQ(smesh, infos.size());
+  EXPECT_NE(fxml.find("/fields/shear/000000001600/node_position</DataItem>"), std::string::npos);
+  // A restart rebuilds the sidecars from the snapshots' cell_matrix and the field instants (in a
+  // copy: the directory is the fixture of the cli tests): the same text at the last step; from a
+  // checkpoint at step 800, the grids up to it, each as before; from step 0 (no sheared snapshot
+  // left), none.
   const std::string copy = fresh_dir("sheared-restart");
   fs::copy(dir, copy, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
   for (const std::int64_t at : {infos.back().step, std::int64_t(800), std::int64_t(0)}) {
@@ -372,26 +397,44 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
     const std::size_t cut = x.find("      <Grid Name=\"shear_cell_000000000900\""), tail = x.rfind("    </Grid>\n");
     ASSERT_NE(cut, std::string::npos);
     EXPECT_EQ(y.str(), at == 800 ? x.substr(0, cut) + x.substr(tail) : x) << "run_cell.xmf after a restart at " << at;
+    if (at == infos.back().step)
+      EXPECT_EQ(read_text(fs::path(copy) / "run_fields.xmf"), fxml) << "run_fields.xmf after a restart";
   }
 
-  // [fields]: refused before the run (the cell at set-up) and at an instant, naming [fields].
-  Scene fsc = sc;
-  fsc.fields.enabled = true;
-  fsc.fields.width = 0.01;
-  for (int when = 0; when < 2; ++when) {
-    try {
-      if (when == 0) check_run_fields(fsc, sim.particles(), sim.cell(), MPI_COMM_WORLD);
-      else run_fields(fsc.fields, 1.0, fsc.path, sim);
-      ADD_FAILURE() << "a sheared cell's fields were not refused";
-    } catch (const InputError& e) {
-      const std::string m = e.what();
-      EXPECT_EQ(m.rfind(fsc.path + ": [fields]", 0), 0u) << m;
-      EXPECT_NE(m.find("the periodic cell is sheared: coarse-grained fields are computed on an orthorhombic cell only"),
-                std::string::npos)
-          << m;
-      if (when == 1) { EXPECT_NE(m.find("at step " + std::to_string(sim.step_count())), std::string::npos) << m; }
+  // [fields] on the sheared cell: accepted, and the volume integrals of the fields of its state
+  // are the Love-Weber sum of its contacts (of the contact stress, and of the stress less its
+  // kinetic part) and its solid volume.
+  check_run_fields(sc, sim.particles(), sim.cell(), MPI_COMM_WORLD);
+  ASSERT_TRUE(sim.cell().sheared());
+  const FieldsResult r = run_fields(sc.fields, 1.0, sc.path, sim);
+  ASSERT_TRUE(r.grid.sheared);
+  const ContactSnapshot cs = read_contact_snapshot(file, "shear", infos.back().step);
+  const ParticleSnapshot ps = read_particle_snapshot(file, "shear", infos.back().step);
+  Mat3 lw = Mat3::Zero(), con = Mat3::Zero(), tot = Mat3::Zero();
+  for (const ContactRecord& c : cs.contacts)
+    if (c.id2 >= 0) lw += c.force() * c.branch.transpose();
+  double solid = 0, phi = 0;
+  for (real_t rad : ps.radius) solid += 4.0 / 3.0 * std::numbers::pi * rad * rad * rad;
+  const Field &fc = r.field("contact_stress"), &fs = r.field("stress"), &fk = r.field("kinetic_stress"),
+              &fp = r.field("solid_fraction");
+  for (std::size_t g = 0; g < r.grid.nodes(); ++g) {
+    for (int q = 0; q < 9; ++q) {
+      con(q / 3, q % 3) += fc.values[9 * g + std::size_t(q)];
+      tot(q / 3, q % 3) += fs.values[9 * g + std::size_t(q)] - fk.values[9 * g + std::size_t(q)];
     }
+    phi += fp.values[g];
   }
+  const double dv = r.grid.cell_volume();
+  EXPECT_DOUBLE_EQ(dv * double(r.grid.nodes()), std::abs(sim.cell().matrix().determinant()));
+  const double econ = (con * dv - lw).norm() / lw.norm(), etot = (tot * dv - lw).norm() / lw.norm(),
+               ephi = std::abs(phi * dv - solid) / solid;
+  EXPECT_LT(econ, 1e-12);
+  EXPECT_LT(etot, 1e-12);
+  EXPECT_LT(ephi, 1e-12);
+  std::printf(
+      "sheared cell at step %lld: %zu contacts; volume integrals against Love-Weber: contact stress %.2e, "
+      "stress less its kinetic part %.2e; solid fraction against the solid volume %.2e (relative)\n",
+      static_cast<long long>(sim.step_count()), cs.contacts.size(), econ, etot, ephi);
 }
 
 }  // namespace

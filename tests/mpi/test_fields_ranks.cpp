@@ -6,7 +6,9 @@
 // (SerialDomain, all items in order) bit for bit. Then the grid shared over the ranks
 // (core/grid_exchange.hpp, MpiGridExchange): each rank's layers of every field equal the serial
 // fields' layers bit for bit, and with the items dealt by the layer they lie in each rank's sums
-// cover fewer nodes than the grid. Registered at 1, 2, 4, 8 and 16 ranks.
+// cover fewer nodes than the grid. The same on a sheared cell (a grid in fractional coordinates,
+// z-layers of s3; displacements across a flip of the cell's edges), shared or not. Registered at
+// 1, 2, 4, 8 and 16 ranks.
 #include "core/coarse_grain.hpp"
 #include "core/serial_domain.hpp"
 #include "parallel/mpi_domain.hpp"
@@ -119,7 +121,84 @@ std::vector<T> deal_by_layer(const std::vector<T>& all, int rank, int size, int 
   return mine;
 }
 
+// The sample in a sheared cell H (fractional coordinates of kL mapped through H), contacts to
+// the nearest image, motions a simple shear F with fluctuations written in the flipped edges
+// F H M.
+Sample sheared_sample(const Mat3& H, const Mat3& F, const Mat3& M) {
+  Sample s = sample(3000);
+  const PeriodicCell cell = PeriodicCell::from_matrix(H);
+  const Mat3 S = H * Mat3(kL.cwiseInverse().asDiagonal());
+  std::mt19937_64 rng(29);
+  std::normal_distribution<double> g;
+  for (std::size_t i = 0; i < s.p.size(); ++i) {
+    s.p[i].x = S * s.p[i].x;
+    s.m[i].x0 = s.p[i].x;
+    s.m[i].x1 = F * s.p[i].x + 1e-4 * Vec3(g(rng), g(rng), g(rng)) + F * H * M * Vec3(double(i % 3) - 1, 0, 1);
+  }
+  for (CgContact& c : s.c) {
+    c.x1 = S * c.x1;
+    c.rec.branch = cell.minimum_image(s.p[std::size_t(c.rec.id2)].x - c.x1);
+    c.rec.normal = c.rec.branch.normalized();
+  }
+  return s;
+}
+
+std::vector<CgParticle> layer_deal(const std::vector<CgParticle>& all, const FieldGrid& g, int rank, int size) {
+  std::vector<CgParticle> mine;
+  const Layers L = slab_of(g.n[2], rank, size);
+  for (const CgParticle& q : all) {
+    const int k = std::clamp(int(g.layer_coordinate(q.x) * g.n[2]), 0, g.n[2] - 1);
+    if (k >= L.first && k < L.end) mine.push_back(q);
+  }
+  return mine;
+}
+
 }  // namespace
+
+TEST(FieldsRanks, ShearedCellSameBitsSharedOrNot) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  Mat3 H = Mat3(kL.asDiagonal()), F = Mat3::Identity(), M = Mat3::Identity();
+  H(0, 2) = 0.028, H(0, 1) = -0.006;  // tilts of 0.56 and 0.15 of the edges
+  F(0, 2) = 0.02, M(0, 2) = -1;
+  const Sample all = sheared_sample(H, F, M);
+  FieldGrid grid;
+  grid.n = {10, 8, 24};
+  grid.set_matrix(H);
+  const std::vector<CgParticle> p = layer_deal(all.p, grid, rank, size);
+  const std::vector<CgContact> c = deal(all.c, rank, size);
+  const std::vector<CgMotion> m = deal(all.m, rank, size);
+  for (KernelType type : {KernelType::Gaussian, KernelType::Lucy}) {
+    const FieldKernel k{type, type == KernelType::Gaussian ? 0.003 : 0.008, 3};
+    ASSERT_EQ(check_field_grid(grid, k, 0.001), "");
+    MpiDomain domain(MPI_COMM_WORLD);
+    MpiGridExchange exchange(MPI_COMM_WORLD);
+    SerialDomain serial;
+    const Mat3 H1 = F * H * M;
+    const FieldsResult ser = coarse_grain(grid, k, all.p, all.c, {}, serial);
+    const FieldsResult dser = displacement_fields(grid, k, H1, all.m, serial);
+    const FieldsResult par = coarse_grain(grid, k, p, c, {}, domain);
+    const FieldsResult dpar = displacement_fields(grid, k, H1, m, domain);
+    const FieldsResult spar = coarse_grain(grid, k, p, c, {}, domain, nullptr, &exchange);
+    const FieldsResult sdpar = displacement_fields(grid, k, H1, m, domain, nullptr, &exchange);
+    std::size_t values = 0, svalues = 0;
+    const std::size_t differ = differing(par, ser, values) + differing(dpar, dser, values);
+    const std::size_t sdiffer = differing_layers(spar, ser, svalues) + differing_layers(sdpar, dser, svalues);
+    EXPECT_EQ(differ, 0u) << "of " << values;
+    EXPECT_EQ(sdiffer, 0u) << "of " << svalues;
+    // The simple shear is recovered away from the fluctuations: G_xz near F_xz - 1 = 0.02.
+    const Field& G = dser.field("displacement_gradient");
+    double mean = 0;
+    for (std::size_t n = 0; n < grid.nodes(); ++n) mean += G.values[9 * n + 2] / double(grid.nodes());
+    EXPECT_NEAR(mean, 0.02, 2e-3);
+    if (rank == 0)
+      std::printf(
+          "[fields sheared] %s, %d rank(s): %zu values (whole grid) and %zu (rank 0's layers), %zu and %zu differ "
+          "from the serial fields (bitwise); mean G_xz %.5f (simple shear 0.02)\n",
+          type == KernelType::Gaussian ? "gaussian" : "lucy", size, values, svalues, differ, sdiffer, mean);
+  }
+}
 
 TEST(FieldsRanks, SharedGridHoldsAShareWithTheSameBits) {
   int rank = 0, size = 1;
@@ -189,8 +268,9 @@ TEST(FieldsRanks, SameFieldsBitForBitOnAnyRankCount) {
     const std::size_t differ = differing(par, ser, values);
     EXPECT_EQ(differ, 0u) << "of " << values;
     EXPECT_EQ(par.contacts, std::int64_t(all.c.size()));
-    const FieldsResult dpar = displacement_fields(grid, k, kL.cwiseProduct(Vec3(0.99, 1.003, 1.004)), m, domain);
-    const FieldsResult dser = displacement_fields(grid, k, kL.cwiseProduct(Vec3(0.99, 1.003, 1.004)), all.m, serial);
+    const FieldsResult dpar = displacement_fields(grid, k, Vec3(kL.cwiseProduct(Vec3(0.99, 1.003, 1.004))), m, domain);
+    const FieldsResult dser =
+        displacement_fields(grid, k, Vec3(kL.cwiseProduct(Vec3(0.99, 1.003, 1.004))), all.m, serial);
     std::size_t dvalues = 0;
     const std::size_t ddiffer = differing(dpar, dser, dvalues);
     EXPECT_EQ(ddiffer, 0u) << "of " << dvalues;
