@@ -397,8 +397,9 @@ TEST(RunOutputSheared, CellMatrixOutlineAndFields) {
     const std::size_t cut = x.find("      <Grid Name=\"shear_cell_000000000900\""), tail = x.rfind("    </Grid>\n");
     ASSERT_NE(cut, std::string::npos);
     EXPECT_EQ(y.str(), at == 800 ? x.substr(0, cut) + x.substr(tail) : x) << "run_cell.xmf after a restart at " << at;
-    if (at == infos.back().step)
+    if (at == infos.back().step) {
       EXPECT_EQ(read_text(fs::path(copy) / "run_fields.xmf"), fxml) << "run_fields.xmf after a restart";
+    }
   }
 
   // [fields] on the sheared cell: accepted, and the volume integrals of the fields of its state
