@@ -18,6 +18,7 @@
 // The rank-count independence is tested in tests/mpi/test_fields_ranks.cpp.
 #include "core/coarse_grain.hpp"
 #include "core/serial_domain.hpp"
+#include "tests/unit/cg_sample.hpp"
 
 #include <gtest/gtest.h>
 
@@ -33,55 +34,11 @@
 namespace fabrica {
 namespace {
 
-// A random gas of spheres in a cell, with "contacts" between near pairs (branch to the nearest
-// image, so many cross the faces; about 3 a sphere) carrying random forces and flags.
-struct Sample {
-  Vec3 L{0.05, 0.04, 0.06};
-  std::vector<CgParticle> p;
-  std::vector<CgContact> c;
-};
+using Sample = CgSample;
 
-// Pairs closer than 'reach' (to the nearest image) are the contacts.
+// The sample in the cell of lengths (0.05, 0.04, 0.06) m (tests/unit/cg_sample.hpp).
 Sample sample(std::size_t n, std::uint64_t seed, double reach = 0.0066) {
-  Sample s;
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> g;
-  for (std::size_t i = 0; i < n; ++i) {
-    CgParticle q;
-    q.x = Vec3(u(rng) * s.L[0], u(rng) * s.L[1], u(rng) * s.L[2]);
-    q.radius = 0.001 + 0.002 * u(rng);
-    q.mass = 2650 * 4.0 / 3.0 * std::numbers::pi * std::pow(q.radius, 3);
-    q.v = Vec3(g(rng), g(rng), g(rng)) * 0.01;
-    q.w = Vec3(g(rng), g(rng), g(rng));
-    s.p.push_back(q);
-  }
-  PeriodicCell cell(s.L);
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      CgContact c;
-      c.rec.id1 = GlobalId(i), c.rec.id2 = GlobalId(j);
-      const CgParticle& a = s.p[i];
-      c.rec.branch = cell.minimum_image(s.p[j].x - a.x);
-      if (c.rec.branch.norm() > reach) continue;
-      c.rec.normal = c.rec.branch.normalized();
-      c.rec.overlap = 1e-5;
-      c.rec.fn = 10 * u(rng);
-      Vec3 tt(g(rng), g(rng), g(rng));
-      tt -= tt.dot(c.rec.normal) * c.rec.normal;
-      c.rec.ft = 0.4 * c.rec.fn * u(rng) * tt.normalized();
-      c.rec.sliding = u(rng) < 0.3, c.rec.rolling = u(rng) < 0.5;
-      c.x1 = a.x, c.r1 = a.radius;
-      s.c.push_back(c);
-    }
-  return s;
-}
-
-double volume_integral(const FieldsResult& r, const std::string& name, int comp) {
-  const Field& f = r.field(name);
-  double s = 0;
-  for (std::size_t g = 0; g < r.grid.nodes(); ++g) s += f.values[g * std::size_t(f.components) + std::size_t(comp)];
-  return s * r.grid.cell_volume();
+  return cg_sample(Mat3(Vec3(0.05, 0.04, 0.06).asDiagonal()), n, seed, reach, false);
 }
 
 TEST(CoarseGrain, VolumeIntegralsAreLoveWeberAndSolidVolume) {

@@ -14,6 +14,7 @@
 #include "core/cell.hpp"
 #include "core/coarse_grain.hpp"
 #include "core/serial_domain.hpp"
+#include "tests/unit/cg_sample.hpp"
 
 #include <gtest/gtest.h>
 
@@ -32,45 +33,9 @@ Mat3 tilted() {
   return H;
 }
 
-struct Sample {
-  std::vector<CgParticle> p;
-  std::vector<CgContact> c;
-};
-
-// A random gas in the cell H, "contacts" between pairs closer than 'reach' (nearest image).
-Sample sample(const Mat3& H, std::size_t n, std::uint64_t seed, double reach = 0.0066) {
-  Sample s;
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> g;
-  for (std::size_t i = 0; i < n; ++i) {
-    CgParticle q;
-    q.x = H * Vec3(u(rng), u(rng), u(rng));
-    q.radius = 0.001 + 0.002 * u(rng);
-    q.mass = 2650 * 4.0 / 3.0 * std::numbers::pi * std::pow(q.radius, 3);
-    q.v = Vec3(g(rng), g(rng), g(rng)) * 0.01;
-    q.w = Vec3(g(rng), g(rng), g(rng));
-    s.p.push_back(q);
-  }
-  const PeriodicCell cell = PeriodicCell::from_matrix(H);
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = i + 1; j < n; ++j) {
-      CgContact c;
-      c.rec.id1 = GlobalId(i), c.rec.id2 = GlobalId(j);
-      c.rec.branch = cell.minimum_image(s.p[j].x - s.p[i].x);
-      if (c.rec.branch.norm() > reach) continue;
-      c.rec.normal = c.rec.branch.normalized();
-      c.rec.overlap = 1e-5;
-      c.rec.fn = 10 * u(rng);
-      Vec3 tt(g(rng), g(rng), g(rng));
-      tt -= tt.dot(c.rec.normal) * c.rec.normal;
-      c.rec.ft = 0.4 * c.rec.fn * u(rng) * tt.normalized();
-      c.rec.sliding = u(rng) < 0.3, c.rec.rolling = u(rng) < 0.5;
-      c.x1 = s.p[i].x + H * Vec3(std::floor(3 * u(rng)) - 1, 0, 0);  // any image of body 1
-      c.r1 = s.p[i].radius;
-      s.c.push_back(c);
-    }
-  return s;
+// The sample in the cell H (tests/unit/cg_sample.hpp), body 1 of each contact at any image.
+CgSample sample(const Mat3& H, std::size_t n, std::uint64_t seed, double reach = 0.0066) {
+  return cg_sample(H, n, seed, reach, true);
 }
 
 FieldGrid grid_of(const Mat3& H, std::array<int, 3> n) {
@@ -78,13 +43,6 @@ FieldGrid grid_of(const Mat3& H, std::array<int, 3> n) {
   g.n = n;
   g.set_matrix(H);
   return g;
-}
-
-double volume_integral(const FieldsResult& r, const std::string& name, int comp) {
-  const Field& f = r.field(name);
-  double s = 0;
-  for (std::size_t g = 0; g < r.grid.nodes(); ++g) s += f.values[g * std::size_t(f.components) + std::size_t(comp)];
-  return s * r.grid.cell_volume();
 }
 
 TEST(CoarseGrainSheared, GridInFractionalCoordinates) {
@@ -104,7 +62,7 @@ TEST(CoarseGrainSheared, GridInFractionalCoordinates) {
 
 TEST(CoarseGrainSheared, VolumeIntegralsAreLoveWeberAndSolidVolume) {
   const Mat3 H = tilted();
-  const Sample s = sample(H, 600, 5);
+  const CgSample s = sample(H, 600, 5);
   Mat3 lw = Mat3::Zero();
   double solid = 0, mass = 0;
   for (const CgContact& c : s.c) lw += c.rec.force() * c.rec.branch.transpose();
