@@ -51,6 +51,12 @@ TEST(CoarseGrainSheared, GridInFractionalCoordinates) {
   ASSERT_TRUE(g.sheared);
   EXPECT_LT((g.node(3, 2, 7) - H * Vec3(3.5 / 10, 2.5 / 8, 7.5 / 12)).norm(), 1e-17);
   EXPECT_DOUBLE_EQ(g.cell_volume() * double(g.nodes()), H.determinant());
+  // A matrix with terms below the diagonal too (the product of its diagonal is not its volume).
+  Mat3 Hg = H;
+  Hg(2, 0) = 0.012, Hg(1, 0) = -0.007;
+  const FieldGrid gg = grid_of(Hg, {10, 8, 12});
+  EXPECT_GT(std::abs(Hg.diagonal().prod() - Hg.determinant()), 1e-3 * Hg.determinant());
+  EXPECT_NEAR(gg.cell_volume() * double(gg.nodes()), std::abs(Hg.determinant()), 1e-15 * Hg.determinant());
   const Vec3 x = H * Vec3(1.25, -0.5, 2.75);
   EXPECT_LT((g.wrap(x) - H * Vec3(0.25, 0.5, 0.75)).norm(), 1e-16);
   EXPECT_NEAR(g.layer_coordinate(x), 0.75, 1e-14);
