@@ -527,6 +527,20 @@ TEST(Scene, ExampleScenesAreValid) {
   EXPECT_EQ(ensemble.triaxial.consolidation_friction_cases, (std::vector<real_t>{0.1, 0.3, 0.5, 0.7, 1.0}));
   EXPECT_EQ(ensemble.parallel.groups, 0);  // "auto"
   EXPECT_EQ(ensemble.generate.count, paper.generate.count);
+  // One realisation at 8 x the study's size: the paper protocol otherwise unchanged.
+  const Scene big = load_scene(dir + "paper_large.toml");
+  EXPECT_EQ(big.generate.count, 8 * paper.generate.count);
+  EXPECT_EQ(big.generate.seed, paper.generate.seed);
+  EXPECT_EQ(big.generate.placement, GenerateSpec::Placement::Sequential);
+  EXPECT_EQ(big.triaxial.rolling_friction_cases, paper.triaxial.rolling_friction_cases);
+  EXPECT_EQ(big.triaxial.consolidation_friction, paper.triaxial.consolidation_friction);
+  EXPECT_EQ(big.triaxial.axial_strain, paper.triaxial.axial_strain);
+  EXPECT_EQ(big.triaxial.axial_strain_rate, paper.triaxial.axial_strain_rate);
+  EXPECT_EQ(big.law.youngs_modulus, paper.law.youngs_modulus);
+  EXPECT_EQ(big.law.friction, paper.law.friction);
+  EXPECT_EQ(big.time_step_fraction, paper.time_step_fraction);
+  EXPECT_EQ(big.skin, paper.skin);
+  EXPECT_EQ(big.parallel.groups, 1);
   const Scene large = load_scene(dir + "large.toml");
   EXPECT_EQ(large.generate.count, 200000);
   EXPECT_EQ(large.generate.placement, GenerateSpec::Placement::Regions);
