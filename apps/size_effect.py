@@ -2,11 +2,13 @@
 """Which of the study's answers depend on the specimen's size: one larger realisation against an
 ensemble of smaller ones (issue 44 item 5; docs/triaxial.md "8 times the size").
 
-    size_effect.py LARGE ENSEMBLE
+    size_effect.py LARGE ENSEMBLE [--no-figures]
 
 LARGE is the output directory of one triaxial run (for instance examples/paper_large.toml),
 ENSEMBLE that of a run with [triaxial] realisations (examples/paper_ensemble.toml), both with
-the same mu_r cases. Writes LARGE/size_quantities.csv and LARGE/size_findings.csv and prints them.
+the same mu_r cases. Writes LARGE/size_quantities.csv and LARGE/size_findings.csv and prints them,
+and draws LARGE/figures/size_effect.png (q/p and eps_v against eps_1 for each mu_r: LARGE's curve
+over the band of 95 % of the ensemble's realisations).
 
 Quantities (size_quantities.csv: quantity, mu_r, large, ensemble_mean, ensemble_sd,
 realisations, lower, upper, verdict): for each case, the peak q/p, eps_1 at the peak, the mean
@@ -136,6 +138,48 @@ def findings(large, ensemble_rows, runs_of_large):
     return rows
 
 
+def spheres(run):
+    return run.scene.get("particles", {}).get("count", "?")
+
+
+def figure(large, runs, path):
+    """q/p and eps_v against eps_1 for each mu_r: LARGE's curve (dashed) over the band in which 95 %
+    of the ensemble's realisations would lie (its mean +- t s sqrt(1 + 1/n), each realisation's
+    curve interpolated onto the first one's eps_1), the criterion of size_quantities.csv."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import paper_ensemble as pe
+    import plot_paper as pp
+    plt = pp.plt
+    col = pp.mur_colours(large)
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.8))
+    for c in large.cases:
+        mine = c.shear()
+        others = [o.shear() for r in runs for o in r.cases if o.mu_r == c.mu_r]
+        for a, key in ((ax[0], "q_p"), (ax[1], "epsv")):
+            scale = 1.0 if key == "q_p" else 100.0
+            b = pe.curve_band([100.0 * o["eps1"] for o in others], [scale * o[key] for o in others])
+            if b is not None:
+                h = b.half_width * np.sqrt(b.n + 1.0)
+                a.plot(b.x, b.mean, "-", color=col[c.name], lw=1.0,
+                       label=f"{c.label}: {len(others)} x {spheres(runs[0])}")
+                a.fill_between(b.x, b.mean - h, b.mean + h, color=col[c.name], alpha=0.15, lw=0)
+            a.plot(100.0 * mine["eps1"], scale * mine[key], "--", color=col[c.name], lw=1.6,
+                   label=f"{c.label}: {spheres(large)} spheres")
+    ax[0].set_ylabel(r"stress ratio $q/p$")
+    ax[1].set_ylabel(r"volumetric strain $\varepsilon_v$ (%), compression positive")
+    ax[1].axhline(0, color="k", lw=0.5)
+    for a in ax:
+        a.set_xlabel(pp.EPS1)
+        a.legend(fontsize=7, ncol=2)
+    fig.suptitle("The larger specimen (dashed) against the band of 95 % of the smaller specimen's realisations",
+                 fontsize=11)
+    fig.tight_layout(rect=(0, 0, 1, 0.94))
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    pp.save(fig, path, [])
+    return path
+
+
 def write(path, header, rows):
     with open(path + ".tmp", "w", newline="") as fh:
         w = csv.writer(fh)
@@ -146,9 +190,11 @@ def write(path, header, rows):
 
 
 def main():
-    if len(sys.argv) != 3:
-        sys.exit(__doc__.splitlines()[0] + "\nusage: size_effect.py LARGE ENSEMBLE")
-    large_dir, ens = sys.argv[1], sys.argv[2]
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    flags = [a for a in sys.argv[1:] if a.startswith("--")]
+    if len(args) != 2 or any(f != "--no-figures" for f in flags):
+        sys.exit(__doc__.splitlines()[0] + "\nusage: size_effect.py LARGE ENSEMBLE [--no-figures]")
+    large_dir, ens = args
     if ef.realisations(large_dir):
         sys.exit(f"size_effect.py: {large_dir}: an ensemble; LARGE must be one run")
     ens_dirs = ef.realisations(ens)
@@ -175,6 +221,8 @@ def main():
     for n, e, g, one, same, _ in f:
         print(f"finding {n:2d}: ensemble {e:32s} large {g:32s} same: {same}")
     print(f"written: {qpath}, {fpath}")
+    if "--no-figures" not in flags:
+        print(f"figure written: {figure(large, runs, os.path.join(large_dir, 'figures', 'size_effect.png'))}")
 
 
 if __name__ == "__main__":

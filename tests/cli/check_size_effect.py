@@ -13,7 +13,8 @@ realisation as LARGE.
   3. LARGE/size_findings.csv: the twelve findings, the ensemble column equal to
      apps/ensemble_findings.py's verdicts on ENSEMBLE, large_one_run to apps/paper_findings.py's
      on LARGE;
-  4. an ensemble given as LARGE, and a single run as ENSEMBLE, are refused by name."""
+  4. figures/size_effect.png is a PNG file;
+  5. an ensemble given as LARGE, and a single run as ENSEMBLE, are refused by name."""
 import csv
 import math
 import os
@@ -109,6 +110,11 @@ for r in f:
     if r["large"] not in (ef.HOLDS, ef.FAILS, ef.UNDECIDED):
         print(f"finding {r['finding']}: large verdict '{r['large']}'")
         bad += 1
+
+with open(os.path.join(large, "figures", "size_effect.png"), "rb") as fh:
+    png = fh.read(8) == b"\x89PNG\r\n\x1a\n"
+bad += not png
+print(f"figures/size_effect.png a PNG file: {'ok' if png else 'WRONG'}")
 
 for args, message in (([ens, ens], "an ensemble; LARGE must be one run"),
                       ([large, large], "no realisations")):
