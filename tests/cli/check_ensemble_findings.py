@@ -15,18 +15,12 @@ import sys
 
 here = os.path.dirname(os.path.abspath(__file__))
 apps = os.path.join(here, "..", "..", "apps")
-sys.path.insert(0, apps)
+sys.path[:0] = [apps, here]
 import ensemble_findings as ef  # noqa: E402
+from checking import Checks  # noqa: E402
 
-bad = 0
-
-
-def check(name, got, want, tol=1e-12):
-    global bad
-    ok = abs(got - want) <= tol * max(1.0, abs(want))
-    bad += not ok
-    print(f"{name}: {got!r} (expected {want!r}): {'ok' if ok else 'WRONG'}")
-
+c = Checks()
+check = c.close
 
 x = [0.0, 1.0, 2.0, 3.0, 4.0]
 y = [1.1, 2.9, 5.2, 7.1, 8.8]
@@ -46,30 +40,23 @@ check("exact line: half-width", hw[0], 0.0, 1e-9)
 coef, _ = ef.fit(x, [0.5 * a * a - a + 3 for a in x], 2)
 check("parabola: quadratic coefficient", coef[0], 0.5)
 for lo, hi, want in ((0.1, 0.3, ef.HOLDS), (-0.3, -0.1, ef.FAILS), (-0.1, 0.1, ef.UNDECIDED)):
-    got = ef.sign_verdict(lo, hi)
-    bad += got != want
-    print(f"interval [{lo}, {hi}]: {got}")
+    c.equal(f"interval [{lo}, {hi}]", ef.sign_verdict(lo, hi), want)
 
 out = sys.argv[1]
 subprocess.run(["/usr/bin/python3", os.path.join(apps, "ensemble_findings.py"), out], check=True)
 with open(os.path.join(out, "findings.csv")) as fh:
     rows = list(csv.DictReader(fh))
 if [int(r["finding"]) for r in rows] != list(range(1, 13)):
-    print("findings.csv does not list findings 1 to 12")
-    bad += 1
+    c.fail("findings.csv does not list findings 1 to 12")
 for r in rows:
     if r["verdict"] not in (ef.HOLDS, ef.FAILS, ef.UNDECIDED):
-        print(f"finding {r['finding']}: verdict '{r['verdict']}'")
-        bad += 1
+        c.fail(f"finding {r['finding']}: verdict '{r['verdict']}'")
     if r["realisations"] != "2":
-        print(f"finding {r['finding']}: realisations '{r['realisations']}'")
-        bad += 1
+        c.fail(f"finding {r['finding']}: realisations '{r['realisations']}'")
 if "(4 points)" not in rows[9]["numbers"] or "(4 consolidations)" not in rows[11]["numbers"]:
-    print("the trends are not decided over the ensemble's points")
-    bad += 1
+    c.fail("the trends are not decided over the ensemble's points")
 for name in ("ensemble_trends.png", "ensemble_consolidation.png"):
     with open(os.path.join(out, "figures", name), "rb") as fh:
         if fh.read(8) != b"\x89PNG\r\n\x1a\n":
-            print(f"figures/{name} is not a PNG file")
-            bad += 1
-sys.exit(1 if bad else 0)
+            c.fail(f"figures/{name} is not a PNG file")
+c.exit()

@@ -25,27 +25,15 @@ import sys
 
 here = os.path.dirname(os.path.abspath(__file__))
 apps = os.path.join(here, "..", "..", "apps")
-sys.path.insert(0, apps)
+sys.path[:0] = [apps, here]
 import ensemble_findings as ef  # noqa: E402
 import paper_data as pd  # noqa: E402
 import paper_findings as pf  # noqa: E402
 import size_effect as se  # noqa: E402
+from checking import Checks  # noqa: E402
 
-bad = 0
-
-
-def check(name, got, want, tol=1e-12):
-    global bad
-    ok = abs(got - want) <= tol * max(1.0, abs(want))
-    bad += not ok
-    print(f"{name}: {got!r} (expected {want!r}): {'ok' if ok else 'WRONG'}")
-
-
-def expect(name, got, want):
-    global bad
-    bad += got != want
-    print(f"{name}: {got!r} (expected {want!r}): {'ok' if got == want else 'WRONG'}")
-
+c = Checks()
+check, expect = c.close, c.equal
 
 v = [1.0, 2.0, 3.0, 4.0, 6.0]
 m = sum(v) / 5
@@ -80,8 +68,7 @@ cases = sorted(float(r["rolling_friction"]) for r in rows(os.path.join(large, "s
 expect("quantity rows", len(q), len(se.CASE_QUANTITIES) * len(cases) + 2)
 for r in q:
     if r["verdict"] not in (se.WITHIN, se.ABOVE, se.BELOW):
-        print(f"{r['quantity']} mu_r = {r['mu_r']}: verdict '{r['verdict']}'")
-        bad += 1
+        c.fail(f"{r['quantity']} mu_r = {r['mu_r']}: verdict '{r['verdict']}'")
 summ = rows(os.path.join(ens, "summary.csv"))
 mine = {float(r["rolling_friction"]): r for r in rows(os.path.join(large, "summary.csv"))}
 for name, col in (("peak q/p", "peak_q_p"), ("final eps_v", "eps_v_end")):
@@ -108,18 +95,14 @@ expect("ensemble verdicts", [r["ensemble"] for r in f], [r[1] for r in ens_rows]
 expect("LARGE's verdicts as one run", [r["large_one_run"] for r in f], [x.verdict for x in pf.decide(pd.load(large))])
 for r in f:
     if r["large"] not in (ef.HOLDS, ef.FAILS, ef.UNDECIDED):
-        print(f"finding {r['finding']}: large verdict '{r['large']}'")
-        bad += 1
+        c.fail(f"finding {r['finding']}: large verdict '{r['large']}'")
 
 with open(os.path.join(large, "figures", "size_effect.png"), "rb") as fh:
     png = fh.read(8) == b"\x89PNG\r\n\x1a\n"
-bad += not png
-print(f"figures/size_effect.png a PNG file: {'ok' if png else 'WRONG'}")
+c.true(png, "figures/size_effect.png a PNG file")
 
 for args, message in (([ens, ens], "an ensemble; LARGE must be one run"),
                       ([large, large], "no realisations")):
     p = subprocess.run(["/usr/bin/python3", app] + args, capture_output=True, text=True)
-    ok = p.returncode != 0 and message in p.stderr
-    bad += not ok
-    print(f"refused ({message}): {'ok' if ok else 'WRONG: ' + p.stderr.strip()}")
-sys.exit(1 if bad else 0)
+    c.true(p.returncode != 0 and message in p.stderr, f"refused ({message}): {p.stderr.strip()}")
+c.exit()
