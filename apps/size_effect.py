@@ -161,16 +161,16 @@ def figure(large, runs, path):
             b = pe.curve_band([100.0 * o["eps1"] for o in others], [scale * o[key] for o in others])
             if b is not None:
                 h = b.half_width * np.sqrt(b.n + 1.0)
-                a.plot(b.x, b.mean, "-", color=col[c.name], lw=1.0,
-                       label=f"{c.label}: {len(others)} x {spheres(runs[0])}")
+                a.plot(b.x, b.mean, "-", color=col[c.name], lw=1.0)
                 a.fill_between(b.x, b.mean - h, b.mean + h, color=col[c.name], alpha=0.15, lw=0)
-            a.plot(100.0 * mine["eps1"], scale * mine[key], "--", color=col[c.name], lw=1.6,
-                   label=f"{c.label}: {spheres(large)} spheres")
+            a.plot(100.0 * mine["eps1"], scale * mine[key], "--", color=col[c.name], lw=1.6, label=c.label)
     ax[0].set_ylabel(r"stress ratio $q/p$")
     ax[1].set_ylabel(r"volumetric strain $\varepsilon_v$ (%), compression positive")
     ax[1].axhline(0, color="k", lw=0.5)
     for a in ax:
         a.set_xlabel(pp.EPS1)
+        a.plot([], [], "k--", lw=1.6, label=f"{spheres(large)} spheres")
+        a.plot([], [], "k-", lw=1.0, label=f"mean of {len(runs)} x {spheres(runs[0])}, band: 95 % of one more")
         a.legend(fontsize=7, ncol=2)
     fig.suptitle("The larger specimen (dashed) against the band of 95 % of the smaller specimen's realisations",
                  fontsize=11)
