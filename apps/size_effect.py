@@ -5,8 +5,9 @@ ensemble of smaller ones (issue 44 item 5; docs/triaxial.md "8 times the size").
     size_effect.py LARGE ENSEMBLE [--no-figures]
 
 LARGE is the output directory of one triaxial run (for instance examples/paper_large.toml),
-ENSEMBLE that of a run with [triaxial] realisations (examples/paper_ensemble.toml), both with
-the same mu_r cases. Writes LARGE/size_quantities.csv and LARGE/size_findings.csv and prints them,
+ENSEMBLE that of a run with [triaxial] realisations (examples/paper_ensemble.toml): every mu_r
+of LARGE in each realisation, and the same mu_s of the shear and of the consolidation (else it is
+refused with the value that differs). Writes LARGE/size_quantities.csv and LARGE/size_findings.csv and prints them,
 and draws LARGE/figures/size_effect.png (q/p and eps_v against eps_1 for each mu_r: LARGE's curve
 over the band of 95 % of the ensemble's realisations).
 
@@ -189,6 +190,20 @@ def write(path, header, rows):
     return path
 
 
+def mismatch(large, runs, large_dir):
+    """Why LARGE cannot be set against the ensemble (a message), or None: every mu_r of LARGE in
+    each realisation, the same mu_s of the shear and of the consolidation."""
+    for r in runs:
+        missing = sorted({c.mu_r for c in large.cases} - {c.mu_r for c in r.cases})
+        if missing:
+            return f"{r.out}: no case of mu_r = {', '.join(f'{m:g}' for m in missing)} that {large_dir} has"
+        for what, a, b in (("friction", large.mu_s, r.mu_s),
+                           ("consolidation_friction", large.consolidation_mu_s, r.consolidation_mu_s)):
+            if a != b:
+                return f"{r.out}: {what} = {b:g}, but {large_dir} has {a:g}: not the same protocol"
+    return None
+
+
 def main():
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     flags = [a for a in sys.argv[1:] if a.startswith("--")]
@@ -203,10 +218,9 @@ def main():
                  "[triaxial] realisations")
     large = pd.load(large_dir)
     runs = [pd.load(d) for d in ens_dirs]
-    missing = sorted({c.mu_r for c in large.cases} - {c.mu_r for r in runs for c in r.cases})
-    if missing:
-        sys.exit(f"size_effect.py: {ens}: no case of mu_r = {', '.join(f'{m:g}' for m in missing)} "
-                 f"that {large_dir} has")
+    why = mismatch(large, runs, large_dir)
+    if why:
+        sys.exit(f"size_effect.py: {why}")
     q = quantities(large, runs, ens_dirs)
     qpath = write(os.path.join(large_dir, "size_quantities.csv"),
                   ["quantity", "mu_r", "large", "ensemble_mean", "ensemble_sd", "realisations", "lower", "upper",

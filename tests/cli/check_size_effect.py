@@ -14,7 +14,8 @@ realisation as LARGE.
      apps/ensemble_findings.py's verdicts on ENSEMBLE, large_one_run to apps/paper_findings.py's
      on LARGE;
   4. figures/size_effect.png is a PNG file;
-  5. an ensemble given as LARGE, and a single run as ENSEMBLE, are refused by name."""
+  5. another mu_s of the shear or of the consolidation, a mu_r the ensemble lacks, an ensemble
+     given as LARGE and a single run as ENSEMBLE are refused by name."""
 import csv
 import math
 import os
@@ -100,6 +101,19 @@ for r in f:
 with open(os.path.join(large, "figures", "size_effect.png"), "rb") as fh:
     png = fh.read(8) == b"\x89PNG\r\n\x1a\n"
 c.true(png, "figures/size_effect.png a PNG file")
+
+runs = [pd.load(d) for d in ef.realisations(ens)]
+big = pd.load(large)
+c.equal("the same protocol", se.mismatch(big, runs, large), None)
+mu_s = big.mu_s
+big.mu_s = 0.4
+c.true("friction = 0.3, but" in (se.mismatch(big, runs, large) or ""), "another shear mu_s refused")
+big.mu_s = mu_s
+big.consolidation_mu_s = 0.5
+c.true("consolidation_friction = 1, but" in (se.mismatch(big, runs, large) or ""),
+       "another consolidation mu_s refused")
+big.cases[0].mu_r = 0.123
+c.true("no case of mu_r = 0.123" in (se.mismatch(big, runs, large) or ""), "a mu_r the ensemble lacks refused")
 
 for args, message in (([ens, ens], "an ensemble; LARGE must be one run"),
                       ([large, large], "no realisations")):
